@@ -1,0 +1,1 @@
+"""The ``atlas`` command line: the only part of atlas-rap that prints."""

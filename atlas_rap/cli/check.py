@@ -1,0 +1,73 @@
+"""``atlas check FILE...``: parse and validate RAP and AP files."""
+
+from __future__ import annotations
+
+import sys
+from collections import Counter
+
+import click
+
+
+@click.command()
+@click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
+@click.option("--tree", is_flag=True, help="Print the AST of each file as a tree.")
+@click.option("--format", "format_", is_flag=True,
+              help="Print each file as atlas reads it, pretty-printed (includes not expanded).")
+def check(files: tuple[str, ...], tree: bool, format_: bool) -> None:
+    """Validate .rap and .ap FILES and what they include.
+
+    Prints every problem with file:line:column and a caret under it, and
+    exits 0 when all files are clean, 1 otherwise.
+    """
+    from atlas_rap.errors import SourceError
+    from atlas_rap.lang import format_file, load
+
+    failed = 0
+    for path in files:
+        try:
+            program = load(path)
+        except SourceError as exc:
+            failed += 1
+            for problem in exc.problems:
+                _echo_problem(problem.render())
+            click.secho(f"{path}: {_plural(len(exc.problems), 'problem')}", fg="red", err=True)
+            continue
+        counts = Counter(type(form).__name__ for form in program.forms)
+        summary = ", ".join(_plural(n, _KINDS.get(kind, kind)) for kind, n in sorted(counts.items()))
+        includes = len(program.files) - 1
+        extra = f" (+{_plural(includes, 'included file')})" if includes else ""
+        click.secho(f"ok: {path}{extra}: {summary or 'no definitions'}", fg="green")
+        for source in program.files:
+            if tree:
+                _print_tree(source)
+            if format_:
+                click.echo(f";; {source.path}")
+                click.echo(format_file(source))
+    if failed:
+        sys.exit(1)
+
+
+_KINDS = {"RapDef": "RAP", "MemoryRuleDef": "memory rule", "VirtualSkillDef": "virtual skill",
+          "AtTime": "at-time event", "WorldDecl": "world", "InitialMemory": "initial-memory",
+          "Post": "post", "PlanRequest": "plan request", "Operator": "operator", "Agents": "agents",
+          "RelationDef": "relation", "Initial": "initial", "Goals": "goals"}
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
+def _echo_problem(text: str) -> None:
+    first, _, rest = text.partition("\n")
+    location, _, message = first.partition(": ")
+    click.echo(click.style(location + ":", bold=True) + " " + click.style(message, fg="red"), err=True)
+    if rest:
+        click.echo(rest, err=True)
+
+
+def _print_tree(source) -> None:
+    from rich.console import Console
+
+    from atlas_rap.cli.tree import ast_tree
+
+    Console().print(ast_tree(source))

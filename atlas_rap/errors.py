@@ -1,0 +1,100 @@
+"""The ``AtlasError`` family: every error a user of atlas-rap can see.
+
+This module is a leaf: it imports nothing of ours, so every subpackage
+(``logic`` included) can raise these. The CLI catches ``AtlasError`` and
+prints ``str(error)``; anything else reaching the CLI is a bug in atlas-rap.
+
+Errors that point into a source file carry a :class:`SourceLocation` and
+render the offending line with a caret under the column, compiler style::
+
+    missions/deliver.rap:3:5: error: unknown clause 'sucede' in define-rap
+        (sucede (docked ?thesite))
+         ^
+      hint: did you mean 'succeed'?
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True, slots=True)
+class SourceLocation:
+    """Where a form starts: file name, 1-based line and 1-based column."""
+
+    file: str
+    line: int
+    column: int
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line}:{self.column}"
+
+
+NOWHERE = SourceLocation("<input>", 1, 1)
+
+
+class AtlasError(Exception):
+    """Base of every error atlas-rap reports to a user.
+
+    ``str(error)`` is the full, human-readable report; ``exit_code`` is what
+    the CLI exits with (1: bad input or a failed mission, 2: bad usage).
+    """
+
+    exit_code: int = 1
+
+
+@dataclass(frozen=True, slots=True)
+class Problem:
+    """One thing wrong at one place in a source file.
+
+    ``source_line`` is the text of the line (without newline) when it is
+    known, so the report can show it with a caret; ``hint`` says what to do.
+    """
+
+    message: str
+    location: SourceLocation
+    source_line: str | None = None
+    hint: str | None = None
+    severity: str = "error"
+
+    def render(self) -> str:
+        """The problem as a compiler-style report with a caret."""
+        lines = [f"{self.location}: {self.severity}: {self.message}"]
+        if self.source_line is not None:
+            text, caret = _window(self.source_line.expandtabs(1), self.location.column - 1)
+            lines.append(f"    {text}")
+            lines.append("    " + " " * caret + "^")
+        if self.hint:
+            lines.append(f"  hint: {self.hint}")
+        return "\n".join(lines)
+
+
+def _window(text: str, caret: int, width: int = 100) -> tuple[str, int]:
+    """A long line cut to ``width`` characters around the caret, marked with '...'."""
+    if len(text) <= width:
+        return text, max(caret, 0)
+    start = max(0, min(caret - width // 2, len(text) - width))
+    shown = text[start:start + width]
+    if start > 0:
+        shown = "..." + shown[3:]
+    if start + width < len(text):
+        shown = shown[:-3] + "..."
+    return shown, caret - start
+
+
+class SourceError(AtlasError):
+    """An error with one or more problems located in source files."""
+
+    def __init__(self, problems: list[Problem] | Problem) -> None:
+        self.problems: list[Problem] = problems if isinstance(problems, list) else [problems]
+        super().__init__("\n".join(p.render() for p in self.problems))
+
+    @property
+    def problem(self) -> Problem:
+        """The first problem (the only one, for a syntax error)."""
+        return self.problems[0]
+
+    @property
+    def location(self) -> SourceLocation:
+        """Where the first problem is."""
+        return self.problems[0].location

@@ -1,0 +1,402 @@
+"""Typed, frozen AST nodes for RAP (.rap) and AP (.ap) files.
+
+The validator (``validator.py``) builds these from the reader's forms; the
+sequencer and the planner consume them. Every node carries ``loc``, the
+:class:`~atlas_rap.errors.SourceLocation` of the form it came from, so any
+later error or trace line can point back into the source. ``loc`` does not
+take part in equality: two nodes read from different places but meaning
+the same thing compare equal (that is what the round-trip tests check).
+
+Queries, facts and task calls inside nodes are logic terms
+(``atlas_rap.logic``), ready for unification and memory.
+
+LANGUAGE.md is the contract; section numbers below refer to it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Union
+
+from atlas_rap.errors import NOWHERE, SourceLocation
+from atlas_rap.logic import Compound, MemoryRule, Term, Var
+
+
+def _loc() -> SourceLocation:
+    return field(default=NOWHERE, compare=False, repr=False)
+
+
+# ----------------------------------------------------------------- task nets (§2.2, §2.3)
+
+@dataclass(frozen=True, slots=True)
+class WaitFor:
+    """``(wait-for QUERY [OUTCOME] [:timeout S])``: block until QUERY holds.
+
+    ``outcome`` is the keyword the step ends with when QUERY matches
+    (``:succeed`` when not written); ``timeout`` in seconds, or None.
+    """
+
+    query: Term
+    outcome: str = ":succeed"
+    timeout: float | None = None
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class MemoryOp:
+    """``(assert FACT)`` or ``(retract FACT)`` as a net step or script action."""
+
+    kind: str  # 'assert' or 'retract'
+    fact: Compound
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class Step:
+    """A subtask in a task net: ``(LABEL (TASK ARG ...) ANNOTATION ...)``.
+
+    ``label`` is None for the bare form ``(TASK ARG ...)``. ``before`` holds
+    the labels named by ``(for LABEL)``: this step must end successfully
+    before those start. ``until_end`` names the step whose end halts this
+    one (a monitor). ``waits`` are the step's ``wait-for`` annotations: with
+    any, the first to match decides the step's outcome.
+    """
+
+    task: Compound
+    label: str | None = None
+    before: tuple[str, ...] = ()
+    until_end: str | None = None
+    waits: tuple[WaitFor, ...] = ()
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class Sequence:
+    """``(sequence NET ...)``: the parts run one after another."""
+
+    parts: tuple[Net, ...]
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class Parallel:
+    """``(parallel NET ...)``: the parts run at once; ends when all have ended."""
+
+    parts: tuple[Net, ...]
+    loc: SourceLocation = _loc()
+
+
+Net = Union[Sequence, Parallel, Step, WaitFor, MemoryOp]
+
+
+@dataclass(frozen=True, slots=True)
+class TaskNet:
+    """``(task-net NET ...)``: several nets run at once, ordered only by ``for``."""
+
+    nets: tuple[Net, ...]
+    loc: SourceLocation = _loc()
+
+
+# ----------------------------------------------------------------- primitives (§2.4)
+
+@dataclass(frozen=True, slots=True)
+class Enable:
+    """``(enable (SKILL ARG ...) ...)``: turn skills on with arguments."""
+
+    skills: tuple[Compound, ...]
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class Disable:
+    """``(disable :above)`` (every skill this primitive enabled) or named skills.
+
+    ``skills`` is empty when ``above`` is true.
+    """
+
+    skills: tuple[Compound, ...] = ()
+    above: bool = False
+    loc: SourceLocation = _loc()
+
+
+PrimitiveAction = Union[Enable, Disable, WaitFor, MemoryOp]
+
+
+@dataclass(frozen=True, slots=True)
+class Primitive:
+    """``(primitive ACTION ...)``: a leaf method body that drives skills."""
+
+    actions: tuple[PrimitiveAction, ...]
+    loc: SourceLocation = _loc()
+
+
+# ----------------------------------------------------------------- define-rap (§2.1)
+
+@dataclass(frozen=True, slots=True)
+class Method:
+    """``(method [NAME] (context Q) BODY)``: one way to do a task.
+
+    ``context`` None means always applicable. ``body`` is a task net or a
+    primitive.
+    """
+
+    body: TaskNet | Primitive
+    name: str | None = None
+    context: Term | None = None
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class RapDef:
+    """``(define-rap (NAME ?ARG ...) CLAUSE ...)``: a Reactive Action Package.
+
+    ``head`` is the task as written, e.g. ``(attach-at-site ?thesite)``.
+    Clauses not written are None; ``retries`` None means the default (3).
+    """
+
+    head: Compound
+    methods: tuple[Method, ...] = ()
+    succeed: Term | None = None
+    constraints: Term | None = None
+    repeat_while: Term | None = None
+    repeat_until: Term | None = None
+    timeout: float | None = None
+    priority: float | None = None
+    retries: int | None = None
+    loc: SourceLocation = _loc()
+
+    @property
+    def name(self) -> str:
+        """The task name, e.g. ``attach-at-site``."""
+        return self.head.functor
+
+    @property
+    def params(self) -> tuple[Term, ...]:
+        """The head's arguments, usually variables."""
+        return self.head.args
+
+
+# ----------------------------------------------------------------- memory, skills, events (§2.5, §2.6)
+
+@dataclass(frozen=True, slots=True)
+class MemoryRuleDef:
+    """``(define-memory-rule NAME (on F) [(when Q)] (assert F) | (retract F) ...)``.
+
+    ``rule`` is the logic-level rule the memory engine runs.
+    """
+
+    rule: MemoryRule
+    loc: SourceLocation = _loc()
+
+    @property
+    def name(self) -> str:
+        return self.rule.name
+
+
+@dataclass(frozen=True, slots=True)
+class Finish:
+    """``(finish OUTCOME)`` in a virtual skill: asserts ``(done (SKILL ARG ...) OUTCOME)``."""
+
+    outcome: str
+    loc: SourceLocation = _loc()
+
+
+ScriptAction = Union[MemoryOp, Finish]
+
+
+@dataclass(frozen=True, slots=True)
+class After:
+    """``(after SECONDS ACTION ...)``: actions this long after the skill is enabled."""
+
+    delay: float
+    actions: tuple[ScriptAction, ...]
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class When:
+    """``(when Q (after ...) ...)``: script lines guarded by a query at enable time."""
+
+    condition: Term
+    lines: tuple[After, ...]
+    loc: SourceLocation = _loc()
+
+
+ScriptLine = Union[After, When]
+
+
+@dataclass(frozen=True, slots=True)
+class VirtualSkillDef:
+    """``(define-virtual-skill (SKILL ?ARG ...) LINE ...)``: a scripted skill."""
+
+    head: Compound
+    lines: tuple[ScriptLine, ...]
+    loc: SourceLocation = _loc()
+
+    @property
+    def name(self) -> str:
+        return self.head.functor
+
+
+@dataclass(frozen=True, slots=True)
+class AtTime:
+    """``(at-time SECONDS (assert F) | (retract F) ...)``: the world acting on its own."""
+
+    time: float
+    actions: tuple[MemoryOp, ...]
+    loc: SourceLocation = _loc()
+
+
+# ----------------------------------------------------------------- mission forms (§2.7)
+
+@dataclass(frozen=True, slots=True)
+class Include:
+    """``(include "path")``: load another file, relative to this one, once."""
+
+    path: str
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class WorldDecl:
+    """``(world "name-or-path")`` or ``(world none)``: the default world for a run."""
+
+    world: str
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class InitialMemory:
+    """``(initial-memory FACT ...)``: facts in memory before anything runs."""
+
+    facts: tuple[Compound, ...]
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class Post:
+    """``(post (TASK ARG ...) [:priority N] [:deadline S])``: a top-level task."""
+
+    task: Compound
+    priority: float | None = None
+    deadline: float | None = None
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class PlanRequest:
+    """``(plan GOAL ...)``: plan for these goals and execute the plan."""
+
+    goals: tuple[Term, ...]
+    loc: SourceLocation = _loc()
+
+
+# ----------------------------------------------------------------- AP operators (§3)
+
+@dataclass(frozen=True, slots=True)
+class PlotStep:
+    """One step of a plot: a goal or an action, e.g. ``(grip ?arm ?thing)``."""
+
+    term: Compound
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class PlotGroup:
+    """``(sequence ...)``, ``(parallel ...)`` or ``(simultaneous ...)`` in a plot."""
+
+    kind: str
+    parts: tuple[Plot, ...]
+    loc: SourceLocation = _loc()
+
+
+Plot = Union[PlotGroup, PlotStep]
+
+
+@dataclass(frozen=True, slots=True)
+class Effect:
+    """An effect: ``fact`` made true, or false when ``positive`` is False (``(not F)``)."""
+
+    fact: Compound
+    positive: bool = True
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class Argument:
+    """``(?var EXPR)`` in ``:arguments``: a derived value."""
+
+    var: Var
+    expr: Term
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class Operator:
+    """``(operator NAME :purpose ... :effects ...)`` (keyword or clause style).
+
+    Parts not written are None or empty. ``duration`` defaults to 1.
+    """
+
+    name: str
+    purpose: Term | None = None
+    agent: Var | None = None
+    arguments: tuple[Argument, ...] = ()
+    preconditions: tuple[Term, ...] = ()
+    constraints: tuple[Term, ...] = ()
+    plot: Plot | None = None
+    effects: tuple[Effect, ...] = ()
+    duration: float = 1
+    uncontrolled: bool = False
+    probability: float | None = None
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class Agents:
+    """``(agents (controlled A ...) (uncontrolled B ...))``."""
+
+    controlled: tuple[str, ...] = ()
+    uncontrolled: tuple[str, ...] = ()
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class RelationDef:
+    """``(define-relation (NAME ?ARG ...) QUERY)``: a derived relation."""
+
+    head: Compound
+    body: Term
+    loc: SourceLocation = _loc()
+
+    @property
+    def name(self) -> str:
+        return self.head.functor
+
+
+@dataclass(frozen=True, slots=True)
+class Initial:
+    """``(initial FACT ...)``: the planning problem's initial state."""
+
+    facts: tuple[Compound, ...]
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
+class Goals:
+    """``(goals GOAL ...)``: what the plan must achieve."""
+
+    goals: tuple[Term, ...]
+    loc: SourceLocation = _loc()
+
+
+TopLevel = Union[RapDef, MemoryRuleDef, VirtualSkillDef, AtTime, Include, WorldDecl,
+                 InitialMemory, Post, PlanRequest, Operator, Agents, RelationDef, Initial, Goals]
+
+
+@dataclass(frozen=True, slots=True)
+class SourceFile:
+    """The validated top-level forms of one file, in order."""
+
+    path: str
+    forms: tuple[TopLevel, ...]

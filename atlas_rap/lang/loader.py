@@ -1,0 +1,167 @@
+"""Loading whole programs: a file and everything it includes.
+
+Use :func:`load` to read a mission or a planning problem as the sequencer or
+the planner will see it: each file read and validated once, ``include``
+resolved relative to the including file, cycles reported with the chain
+that makes them, and every problem of every file collected into one
+:class:`~atlas_rap.errors.SourceError`.
+
+The forms of an included file stand where its ``include`` stands (depth
+first), so definitions read in the order a person reads the files. A second
+``include`` of a file already loaded adds nothing.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from atlas_rap.errors import Problem, SourceError, SourceLocation
+from atlas_rap.lang import ast
+from atlas_rap.lang.reader import read_file, read_text
+from atlas_rap.lang.validator import validate
+
+
+@dataclass(frozen=True, slots=True)
+class Program:
+    """Everything loaded from one root file: its files in load order and their forms."""
+
+    root: str
+    files: tuple[ast.SourceFile, ...]
+    forms: tuple[ast.TopLevel, ...]
+
+    def of_type(self, kind: type) -> list:
+        """The forms of one AST type, e.g. ``program.of_type(ast.RapDef)``."""
+        return [form for form in self.forms if isinstance(form, kind)]
+
+
+def _expand(root: str, files: dict[str, ast.SourceFile]) -> tuple[ast.TopLevel, ...]:
+    """All top-level forms, includes expanded depth first, without the Include nodes."""
+    out: list[ast.TopLevel] = []
+    seen: set[str] = set()
+
+    def expand(source: ast.SourceFile) -> None:
+        seen.add(source.path)
+        for form in source.forms:
+            if isinstance(form, ast.Include):
+                target = _display(_resolve(source.path, form.path))
+                if target in files and target not in seen:
+                    expand(files[target])
+            else:
+                out.append(form)
+
+    expand(files[root])
+    return tuple(out)
+
+
+def parse_text(text: str, filename: str = "<input>") -> ast.SourceFile:
+    """Read and validate one file's text (includes are not followed)."""
+    return validate(read_text(text, filename), filename, text)
+
+
+def parse_file(path: str | Path) -> ast.SourceFile:
+    """Read and validate one file (includes are not followed)."""
+    name = _display(Path(path))
+    forms, text = read_file(path, name)
+    return validate(forms, name, text)
+
+
+def load(path: str | Path) -> Program:
+    """Load a file and, recursively, what it includes; report every problem."""
+    loader = _Loader()
+    root = Path(path)
+    loader.visit(root, [])
+    if loader.problems:
+        raise SourceError(loader.problems)
+    files = tuple(loader.files[key] for key in loader.order)
+    program = Program(root=_display(root), files=files, forms=_expand(_display(root), loader.files))
+    _check_unique_definitions(program, loader.problems)
+    if loader.problems:
+        raise SourceError(loader.problems)
+    return program
+
+
+def _display(path: Path) -> str:
+    """How a file is named in messages: relative to the working directory when inside it."""
+    resolved = path.resolve()
+    try:
+        return str(resolved.relative_to(Path.cwd()))
+    except ValueError:
+        return str(resolved)
+
+
+def _resolve(including: str, target: str) -> Path:
+    return (Path(including).resolve().parent / target).resolve()
+
+
+class _Loader:
+    def __init__(self) -> None:
+        self.files: dict[str, ast.SourceFile] = {}
+        self.order: list[str] = []
+        self.problems: list[Problem] = []
+        self.failed: set[str] = set()
+
+    def visit(self, path: Path, chain: list[tuple[str, ast.Include]]) -> None:
+        name = _display(path)
+        if name in self.files or name in self.failed:
+            return
+        try:
+            source = parse_file(path)
+        except SourceError as exc:
+            self.failed.add(name)
+            self.problems.extend(exc.problems)
+            return
+        self.files[name] = source
+        self.order.append(name)
+        for form in source.forms:
+            if isinstance(form, ast.Include):
+                self.include(source, form, chain)
+
+    def include(self, source: ast.SourceFile, form: ast.Include,
+                chain: list[tuple[str, ast.Include]]) -> None:
+        target = _resolve(source.path, form.path)
+        target_name = _display(target)
+        stack = [name for name, _ in chain] + [source.path]
+        if target_name in stack:
+            cycle = stack[stack.index(target_name):] + [target_name]
+            self.problems.append(Problem(
+                "include cycle: " + " -> ".join(cycle), form.loc, _source_line(form.loc),
+                "remove one of these includes; each file needs to be included only once"))
+            return
+        if not target.is_file():
+            self.problems.append(Problem(
+                f"included file not found: {form.path} (looked for {target_name})", form.loc,
+                _source_line(form.loc), "include paths are relative to the file that includes them"))
+            return
+        self.visit(target, chain + [(source.path, form)])
+
+
+def _source_line(loc: SourceLocation) -> str | None:
+    try:
+        lines = Path(loc.file).read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError):
+        return None
+    return lines[loc.line - 1] if 0 < loc.line <= len(lines) else None
+
+
+def _check_unique_definitions(program: Program, problems: list[Problem]) -> None:
+    """Two RAPs (same name and arity), operators, skills or memory rules of one name
+    are a mistake. Several ``define-relation``s of one name are alternatives, as in Prolog."""
+    seen: dict[tuple[str, str, int], SourceLocation] = {}
+    for form in program.forms:
+        if isinstance(form, (ast.RapDef, ast.VirtualSkillDef)):
+            key = (type(form).__name__, form.name, len(form.head.args))
+        elif isinstance(form, ast.Operator):
+            key = ("Operator", form.name, 0)
+        elif isinstance(form, ast.MemoryRuleDef):
+            key = ("MemoryRuleDef", form.name, 0)
+        else:
+            continue
+        if key in seen:
+            first = seen[key]
+            what = {"RapDef": "define-rap", "VirtualSkillDef": "define-virtual-skill", "Operator": "operator",
+                    "MemoryRuleDef": "define-memory-rule"}[key[0]]
+            problems.append(Problem(f"{what} '{key[1]}' is defined twice (first at {first})",
+                                    form.loc, _source_line(form.loc), "rename or remove one of them"))
+        else:
+            seen[key] = form.loc

@@ -1,0 +1,354 @@
+"""The first pass: text to s-expressions (``SList``), with positions.
+
+Use :func:`read_text` (or :func:`read_file`) when you need the raw forms of a
+RAP or AP file; the validator turns them into typed AST nodes.
+
+Atoms are read straight into logic terms (``atlas_rap.logic``): symbols and
+``:keywords`` are lower-cased ``str``, numbers are ``int``/``float``,
+``"strings"`` are :class:`~atlas_rap.logic.String`, ``?x`` is ``Var('x')``.
+Each anonymous ``?`` becomes its own variable ``Var('_N')``, numbered in
+reading order within one file (a name nobody can write, since a variable's
+name must start with a letter or digit), so reading the same text twice
+gives equal forms.
+
+Positions live on the lists, not on the atoms: ``SList.locs[i]`` is the
+(line, column) of ``SList.items[i]``. That keeps atoms plain values, which
+is what makes the reader fast.
+
+Choices where LANGUAGE.md is silent:
+- string escapes: ``\\n`` is a newline, ``\\t`` a tab, ``\\`` followed by any
+  other character is that character;
+- ``()`` reads as an empty list (the validator treats it as ``nil``);
+- files larger than :data:`MAX_FILE_BYTES` are refused with advice to split
+  them with ``include``; lists nested deeper than :data:`MAX_DEPTH` are
+  refused (no legitimate RAP comes close, and it keeps every later pass safe
+  from Python's recursion limit).
+"""
+
+from __future__ import annotations
+
+import threading
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+from typing import Union
+
+from lark import Lark, Token, Transformer
+from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
+
+from atlas_rap.errors import Problem, SourceError, SourceLocation
+from atlas_rap.logic.terms import String, Term, Var
+
+MAX_FILE_BYTES = 8 * 1024 * 1024
+MAX_DEPTH = 200
+
+Datum = Union["SList", Term]
+
+
+class SList:
+    """One parenthesised list as read: its items and where each starts.
+
+    ``line``/``column`` are those of the opening parenthesis; ``end_line`` and
+    ``end_column`` those of the closing one. Items are atoms (logic terms) or
+    nested ``SList``s.
+    """
+
+    __slots__ = ("items", "locs", "line", "column", "end_line", "end_column", "depth")
+
+    def __init__(self, items: tuple, locs: tuple, line: int, column: int,
+                 end_line: int, end_column: int, depth: int) -> None:
+        self.items = items
+        self.locs = locs
+        self.line = line
+        self.column = column
+        self.end_line = end_line
+        self.end_column = end_column
+        self.depth = depth
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def __repr__(self) -> str:
+        return f"SList({list(self.items)!r} @{self.line}:{self.column})"
+
+    @property
+    def head(self) -> Datum | None:
+        """The first item, or None for ``()``."""
+        return self.items[0] if self.items else None
+
+
+class Forms(list):
+    """The top-level forms of one file, with ``locs`` parallel to the items."""
+
+    def __init__(self, items: list, locs: list) -> None:
+        super().__init__(items)
+        self.locs = locs
+
+
+_ESCAPES = {"n": "\n", "t": "\t"}
+_NUMBER_START = frozenset("0123456789+-.")
+
+
+class _AtomReader:
+    """Classifies ATOM tokens; caches the values of the ones seen before."""
+
+    def __init__(self) -> None:
+        self.cache: dict[str, Term] = {}
+        self.anonymous = 0
+        self.bad_variables: list[Token] = []
+
+    def atom(self, tok: Token) -> Term:
+        value = self.cache.get(tok)
+        if value is not None:
+            return value
+        text = str(tok)
+        first = text[0]
+        if first == "?":
+            if text == "?":
+                self.anonymous += 1
+                return Var(f"_{self.anonymous}")  # unwritable: names start with a letter or digit
+            name = text[1:].lower()
+            if not name[0].isalnum():
+                self.bad_variables.append(tok)
+            value = Var(name)
+        elif first in _NUMBER_START:
+            value = _number(text)
+            if value is None:
+                value = text.lower()
+        else:
+            value = text.lower()
+        self.cache[text] = value
+        return value
+
+    @staticmethod
+    def string(tok: Token) -> String:
+        body = tok[1:-1]
+        if "\\" not in body:
+            return String(body)
+        out = []
+        chars = iter(body)
+        for ch in chars:
+            if ch == "\\":
+                nxt = next(chars)
+                out.append(_ESCAPES.get(nxt, nxt))
+            else:
+                out.append(ch)
+        return String("".join(out))
+
+    def convert(self, children: list) -> tuple[list, list, int]:
+        """Items, locations and maximum list depth of a run of children."""
+        items = []
+        locs = []
+        depth = 0
+        for child in children:
+            if type(child) is SList:
+                items.append(child)
+                locs.append((child.line, child.column))
+                if child.depth > depth:
+                    depth = child.depth
+            else:
+                items.append(self.atom(child) if child.type == "ATOM" else self.string(child))
+                locs.append((child.line, child.column))
+        return items, locs, depth
+
+
+def _number(text: str) -> int | float | None:
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    if value != value or value in (float("inf"), float("-inf")):
+        return None  # 'nan', 'inf' and friends stay symbols
+    return value
+
+
+class _Builder(Transformer):
+    """Builds SLists as the LALR parser reduces rules: no parse tree at all."""
+
+    atoms: _AtomReader | None = None
+
+    def list(self, children: list) -> SList:
+        lpar = children[0]
+        rpar = children[-1]
+        items, locs, depth = self.atoms.convert(children[1:-1])
+        return SList(tuple(items), tuple(locs), lpar.line, lpar.column,
+                     rpar.line, rpar.column, depth + 1)
+
+    def start(self, children: list) -> list:
+        return children
+
+
+_READ_LOCK = threading.Lock()
+
+
+@lru_cache(maxsize=1)
+def _builder() -> _Builder:
+    return _Builder()
+
+
+@lru_cache(maxsize=1)
+def _parser() -> Lark:
+    grammar = resources.files("atlas_rap.lang").joinpath("grammar.lark").read_text(encoding="utf-8")
+    return Lark(grammar, parser="lalr", lexer="basic", maybe_placeholders=False,
+                transformer=_builder())
+
+
+def read_text(text: str, filename: str = "<input>") -> Forms:
+    """Read every top-level form of ``text``.
+
+    Raises :class:`~atlas_rap.errors.SourceError` (never a Lark exception) for
+    unbalanced parentheses, an unterminated string or block comment, a bad
+    variable name, or nesting deeper than :data:`MAX_DEPTH`.
+    """
+    atoms = _AtomReader()
+
+    with _READ_LOCK:
+        builder = _builder()
+        builder.atoms = atoms
+        try:
+            children = _parser().parse(text)
+        except UnexpectedInput as exc:
+            raise SourceError(_syntax_problem(exc, text, filename)) from None
+        finally:
+            builder.atoms = None
+
+    if isinstance(children, Token):  # a file of one bare atom
+        children = [children]
+    elif not isinstance(children, list):
+        children = [children]
+    items, locs, depth = atoms.convert(children)
+    if atoms.bad_variables:
+        tok = atoms.bad_variables[0]
+        raise SourceError(Problem(
+            f"bad variable name '{tok}'", SourceLocation(filename, tok.line, tok.column),
+            _line(text, tok.line),
+            "a variable is '?' followed by a letter or digit, e.g. ?site; '?' alone is anonymous"))
+    if depth > MAX_DEPTH:
+        line, column = _deepest_open(text, MAX_DEPTH)
+        raise SourceError(Problem(
+            f"lists nested more than {MAX_DEPTH} deep", SourceLocation(filename, line, column),
+            _line(text, line), "flatten the form; no RAP or operator needs this depth"))
+    return Forms(items, locs)
+
+
+def read_file(path: str | Path, display_name: str | None = None) -> tuple[Forms, str]:
+    """Read a file's forms; returns them with the decoded text.
+
+    The file must be UTF-8, non-empty and at most :data:`MAX_FILE_BYTES`.
+    ``display_name`` is how errors name the file (default: the path as given).
+    """
+    name = display_name or str(path)
+    text = decode_source(_read_bytes(Path(path), name), name)
+    forms = read_text(text, name)
+    if not forms:
+        raise SourceError(Problem(
+            "file has no forms (only white space and comments)",
+            SourceLocation(name, 1, 1), None,
+            "a .rap file holds (define-rap ...) and mission forms; an .ap file holds operators"))
+    return forms, text
+
+
+def _read_bytes(path: Path, name: str) -> bytes:
+    where = SourceLocation(name, 1, 1)
+    try:
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise SourceError(Problem(
+                f"file is too large ({size / 1e6:.1f} MB; the limit is {MAX_FILE_BYTES // (1024 * 1024)} MiB)",
+                where, None, "split it into smaller files joined with (include \"part.rap\")"))
+        data = path.read_bytes()
+    except IsADirectoryError:
+        raise SourceError(Problem("is a directory, not a file", where, None,
+                                  "name the .rap or .ap files inside it")) from None
+    except FileNotFoundError:
+        raise SourceError(Problem("no such file", where, None, "check the path")) from None
+    except PermissionError:
+        raise SourceError(Problem("permission denied", where)) from None
+    except OSError as exc:
+        raise SourceError(Problem(f"cannot read file: {exc.strerror}", where)) from None
+    if not data.strip():
+        raise SourceError(Problem("file is empty", where, None,
+                                  "write at least one form, e.g. (define-rap (my-task) ...)"))
+    return data
+
+
+def decode_source(data: bytes, name: str) -> str:
+    """Decode UTF-8 (a BOM is allowed); an error names the line and column."""
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        good = data[: exc.start]
+        line = good.count(b"\n") + 1
+        column = exc.start - (good.rfind(b"\n") + 1) + 1
+        shown = good[good.rfind(b"\n") + 1:].decode("utf-8", "replace")
+        raise SourceError(Problem(
+            f"file is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})",
+            SourceLocation(name, line, column), shown + "\N{REPLACEMENT CHARACTER}",
+            "save the file as UTF-8")) from None
+    return text.removeprefix("\ufeff")
+
+
+def _line(text: str, line: int) -> str | None:
+    lines = text.splitlines()
+    return lines[line - 1] if 0 < line <= len(lines) else None
+
+
+def _syntax_problem(exc: UnexpectedInput, text: str, filename: str) -> Problem:
+    if isinstance(exc, UnexpectedCharacters):
+        line, column = exc.line, exc.column
+        where = SourceLocation(filename, line, column)
+        char = text[exc.pos_in_stream]
+        if char == '"':
+            return Problem("unterminated string", where, _line(text, line),
+                           'close it with a matching \'"\' (write \\" for a quote inside a string)')
+        if text.startswith("#|", exc.pos_in_stream):
+            return Problem("unterminated block comment", where, _line(text, line),
+                           "close it with '|#'")
+        return Problem(f"unexpected character {char!r}", where, _line(text, line))
+    if isinstance(exc, UnexpectedToken) and exc.token.type == "RPAR":
+        tok = exc.token
+        return Problem("unbalanced ')': nothing here to close", SourceLocation(filename, tok.line, tok.column),
+                       _line(text, tok.line), "delete this ')' or add the '(' it was meant to close")
+    if isinstance(exc, (UnexpectedEOF, UnexpectedToken)):
+        return _unclosed_problem(text, filename)
+    return Problem("syntax error", SourceLocation(filename, getattr(exc, "line", 1) or 1,
+                                                  getattr(exc, "column", 1) or 1))
+
+
+def _open_parens(text: str):
+    """Yield (event, line, column) for '(' and ')' outside strings and comments."""
+    for tok in _parser().lex(text, dont_ignore=False):
+        if tok.type in ("LPAR", "RPAR"):
+            yield tok.type, tok.line, tok.column
+
+
+def _unclosed_problem(text: str, filename: str) -> Problem:
+    stack: list[tuple[int, int]] = []
+    suspicious: tuple[int, int] | None = None
+    for kind, line, column in _open_parens(text):
+        if kind == "LPAR":
+            if stack and column == 1 and suspicious is None:
+                suspicious = (line, column)
+            stack.append((line, column))
+        else:
+            stack.pop()
+    line, column = stack[0] if stack else (1, 1)
+    hint = "add the missing ')'"
+    if suspicious is not None:
+        hint += (f"; the form at line {suspicious[0]} starts in column 1, so the ')' is "
+                 f"probably missing before it")
+    return Problem("unbalanced '(': this list is never closed", SourceLocation(filename, line, column),
+                   _line(text, line), hint)
+
+
+def _deepest_open(text: str, limit: int) -> tuple[int, int]:
+    depth = 0
+    for kind, line, column in _open_parens(text):
+        depth += 1 if kind == "LPAR" else -1
+        if depth > limit:
+            return line, column
+    return 1, 1
