@@ -21,11 +21,12 @@ def check(files: tuple[str, ...], tree: bool, format_: bool) -> None:
     """
     from atlas_rap.errors import SourceError
     from atlas_rap.lang import format_file, load
+    from atlas_rap.shipped import resolve_user_path
 
     failed = 0
     for path in files:
         try:
-            program = load(path)
+            program = load(resolve_user_path(path))
         except SourceError as exc:
             failed += 1
             for problem in exc.problems:

@@ -19,7 +19,7 @@ from pathlib import Path
 from atlas_rap.errors import Problem, SourceError, SourceLocation
 from atlas_rap.lang import ast
 from atlas_rap.lang.reader import read_file, read_text
-from atlas_rap.lang.validator import validate
+from atlas_rap.lang.validator import validate, validate_partial
 
 
 @dataclass(frozen=True, slots=True)
@@ -106,11 +106,13 @@ class _Loader:
         if name in self.files or name in self.failed:
             return
         try:
-            source = parse_file(path)
+            forms, text = read_file(path, name)
         except SourceError as exc:
             self.failed.add(name)
             self.problems.extend(exc.problems)
             return
+        source, problems = validate_partial(forms, name, text)
+        self.problems.extend(problems)
         self.files[name] = source
         self.order.append(name)
         for form in source.forms:

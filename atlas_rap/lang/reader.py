@@ -98,10 +98,10 @@ class _AtomReader:
         self.bad_variables: list[Token] = []
 
     def atom(self, tok: Token) -> Term:
-        value = self.cache.get(tok)
+        text = tok.value  # the plain str: Token's own __eq__ makes dict look-ups slow
+        value = self.cache.get(text)
         if value is not None:
             return value
-        text = str(tok)
         first = text[0]
         if first == "?":
             if text == "?":
@@ -140,15 +140,18 @@ class _AtomReader:
         items = []
         locs = []
         depth = 0
+        cache = self.cache
         for child in children:
             if type(child) is SList:
                 items.append(child)
-                locs.append((child.line, child.column))
                 if child.depth > depth:
                     depth = child.depth
+            elif child.type == "ATOM":
+                value = cache.get(child.value)
+                items.append(self.atom(child) if value is None else value)
             else:
-                items.append(self.atom(child) if child.type == "ATOM" else self.string(child))
-                locs.append((child.line, child.column))
+                items.append(self.string(child))
+            locs.append((child.line, child.column))
         return items, locs, depth
 
 

@@ -215,15 +215,13 @@ class Validator:
     # ------------------------------------------------------------ top level
 
     def file(self, forms: Forms) -> ast.SourceFile:
-        """Validate a file's top-level forms; raise SourceError if any are wrong."""
+        """The file's valid top-level forms; what is wrong is left in ``problems``."""
         nodes = []
         for datum, loc in zip(forms, forms.locs):
             try:
                 nodes.append(self.top_level(datum, loc))
             except _Skip:
                 pass
-        if self.problems:
-            raise SourceError(self.problems)
         return ast.SourceFile(self.filename, tuple(nodes))
 
     def top_level(self, datum: Datum, where: tuple[int, int]) -> ast.TopLevel:
@@ -750,6 +748,17 @@ _TOP_LEVEL: dict[str, Callable[[Validator, SList], ast.TopLevel]] = {
 }
 
 
+def validate_partial(forms: Forms, filename: str, text: str) -> tuple[ast.SourceFile, list[Problem]]:
+    """The valid forms of one file and the problems of the others (for the loader,
+    which follows the includes of a file even when some of its forms are wrong)."""
+    validator = Validator(filename, text)
+    source = validator.file(forms)
+    return source, validator.problems
+
+
 def validate(forms: Forms, filename: str, text: str) -> ast.SourceFile:
     """Turn one file's forms into AST nodes; raise SourceError listing every problem."""
-    return Validator(filename, text).file(forms)
+    source, problems = validate_partial(forms, filename, text)
+    if problems:
+        raise SourceError(problems)
+    return source

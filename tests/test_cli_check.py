@@ -1,0 +1,114 @@
+"""`atlas check` as a user runs it: real processes, real files, exit codes."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def atlas(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "atlas_rap", *args], cwd=cwd, capture_output=True,
+                          text=True, env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"})
+
+
+def assert_no_traceback(done: subprocess.CompletedProcess) -> None:
+    assert "Traceback" not in done.stderr + done.stdout, done.stderr
+
+
+def test_the_files_that_ship_are_clean():
+    shipped = sorted(str(p.relative_to(REPO)) for folder in ("rap_library", "operators")
+                     for p in (REPO / folder).rglob("*") if p.suffix in (".rap", ".ap"))
+    assert len(shipped) >= 4
+    done = atlas("check", *shipped, cwd=REPO)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.count("ok: ") == len(shipped)
+
+
+def test_shipped_files_are_found_from_any_directory(tmp_path):
+    done = atlas("check", "rap_library/missions/site-visit.rap", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "5 RAPs" in done.stdout
+
+
+def test_a_file_with_problems_prints_each_with_a_caret_and_exits_1(tmp_path):
+    (tmp_path / "bad.rap").write_text(
+        "(define-rap (go ?x)\n  (sucede (at ?x))\n  (method (context (ready))))\n", encoding="utf-8")
+    done = atlas("check", "bad.rap", cwd=tmp_path)
+    assert done.returncode == 1
+    assert_no_traceback(done)
+    lines = done.stderr.splitlines()
+    assert lines[0] == "bad.rap:2:4: error: unknown clause 'sucede'"
+    assert lines[1:4] == ["      (sucede (at ?x))", "       ^", "  hint: did you mean 'succeed'?"]
+    assert "bad.rap:3:3: error: method has no body" in lines
+    assert lines[-1] == "bad.rap: 2 problems"
+
+
+def test_clean_and_bad_files_together_exit_1_and_report_both(tmp_path):
+    (tmp_path / "good.ap").write_text("(goals (at robot office))\n", encoding="utf-8")
+    (tmp_path / "bad.ap").write_text("(goals (at robot office)\n", encoding="utf-8")
+    done = atlas("check", "good.ap", "bad.ap", cwd=tmp_path)
+    assert done.returncode == 1
+    assert "ok: good.ap: 1 goals" in done.stdout
+    assert "bad.ap:1:1: error: unbalanced '(': this list is never closed" in done.stderr
+
+
+@pytest.mark.parametrize("content, message", [
+    (b"", "file is empty"),
+    (b"(post (go \"caf\xe9\"))", "file is not UTF-8 text"),
+    (b"(post (go \"open))", "unterminated string"),
+    (b"(post (go)))", "unbalanced ')'"),
+])
+def test_bad_input_gets_a_message_and_exit_1_never_a_traceback(tmp_path, content, message):
+    (tmp_path / "m.rap").write_bytes(content)
+    done = atlas("check", "m.rap", cwd=tmp_path)
+    assert done.returncode == 1
+    assert_no_traceback(done)
+    assert message in done.stderr
+
+
+def test_a_missing_file_is_a_clear_error(tmp_path):
+    done = atlas("check", "nowhere.rap", cwd=tmp_path)
+    assert done.returncode == 1
+    assert "nowhere.rap:1:1: error: no such file" in done.stderr
+
+
+def test_no_arguments_is_a_usage_error_with_exit_2(tmp_path):
+    done = atlas("check", cwd=tmp_path)
+    assert done.returncode == 2
+    assert "Missing argument" in done.stderr
+
+
+def test_tree_prints_the_ast_with_positions(tmp_path):
+    (tmp_path / "t.rap").write_text("(define-rap (go ?x)\n  (succeed (at robot ?x))\n"
+                                    "  (method (primitive (enable (move-to ?x)))))\n", encoding="utf-8")
+    done = atlas("check", "--tree", "t.rap", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "RapDef 1:1" in done.stdout
+    assert "succeed: (at robot ?x)" in done.stdout
+    assert "Enable 3:22" in done.stdout
+
+
+def test_format_prints_source_that_checks_clean(tmp_path):
+    (tmp_path / "t.rap").write_text("(DEFINE-RAP (Go ?X) (method (primitive (enable (Move-To ?x)))))",
+                                    encoding="utf-8")
+    done = atlas("check", "--format", "t.rap", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    formatted = done.stdout.split(";; t.rap\n", 1)[1]
+    assert formatted.strip() == "(define-rap (go ?x) (method (primitive (enable (move-to ?x)))))"
+    (tmp_path / "again.rap").write_text(formatted, encoding="utf-8")
+    assert atlas("check", "again.rap", cwd=tmp_path).returncode == 0
+
+
+def test_check_does_not_import_the_heavy_libraries():
+    code = ("import sys; from atlas_rap.cli.main import main\n"
+            "try:\n    main(['check', 'rap_library/space-station.rap'])\n"
+            "except SystemExit:\n    pass\n"
+            "print(sorted(m for m in ('scipy', 'skimage', 'pymunk', 'numpy', 'rich') if m in sys.modules))")
+    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True,
+                          env={"PYTHONPATH": str(REPO)})
+    assert done.stdout.strip().splitlines()[-1] == "[]", done.stderr
