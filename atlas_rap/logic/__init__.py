@@ -1,0 +1,94 @@
+"""Terms, unification, memory, queries and memory rules: the one logic
+implementation shared by the RAP sequencer and the AP planner.
+
+- ``terms``: :class:`Compound`, :class:`Var`, :class:`String`, symbols
+  (``str``) and numbers; substitutions (:data:`Subst`) and printing.
+- ``unify``: :func:`unify` (two-sided, occurs check) and :func:`match`
+  (one-sided, against ground terms).
+- ``memory``: :class:`Memory`, indexed ground facts with times.
+- ``query``: :func:`evaluate`, the query language, and defined relations
+  (:class:`Relation`).
+- ``rules``: :class:`MemoryRule` and the :class:`RuleEngine` that runs them.
+
+This package imports nothing of atlas-rap but ``atlas_rap.errors``.
+"""
+
+from __future__ import annotations
+
+from atlas_rap.logic.errors import (
+    FactError,
+    LogicError,
+    QueryError,
+    RelationDepthError,
+    RuleCycleError,
+    RuleError,
+)
+from atlas_rap.logic.memory import Listener, Memory
+from atlas_rap.logic.query import (
+    ARITHMETIC,
+    COMPARISONS,
+    DEFAULT_MAX_DEPTH,
+    EXPRESSION_FORMS,
+    QUERY_FORMS,
+    Relation,
+    evaluate,
+)
+from atlas_rap.logic.rules import DEFAULT_MAX_FIRINGS, Change, MemoryRule, RuleEngine
+from atlas_rap.logic.terms import (
+    Compound,
+    String,
+    Subst,
+    Term,
+    Var,
+    fresh_var,
+    is_anonymous,
+    is_ground,
+    is_keyword,
+    is_number,
+    is_symbol,
+    substitute,
+    term_to_str,
+    variables,
+    walk,
+)
+from atlas_rap.logic.unify import match, match_into, unify
+
+__all__ = [
+    "ARITHMETIC",
+    "COMPARISONS",
+    "Change",
+    "Compound",
+    "DEFAULT_MAX_DEPTH",
+    "DEFAULT_MAX_FIRINGS",
+    "EXPRESSION_FORMS",
+    "FactError",
+    "Listener",
+    "LogicError",
+    "Memory",
+    "MemoryRule",
+    "QUERY_FORMS",
+    "QueryError",
+    "Relation",
+    "RelationDepthError",
+    "RuleCycleError",
+    "RuleEngine",
+    "RuleError",
+    "String",
+    "Subst",
+    "Term",
+    "Var",
+    "evaluate",
+    "fresh_var",
+    "is_anonymous",
+    "is_ground",
+    "is_keyword",
+    "is_number",
+    "is_symbol",
+    "match",
+    "match_into",
+    "substitute",
+    "term_to_str",
+    "unify",
+    "variables",
+    "walk",
+]
