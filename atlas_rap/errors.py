@@ -61,7 +61,7 @@ class Problem:
         """The problem as a compiler-style report with a caret."""
         lines = [f"{self.location}: {self.severity}: {self.message}"]
         if self.source_line is not None:
-            text, caret = _window(self.source_line.expandtabs(1), self.location.column - 1)
+            text, caret = _window(self.source_line.rstrip("\r").expandtabs(1), self.location.column - 1)
             lines.append(f"    {text}")
             lines.append("    " + " " * caret + "^")
         if self.hint:

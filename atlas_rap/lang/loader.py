@@ -140,7 +140,7 @@ class _Loader:
 
 def _source_line(loc: SourceLocation) -> str | None:
     try:
-        lines = Path(loc.file).read_text(encoding="utf-8").splitlines()
+        lines = Path(loc.file).read_text(encoding="utf-8").split("\n")
     except (OSError, UnicodeDecodeError):
         return None
     return lines[loc.line - 1] if 0 < loc.line <= len(lines) else None

@@ -296,7 +296,7 @@ def decode_source(data: bytes, name: str) -> str:
 
 
 def _line(text: str, line: int) -> str | None:
-    lines = text.splitlines()
+    lines = text.split("\n")  # line numbers count '\n' only, as the lexer does
     return lines[line - 1] if 0 < line <= len(lines) else None
 
 

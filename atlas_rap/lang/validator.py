@@ -102,7 +102,7 @@ class Validator:
 
     def _source_line(self, line: int) -> str | None:
         if self._lines is None:
-            self._lines = self.text.splitlines()
+            self._lines = self.text.split("\n")  # line numbers count '\n' only, as the lexer does
         return self._lines[line - 1] if 0 < line <= len(self._lines) else None
 
     def loc(self, where: tuple[int, int]) -> SourceLocation:
@@ -326,6 +326,7 @@ class Validator:
     def step(self, form: SList) -> ast.Step:
         items, locs = form.items, form.locs
         if (len(items) >= 2 and type(items[0]) is str and type(items[1]) is SList
+                and items[1].head not in ANNOTATIONS
                 and all(type(x) is SList and x.head in ANNOTATIONS for x in items[2:])):
             label = self.name(items[0], locs[0], "a step label")
             task = self.compound(items[1], locs[1], "a task call")
@@ -363,8 +364,11 @@ class Validator:
         def collect(node: object) -> None:
             if isinstance(node, ast.Step):
                 steps.append(node)
-            elif isinstance(node, (ast.Sequence, ast.Parallel, ast.TaskNet)):
-                for part in getattr(node, "parts", None) or node.nets:
+            elif isinstance(node, (ast.Sequence, ast.Parallel)):
+                for part in node.parts:
+                    collect(part)
+            elif isinstance(node, ast.TaskNet):
+                for part in node.nets:
                     collect(part)
 
         collect(net)
@@ -604,6 +608,7 @@ class Validator:
                 elif type(item) is SList and type(item.head) is str:
                     key = item.head
                     values, value_locs = item.items[1:], item.locs[1:]
+                    loc = item.locs[0]
                     i += 1
                 else:
                     i += 1
@@ -722,10 +727,13 @@ class _Items:
 
 
 def _unwrap_list(values: tuple, locs: tuple) -> tuple[tuple, tuple]:
-    """``((F1) (F2))`` given as one value is the list (F1) (F2); a bare fact is a list of one."""
+    """``((F1) (F2))`` given as one value is the list (F1) (F2); a bare fact
+    ``(top ?x clear)`` and a single argument ``(?v EXPR)`` are lists of one;
+    ``(t (F1))`` is the list of ``t`` and ``(F1)`` (no fact is named ``t``)."""
     if len(values) == 1 and type(values[0]) is SList:
         only = values[0]
-        if only.items and type(only.items[0]) is SList:
+        head = only.head
+        if only.items and (type(head) is SList or head in ("t", "nil")):
             return only.items, only.locs
     return values, locs
 
