@@ -97,7 +97,6 @@ def bench_memory(n_facts: int, n_queries: int) -> None:
               "answers_per_query": round(answers / n_queries, 2), "seconds": round(seconds, 3),
               "queries_per_s": round(n_queries / seconds), "target_queries_per_s": 300000,
               "load_facts_per_s": round(n_facts / load_s)})
-        del memory, queries
 
 
 def bench_cold_start(runs: int) -> None:

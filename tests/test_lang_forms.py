@@ -5,11 +5,11 @@ the errors below are those that test_lang_errors.py does not already cover."""
 
 from __future__ import annotations
 
-import pytest
 
-from atlas_rap.errors import SourceError
 from atlas_rap.lang import ast, parse_text
 from atlas_rap.logic import Compound, MemoryRule, String, Var
+
+from source_problems import at, only_problem
 
 C = Compound.of
 
@@ -389,22 +389,6 @@ def test_t_and_nil_are_symbols_and_a_dash_alone_is_a_symbol():
 
 
 # ----------------------------------------------------------------- errors not in test_lang_errors.py
-
-
-def problems_of(text: str) -> list:
-    with pytest.raises(SourceError) as caught:
-        parse_text(text, "bad.rap")
-    return caught.value.problems
-
-
-def only_problem(text: str):
-    problems = problems_of(text)
-    assert len(problems) == 1, "\n".join(p.render() for p in problems)
-    return problems[0]
-
-
-def at(problem) -> tuple[int, int]:
-    return problem.location.line, problem.location.column
 
 
 def test_a_method_with_two_bodies_is_an_error_at_the_second_body():

@@ -153,9 +153,6 @@ class Validator:
         head = self.head_name(form, f"a name at the head of {what}")
         return Compound(head, tuple(to_term(x) for x in form.items[1:]))
 
-    def signature(self, datum: Datum, where: tuple[int, int], what: str) -> Compound:
-        return self.compound(datum, where, what)
-
     def number(self, datum: Datum, where: tuple[int, int], what: str, *,
                minimum: float | None = None, integer: bool = False) -> float:
         ok = isinstance(datum, int) if integer else isinstance(datum, (int, float))
@@ -241,7 +238,7 @@ class Validator:
         if (type(head_datum) is SList and len(head_datum.items) == 2 and head_datum.items[0] == "index"
                 and type(head_datum.items[1]) is SList):
             head_datum, head_loc = head_datum.items[1], head_datum.locs[1]
-        head = self.signature(head_datum, head_loc, "a RAP head")
+        head = self.compound(head_datum, head_loc, "a RAP head")
         fields: dict[str, object] = {}
         first_seen: dict[str, int] = {}
         methods = []
@@ -320,7 +317,7 @@ class Validator:
         if head == "wait-for":
             return self.wait_for(form)
         if head in ("assert", "retract"):
-            return self.memory_op(form, form.locs[0])
+            return self.memory_op(form)
         return self.step(form)
 
     def step(self, form: SList) -> ast.Step:
@@ -420,7 +417,7 @@ class Validator:
         return ast.WaitFor(query=query, outcome=outcome or ":succeed", timeout=timeout,
                            loc=self.loc(self.at(form)))
 
-    def memory_op(self, form: SList, where: tuple[int, int]) -> ast.MemoryOp:
+    def memory_op(self, form: SList) -> ast.MemoryOp:
         fact, loc = self.one_arg(form, "fact")
         return ast.MemoryOp(kind=form.items[0], fact=self.compound(fact, loc, "a fact"),
                             loc=self.loc(self.at(form)))
@@ -441,7 +438,7 @@ class Validator:
         if kind == "wait-for":
             return self.wait_for(form)
         if kind in ("assert", "retract"):
-            return self.memory_op(form, where)
+            return self.memory_op(form)
         if kind == "disable" and form.items[1:] == (":above",):
             return ast.Disable(above=True, loc=here)
         if len(form.items) < 2:
@@ -472,7 +469,7 @@ class Validator:
                         self.fail("rule has two 'when' clauses", clause.locs[0], "combine them with (and ...)")
                     condition = self.query(*self.one_arg(clause, "query"))
                 elif kind in ("assert", "retract"):
-                    effects.append((kind, self.memory_op(clause, loc).fact))
+                    effects.append((kind, self.memory_op(clause).fact))
                 else:
                     self.unknown("rule clause", kind, clause.locs[0], ("on", "when", "assert", "retract"))
             except _Skip:
@@ -486,7 +483,7 @@ class Validator:
     def define_virtual_skill(self, form: SList) -> ast.VirtualSkillDef:
         if len(form.items) < 2:
             self.fail("define-virtual-skill needs a head such as (approach-site ?site)", self.at(form))
-        head = self.signature(form.items[1], form.locs[1], "a skill head")
+        head = self.compound(form.items[1], form.locs[1], "a skill head")
         lines = self.each(form, 2, self.script_line)
         return ast.VirtualSkillDef(head=head, lines=lines, loc=self.loc(self.at(form)))
 
@@ -513,7 +510,7 @@ class Validator:
         form = self.list_form(datum, where, "(assert ...), (retract ...) or (finish OUTCOME)")
         kind = self.head_name(form, "a script action")
         if kind in ("assert", "retract"):
-            return self.memory_op(form, where)
+            return self.memory_op(form)
         if kind == "finish":
             outcome, loc = self.one_arg(form, "outcome")
             if not (type(outcome) is str and outcome.startswith(":") and len(outcome) > 1):
@@ -526,7 +523,7 @@ class Validator:
         kind = self.head_name(form, "assert or retract")
         if kind not in ("assert", "retract"):
             self.unknown("memory action", kind, form.locs[0], ("assert", "retract"))
-        return self.memory_op(form, where)
+        return self.memory_op(form)
 
     def at_time(self, form: SList) -> ast.AtTime:
         if len(form.items) < 3:
@@ -703,7 +700,7 @@ class Validator:
         if len(form.items) < 3:
             self.fail("define-relation needs a head and a query", self.at(form),
                       "e.g. (define-relation (can-lift ?a ?w) (>= (get-value ?a max-lift) ?w))")
-        head = self.signature(form.items[1], form.locs[1], "a relation head")
+        head = self.compound(form.items[1], form.locs[1], "a relation head")
         body = self.each(form, 2, self.query)
         query = body[0] if len(body) == 1 else Compound("and", body)
         return ast.RelationDef(head=head, body=query, loc=self.loc(self.at(form)))
