@@ -112,3 +112,12 @@ def test_check_does_not_import_the_heavy_libraries():
     done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True,
                           env={"PYTHONPATH": str(REPO)})
     assert done.stdout.strip().splitlines()[-1] == "[]", done.stderr
+
+
+def test_tree_prints_every_shipped_file_with_operators_and_effects():
+    done = atlas("check", "--tree", "operators/space-station-goals.ap", "rap_library/missions/site-visit.rap",
+                 cwd=REPO)
+    assert done.returncode == 0, done.stderr
+    assert "Effect 13:13" in done.stdout
+    assert "positive: nil" in done.stdout  # the astronaut's (not (pointed-at ...))
+    assert "VirtualSkillDef" in done.stdout and "MemoryRuleDef" in done.stdout

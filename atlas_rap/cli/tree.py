@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 
+from rich.markup import escape
 from rich.tree import Tree
 
 from atlas_rap.logic import Compound, MemoryRule, String, Var, term_to_str
@@ -12,13 +13,15 @@ _TERMS = (str, int, float, String, Var, Compound)
 
 
 def _label(value: object) -> str:
+    if isinstance(value, bool):
+        return "t" if value else "nil"
     if isinstance(value, _TERMS):
-        return term_to_str(value)
-    return repr(value)
+        return escape(term_to_str(value))
+    return escape(repr(value))
 
 
 def _add(parent: Tree, name: str, value: object) -> None:
-    if value is None or value == () or value is False and name not in ("positive",):
+    if value is None or value == () or (value is False and name != "positive"):
         return
     if isinstance(value, tuple) and value and all(isinstance(v, _TERMS) for v in value):
         parent.add(f"[cyan]{name}[/]: " + " ".join(_label(v) for v in value))
