@@ -185,19 +185,16 @@ class _Builder(Transformer):
         return children
 
 
+# One parser and one builder per process; the lock gives each read its own atom state.
+_BUILDER = _Builder()
 _READ_LOCK = threading.Lock()
-
-
-@lru_cache(maxsize=1)
-def _builder() -> _Builder:
-    return _Builder()
 
 
 @lru_cache(maxsize=1)
 def _parser() -> Lark:
     grammar = resources.files("atlas_rap.lang").joinpath("grammar.lark").read_text(encoding="utf-8")
     return Lark(grammar, parser="lalr", lexer="basic", maybe_placeholders=False,
-                transformer=_builder())
+                transformer=_BUILDER)
 
 
 def read_text(text: str, filename: str = "<input>") -> Forms:
@@ -210,19 +207,14 @@ def read_text(text: str, filename: str = "<input>") -> Forms:
     atoms = _AtomReader()
 
     with _READ_LOCK:
-        builder = _builder()
-        builder.atoms = atoms
+        _BUILDER.atoms = atoms
         try:
             children = _parser().parse(text)
         except UnexpectedInput as exc:
             raise SourceError(_syntax_problem(exc, text, filename)) from None
         finally:
-            builder.atoms = None
+            _BUILDER.atoms = None
 
-    if isinstance(children, Token):  # a file of one bare atom
-        children = [children]
-    elif not isinstance(children, list):
-        children = [children]
     items, locs, depth = atoms.convert(children)
     if atoms.bad_variables:
         tok = atoms.bad_variables[0]
