@@ -38,6 +38,14 @@ def facts(memory: Memory) -> list[str]:
     return [term_to_str(fact) for fact in memory]
 
 
+# What is in a container is where the container is.
+CONTENTS_MOVE_ALONG = MemoryRule(
+    "contents-move-along",
+    trigger=C("at", X, Y),
+    condition=C("in", THING, X),
+    effects=(("assert", C("at", THING, Y)),),
+)
+
 def test_at_is_unique_keeps_one_place_per_thing() -> None:
     memory = Memory([C("at", "robot", "lab"), C("at", "box", "lab")])
     engine = RuleEngine([AT_IS_UNIQUE])
@@ -63,25 +71,13 @@ def test_a_rule_whose_condition_fails_does_nothing() -> None:
 
 def test_a_rule_fires_once_for_each_answer_of_its_condition() -> None:
     memory = Memory([C("in", "box-1", "cart"), C("in", "box-2", "cart"), C("in", "pen", "drawer")])
-    carried = MemoryRule(
-        "contents-move-along",
-        trigger=C("at", X, Y),
-        condition=C("in", THING, X),
-        effects=(("assert", C("at", THING, Y)),),
-    )
-    changes = RuleEngine([carried, AT_IS_UNIQUE]).assert_fact(memory, C("at", "cart", "hall"))
+    changes = RuleEngine([CONTENTS_MOVE_ALONG, AT_IS_UNIQUE]).assert_fact(memory, C("at", "cart", "hall"))
     assert texts(changes) == ["+(at cart hall)", "+(at box-1 hall)", "+(at box-2 hall)"]
 
 
 def test_a_chain_of_rules_reaches_a_fixed_point_in_a_deterministic_order() -> None:
     memory = Memory([C("at", "robot", "lab"), C("in", "box", "robot"), C("in", "pen", "box")])
-    carried = MemoryRule(
-        "contents-move-along",
-        trigger=C("at", X, Y),
-        condition=C("in", THING, X),
-        effects=(("assert", C("at", THING, Y)),),
-    )
-    engine = RuleEngine([AT_IS_UNIQUE, carried])
+    engine = RuleEngine([AT_IS_UNIQUE, CONTENTS_MOVE_ALONG])
     changes = engine.assert_fact(memory, C("at", "robot", "hall"), 1.0)
     assert texts(changes) == [
         "+(at robot hall)",
