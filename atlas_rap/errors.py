@@ -33,6 +33,17 @@ class SourceLocation:
 NOWHERE = SourceLocation("<input>", 1, 1)
 
 
+def source_lines(text: str) -> list[str]:
+    """The lines of a source text as the lexer numbers them: split at '\n' only
+    (not at form feeds or U+2028, which ``str.splitlines`` also splits at)."""
+    return text.split("\n")
+
+
+def line_of(lines: list[str], line: int) -> str | None:
+    """Line ``line`` (1-based) of :func:`source_lines`, or None past the end."""
+    return lines[line - 1] if 0 < line <= len(lines) else None
+
+
 class AtlasError(Exception):
     """Base of every error atlas-rap reports to a user.
 

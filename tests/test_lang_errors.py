@@ -143,6 +143,7 @@ def test_a_missing_include_is_reported_at_the_include(tmp_path, monkeypatch):
     (problem,) = load_problems(tmp_path / "main.rap")
     assert problem.message == "included file not found: lib/nav.rap (looked for lib/nav.rap)"
     assert (problem.location.file, *at(problem)) == ("main.rap", 2, 3)
+    assert problem.source_line == '  (include "lib/nav.rap")'
 
 
 def test_an_include_cycle_is_reported_with_its_chain(tmp_path, monkeypatch):

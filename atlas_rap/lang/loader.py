@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation
+from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
 from atlas_rap.lang import ast
 from atlas_rap.lang.reader import read_file, read_text
 from atlas_rap.lang.validator import validate, validate_partial
@@ -75,7 +75,7 @@ def load(path: str | Path) -> Program:
         raise SourceError(loader.problems)
     files = tuple(loader.files[key] for key in loader.order)
     program = Program(root=_display(root), files=files, forms=_expand(_display(root), loader.files))
-    _check_unique_definitions(program, loader.problems)
+    _check_unique_definitions(program, loader)
     if loader.problems:
         raise SourceError(loader.problems)
     return program
@@ -100,6 +100,11 @@ class _Loader:
         self.order: list[str] = []
         self.problems: list[Problem] = []
         self.failed: set[str] = set()
+        self.lines: dict[str, list[str]] = {}  # each loaded file's lines, for problem reports
+
+    def source_line(self, loc: SourceLocation) -> str | None:
+        """The text of the line a problem points at, from the file as it was read."""
+        return line_of(self.lines.get(loc.file, []), loc.line)
 
     def visit(self, path: Path, chain: list[tuple[str, ast.Include]]) -> None:
         name = _display(path)
@@ -111,6 +116,7 @@ class _Loader:
             self.failed.add(name)
             self.problems.extend(exc.problems)
             return
+        self.lines[name] = source_lines(text)
         source, problems = validate_partial(forms, name, text)
         self.problems.extend(problems)
         self.files[name] = source
@@ -127,26 +133,18 @@ class _Loader:
         if target_name in stack:
             cycle = stack[stack.index(target_name):] + [target_name]
             self.problems.append(Problem(
-                "include cycle: " + " -> ".join(cycle), form.loc, _source_line(form.loc),
+                "include cycle: " + " -> ".join(cycle), form.loc, self.source_line(form.loc),
                 "remove one of these includes; each file needs to be included only once"))
             return
         if not target.is_file():
             self.problems.append(Problem(
                 f"included file not found: {form.path} (looked for {target_name})", form.loc,
-                _source_line(form.loc), "include paths are relative to the file that includes them"))
+                self.source_line(form.loc), "include paths are relative to the file that includes them"))
             return
         self.visit(target, chain + [(source.path, form)])
 
 
-def _source_line(loc: SourceLocation) -> str | None:
-    try:
-        lines = Path(loc.file).read_text(encoding="utf-8").split("\n")
-    except (OSError, UnicodeDecodeError):
-        return None
-    return lines[loc.line - 1] if 0 < loc.line <= len(lines) else None
-
-
-def _check_unique_definitions(program: Program, problems: list[Problem]) -> None:
+def _check_unique_definitions(program: Program, loader: _Loader) -> None:
     """Two RAPs (same name and arity), operators, skills or memory rules of one name
     are a mistake. Several ``define-relation``s of one name are alternatives, as in Prolog."""
     seen: dict[tuple[str, str, int], SourceLocation] = {}
@@ -163,7 +161,7 @@ def _check_unique_definitions(program: Program, problems: list[Problem]) -> None
             first = seen[key]
             what = {"RapDef": "define-rap", "VirtualSkillDef": "define-virtual-skill", "Operator": "operator",
                     "MemoryRuleDef": "define-memory-rule"}[key[0]]
-            problems.append(Problem(f"{what} '{key[1]}' is defined twice (first at {first})",
-                                    form.loc, _source_line(form.loc), "rename or remove one of them"))
+            loader.problems.append(Problem(f"{what} '{key[1]}' is defined twice (first at {first})",
+                                           form.loc, loader.source_line(form.loc), "rename or remove one of them"))
         else:
             seen[key] = form.loc

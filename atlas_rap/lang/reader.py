@@ -36,7 +36,7 @@ from typing import Union
 from lark import Lark, Token, Transformer
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation
+from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
 from atlas_rap.logic.terms import String, Term, Var
 
 MAX_FILE_BYTES = 8 * 1024 * 1024
@@ -288,8 +288,7 @@ def decode_source(data: bytes, name: str) -> str:
 
 
 def _line(text: str, line: int) -> str | None:
-    lines = text.split("\n")  # line numbers count '\n' only, as the lexer does
-    return lines[line - 1] if 0 < line <= len(lines) else None
+    return line_of(source_lines(text), line)
 
 
 def _syntax_problem(exc: UnexpectedInput, text: str, filename: str) -> Problem:

@@ -28,7 +28,7 @@ from __future__ import annotations
 import difflib
 from typing import Callable
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation
+from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
 from atlas_rap.lang import ast
 from atlas_rap.lang.reader import Datum, Forms, SList
 from atlas_rap.logic import Compound, MemoryRule, String, Term, Var, is_ground, term_to_str
@@ -102,8 +102,8 @@ class Validator:
 
     def _source_line(self, line: int) -> str | None:
         if self._lines is None:
-            self._lines = self.text.split("\n")  # line numbers count '\n' only, as the lexer does
-        return self._lines[line - 1] if 0 < line <= len(self._lines) else None
+            self._lines = source_lines(self.text)
+        return line_of(self._lines, line)
 
     def loc(self, where: tuple[int, int]) -> SourceLocation:
         return SourceLocation(self.filename, where[0], where[1])
