@@ -32,7 +32,7 @@ def test_the_files_that_ship_are_clean():
 def test_shipped_files_are_found_from_any_directory(tmp_path):
     done = atlas("check", "rap_library/missions/site-visit.rap", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    assert "5 RAPs" in done.stdout
+    assert "7 RAPs" in done.stdout
 
 
 def test_a_file_with_problems_prints_each_with_a_caret_and_exits_1(tmp_path):
@@ -85,7 +85,9 @@ def test_no_arguments_is_a_usage_error_with_exit_2(tmp_path):
 
 def test_tree_prints_the_ast_with_positions(tmp_path):
     (tmp_path / "t.rap").write_text("(define-rap (go ?x)\n  (succeed (at robot ?x))\n"
-                                    "  (method (primitive (enable (move-to ?x)))))\n", encoding="utf-8")
+                                    "  (method (primitive (enable (move-to ?x)))))\n"
+                                    "(define-virtual-skill (move-to ?x) (after 1 (finish :succeed)))\n",
+                                    encoding="utf-8")
     done = atlas("check", "--tree", "t.rap", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "RapDef 1:1" in done.stdout
@@ -94,12 +96,14 @@ def test_tree_prints_the_ast_with_positions(tmp_path):
 
 
 def test_format_prints_source_that_checks_clean(tmp_path):
-    (tmp_path / "t.rap").write_text("(DEFINE-RAP (Go ?X) (method (primitive (enable (Move-To ?x)))))",
+    (tmp_path / "t.rap").write_text("(DEFINE-RAP (Go ?X) (method (primitive (enable (Move-To ?x)))))"
+                                    "(Define-Virtual-Skill (Move-To ?X) (After 1 (Finish :Succeed)))",
                                     encoding="utf-8")
     done = atlas("check", "--format", "t.rap", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     formatted = done.stdout.split(";; t.rap\n", 1)[1]
-    assert formatted.strip() == "(define-rap (go ?x) (method (primitive (enable (move-to ?x)))))"
+    assert formatted.strip() == ("(define-rap (go ?x) (method (primitive (enable (move-to ?x)))))\n\n"
+                                 "(define-virtual-skill (move-to ?x) (after 1 (finish :succeed)))")
     (tmp_path / "again.rap").write_text(formatted, encoding="utf-8")
     assert atlas("check", "again.rap", cwd=tmp_path).returncode == 0
 

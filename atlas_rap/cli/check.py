@@ -33,6 +33,13 @@ def check(files: tuple[str, ...], tree: bool, format_: bool) -> None:
                 _echo_problem(problem.render())
             click.secho(f"{path}: {_plural(len(exc.problems), 'problem')}", fg="red", err=True)
             continue
+        problems = _sequencer_problems(program)
+        for problem in problems:
+            _echo_problem(problem.render())
+        if any(problem.severity == "error" for problem in problems):
+            failed += 1
+            click.secho(f"{path}: {_plural(len(problems), 'problem')}", fg="red", err=True)
+            continue
         counts = Counter(type(form).__name__ for form in program.forms)
         summary = ", ".join(_plural(n, _KINDS.get(kind, kind)) for kind, n in sorted(counts.items()))
         includes = len(program.files) - 1
@@ -46,6 +53,18 @@ def check(files: tuple[str, ...], tree: bool, format_: bool) -> None:
                 click.echo(format_file(source))
     if failed:
         sys.exit(1)
+
+
+def _sequencer_problems(program) -> list:
+    """Load-time checks of the RAPs against the skills they can use (the program's virtual skills)."""
+    from atlas_rap.lang import ast
+    from atlas_rap.sequencer.checks import check_program
+    from atlas_rap.skills.virtual import VirtualSkills
+
+    if not program.of_type(ast.RapDef) and not program.of_type(ast.Post):
+        return []
+    skills = VirtualSkills.from_program(program)
+    return check_program(program, skills.skills(), skills.produces())
 
 
 _KINDS = {"RapDef": "RAP", "MemoryRuleDef": "memory rule", "VirtualSkillDef": "virtual skill",

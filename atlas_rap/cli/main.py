@@ -13,6 +13,7 @@ import click
 
 from atlas_rap import __version__
 from atlas_rap.cli.check import check
+from atlas_rap.cli.run import run
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -21,11 +22,13 @@ def cli() -> None:
     """atlas-rap: task-level robot control in the 3T / ATLAS tradition.
 
     Write routine procedures as RAPs (.rap files) and planning operators as
-    AP files (.ap); check them with `atlas check`.
+    AP files (.ap); check them with `atlas check`; run a mission with
+    `atlas run`.
     """
 
 
 cli.add_command(check)
+cli.add_command(run)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -13,7 +13,7 @@ first), so definitions read in the order a person reads the files. A second
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
@@ -29,6 +29,11 @@ class Program:
     root: str
     files: tuple[ast.SourceFile, ...]
     forms: tuple[ast.TopLevel, ...]
+    lines: dict[str, list[str]] = field(default_factory=dict, compare=False, repr=False)
+
+    def source_line(self, loc: SourceLocation) -> str | None:
+        """The text of the source line at ``loc``, for a problem report (None if unknown)."""
+        return line_of(self.lines.get(loc.file, []), loc.line)
 
     def of_type(self, kind: type) -> list:
         """The forms of one AST type, e.g. ``program.of_type(ast.RapDef)``."""
@@ -74,7 +79,8 @@ def load(path: str | Path) -> Program:
     if loader.problems:
         raise SourceError(loader.problems)
     files = tuple(loader.files[key] for key in loader.order)
-    program = Program(root=_display(root), files=files, forms=_expand(_display(root), loader.files))
+    program = Program(root=_display(root), files=files, forms=_expand(_display(root), loader.files),
+                      lines=loader.lines)
     _check_unique_definitions(program, loader)
     if loader.problems:
         raise SourceError(loader.problems)
@@ -103,7 +109,6 @@ class _Loader:
         self.lines: dict[str, list[str]] = {}  # each loaded file's lines, for problem reports
 
     def source_line(self, loc: SourceLocation) -> str | None:
-        """The text of the line a problem points at, from the file as it was read."""
         return line_of(self.lines.get(loc.file, []), loc.line)
 
     def visit(self, path: Path, chain: list[tuple[str, ast.Include]]) -> None:

@@ -1,0 +1,81 @@
+"""``atlas run MISSION.rap``: run a mission and show what happens."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import click
+
+DEFAULT_WORLD = "lab-corridor-office"
+
+
+@click.command()
+@click.argument("mission_file", metavar="MISSION.rap", type=click.Path(dir_okay=False))
+@click.option("--world", "world", metavar="W",
+              help="World to run in; 'none' runs on virtual skills and scripted events only. "
+                   "Overrides the mission's (world ...) form.")
+@click.option("--seed", type=int, default=0, show_default=True,
+              help="Seed for every random choice of the run (same files and seed, same trace).")
+@click.option("--trace", "trace_file", type=click.Path(dir_okay=False, writable=True), metavar="FILE",
+              help="Write the trace as JSON lines (LANGUAGE.md §2.8), even if the run fails or is interrupted.")
+@click.option("--quiet", "-q", is_flag=True, help="No live trace; only warnings and the summary.")
+@click.option("--verbose", "-v", is_flag=True, help="Also show task selections and skill disables.")
+@click.option("--until", type=float, default=3600.0, show_default=True, metavar="SECONDS",
+              help="Simulated time limit; tasks still running then fail.")
+@click.option("--realtime", is_flag=True, help="Pace simulated time to the wall clock.")
+@click.option("--agenda", "show_agenda", is_flag=True, help="Print the task tree at the end.")
+@click.option("--memory", "show_memory", is_flag=True, help="Print memory at the end.")
+def run(mission_file: str, world: str | None, seed: int, trace_file: str | None, quiet: bool, verbose: bool,
+        until: float, realtime: bool, show_agenda: bool, show_memory: bool) -> None:
+    """Run a mission: post its tasks, run the RAPs, print a live trace and a summary.
+
+    Exits 0 when every posted task succeeded, 1 when one failed (the
+    summary gives the chain of failures down to the skill or event that
+    caused it) or the input is bad, 130 when interrupted.
+    """
+    from rich.console import Console
+
+    from atlas_rap.cli.views import LiveTrace, memory_table, summary, task_tree
+    from atlas_rap.errors import AtlasError
+    from atlas_rap.sequencer import JsonlSink, Trace, agenda_tree, load_mission
+    from atlas_rap.sequencer.mission import RunResult, wall_clock_pacer
+    from atlas_rap.shipped import resolve_user_path
+
+    out = Console(highlight=False, soft_wrap=True)
+    err = Console(stderr=True, highlight=False, soft_wrap=True)
+    mission = load_mission(resolve_user_path(mission_file), trace=Trace())
+    for warning in mission.warnings:
+        err.print(warning.render(), style="yellow", markup=False)
+    chosen = world or mission.world or DEFAULT_WORLD
+    if chosen != "none":
+        raise AtlasError(
+            f"world '{chosen}': worlds with physics are not available in this version; "
+            f"run the mission on virtual skills with --world none"
+            + ("" if world or mission.world else " (the mission names no world, so the default "
+                                                 f"'{DEFAULT_WORLD}' was chosen)"))
+    sink = JsonlSink(trace_file) if trace_file else None
+    if sink is not None:
+        mission.trace.add_sink(sink)
+    if not quiet:
+        mission.trace.add_sink(LiveTrace(out, verbose=verbose))
+    started = time.perf_counter()
+    try:
+        result = mission.run(until=until, pace=wall_clock_pacer() if realtime else None)
+    except KeyboardInterrupt:
+        result = RunResult(list(mission.sequencer.roots), mission.sequencer.now(), "interrupted")
+    finally:
+        if sink is not None:
+            sink.close()
+    name = click.format_filename(mission_file)
+    if show_agenda:
+        out.print(task_tree(agenda_tree(mission.sequencer)))
+    if show_memory:
+        out.print(memory_table(mission.sequencer.memory))
+    for line in summary(result, name, time.perf_counter() - started):
+        out.print(line)
+    if trace_file:
+        out.print(f"trace written to {trace_file}", style="dim")
+    if result.ended_by == "interrupted":
+        sys.exit(130)
+    sys.exit(0 if result.ok else 1)

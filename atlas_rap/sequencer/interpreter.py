@@ -1,0 +1,463 @@
+"""The RAP interpreter: selects tasks from the agenda, chooses methods, runs them.
+
+This is Firby's RAP execution cycle (seed 003 §3.2, LANGUAGE.md §2) on a
+simulated clock:
+
+1. :meth:`Sequencer.settle` takes the best pending task off the agenda
+   (priority, then deadline, then age) and *selects* it:
+   ``constraints`` false → the task fails; ``succeed`` true → it succeeds
+   doing nothing; otherwise an applicable method is chosen by ``context``
+   (untried methods first, then the least tried, then the first written),
+   its bindings are taken and its body starts (``net.MethodRun``).
+2. Subtasks go on the agenda; steps wait for events through the wait index;
+   nothing runs until a fact changes or a timer fires.
+3. When a method's net ends well, the task goes back on the agenda and its
+   ``succeed`` test is checked again (no test: the task succeeds). A failed
+   method sends it back to choose again, until ``retries`` attempts are
+   spent; the failure goes up to the parent's step, and so on.
+
+Choices where LANGUAGE.md is silent, as Firby's system did or as a robotics
+user would expect:
+
+- A subtask takes its RAP's ``priority`` if it has one, else its parent's;
+  it inherits its parent's deadline.
+- ``:deadline S`` on a post is S seconds after posting; it orders the agenda
+  and is hard: a task not done by then fails ("missed its deadline").
+- ``timeout`` counts from the task's first selection.
+- ``repeat-while`` / ``repeat-until`` repeat only a task that ran a method
+  (a task whose ``succeed`` test was already true is done); each repeat
+  starts with a fresh count of attempts.
+- Failures that retrying cannot fix (a task nested deeper than
+  ``max_depth``, a RAP removed by a reload) are *fatal*: the tasks above
+  fail at once instead of retrying.
+- Reloading (:meth:`Sequencer.define`) replaces definitions; a running task
+  keeps its current method and uses the new definition at its next selection.
+"""
+
+from __future__ import annotations
+
+from itertools import count
+from typing import Iterable, Mapping, Sequence
+
+from atlas_rap.lang import ast
+from atlas_rap.logic import (
+    Compound,
+    Memory,
+    MemoryRule,
+    QueryError,
+    Relation,
+    RuleEngine,
+    Subst,
+    Term,
+    Var,
+    is_ground,
+    substitute,
+    term_to_str,
+    unify,
+)
+from atlas_rap.logic.rules import Change
+from atlas_rap.sequencer.agenda import Agenda
+from atlas_rap.sequencer.net import FAILURE_OUTCOMES, MethodRun, StepNode, method_label
+from atlas_rap.sequencer.skill_link import NoSkills, SkillLink
+from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Task
+from atlas_rap.sequencer.timers import Timers
+from atlas_rap.sequencer.trace import Trace
+from atlas_rap.sequencer.waiting import WaitIndex
+
+DEFAULT_RETRIES = 3
+"""Method attempts a task gets when its RAP has no ``retries`` clause (LANGUAGE.md §2.1)."""
+
+DEFAULT_MAX_DEPTH = 64
+"""How deeply tasks may nest before the innermost fails (a RAP calling itself without end)."""
+
+MAX_REPEATS_AT_ONCE = 1000
+"""Repeats of one task at one instant of simulated time before it fails as a runaway loop."""
+
+_ANY = Var("%any")
+
+
+class Sequencer:
+    """The RAP interpreter: agenda, memory, memory rules, wait index, timers and trace.
+
+    Build one with :meth:`from_program` (a loaded mission or RAP library) or
+    from RAP definitions and memory rules directly; :meth:`post` tasks;
+    change memory with :meth:`change` (or :meth:`assert_fact` /
+    :meth:`retract_fact`); call :meth:`settle` to let the agenda run at the
+    current time and :meth:`advance_to` to move simulated time on.
+    ``mission.run_until_done`` drives all of that for ``--world none``.
+    """
+
+    def __init__(
+        self,
+        raps: Iterable[ast.RapDef] = (),
+        rules: Iterable[MemoryRule] = (),
+        skills: SkillLink | None = None,
+        *,
+        relations: Mapping[str, Sequence[Relation]] | None = None,
+        memory: Memory | None = None,
+        timers: Timers | None = None,
+        trace: Trace | None = None,
+        max_depth: int = DEFAULT_MAX_DEPTH,
+    ) -> None:
+        self.memory = memory if memory is not None else Memory()
+        self.relations = relations or None
+        self.rules = RuleEngine(rules, relations=relations)
+        self.timers = timers if timers is not None else Timers()
+        self.trace = trace if trace is not None else Trace(self.now)
+        if self.trace.clock is None:
+            self.trace.clock = self.now
+        self.waits = WaitIndex(relations)
+        self.agenda = Agenda()
+        self.max_depth = max_depth
+        self.library: dict[tuple[str, int], ast.RapDef] = {}
+        self.roots: list[Task] = []
+        self._ids = count(1)
+        self.skills: SkillLink = skills if skills is not None else NoSkills()
+        self.skills.connect(self)
+        self._skill_names = self.skills.skills()
+        self.define(raps)
+
+    @classmethod
+    def from_program(cls, program, skills: SkillLink | None = None, **options) -> Sequencer:
+        """A sequencer with the RAPs, memory rules and relations of a loaded program."""
+        relations: dict[str, list[Relation]] = {}
+        for form in program.of_type(ast.RelationDef):
+            relations.setdefault(form.name, []).append(Relation(form.head, form.body))
+        return cls(program.of_type(ast.RapDef), [form.rule for form in program.of_type(ast.MemoryRuleDef)],
+                   skills, relations=relations, **options)
+
+    # -- definitions -------------------------------------------------------
+
+    def define(self, raps: Iterable[ast.RapDef]) -> None:
+        """Add or replace RAP definitions (by name and arity); running tasks finish their method first."""
+        for rap in raps:
+            self.library[(rap.name, len(rap.params))] = rap
+
+    def is_rap(self, call: Compound) -> bool:
+        return (call.functor, len(call.args)) in self.library
+
+    def is_skill(self, call: Compound) -> bool:
+        return len(call.args) in self._skill_names.get(call.functor, ())
+
+    def now(self) -> float:
+        """The current simulated time, in seconds."""
+        return self.timers.now
+
+    # -- tasks ---------------------------------------------------------------
+
+    def post(self, call: Compound, priority: float | None = None, deadline: float | None = None) -> Task:
+        """Put a top-level task on the agenda; ``deadline`` is seconds from now."""
+        rap = self.library.get((call.functor, len(call.args)))
+        if priority is None:
+            priority = rap.priority if rap is not None and rap.priority is not None else 0
+        due = None if deadline is None else self.timers.now + deadline
+        task = Task(next(self._ids), call, None, None, priority, due)
+        self.roots.append(task)
+        self.trace.emit("task-posted", id=task.id, task=task.text, priority=priority,
+                        **({"deadline": due} if due is not None else {}))
+        if due is not None:
+            task.timers.append(self.timers.at(due, lambda: self._missed_deadline(task)))
+        self.agenda.push(task)
+        return task
+
+    def spawn(self, call: Compound, parent: Task, step: StepNode) -> Task:
+        """A subtask for ``step`` of ``parent``'s net, on the agenda."""
+        rap = self.library[(call.functor, len(call.args))]
+        priority = rap.priority if rap.priority is not None else parent.priority
+        task = Task(next(self._ids), call, parent, step, priority, parent.deadline)
+        parent.children.append(task)
+        self.trace.emit("task-posted", id=task.id, task=task.text, priority=priority, parent=parent.id)
+        self.agenda.push(task)
+        return task
+
+    def halt(self, task: Task, why: str) -> None:
+        """Stop a task and everything under it, disabling every skill they enabled."""
+        if task.finished:
+            return
+        self._stop(task)
+        task.status = HALTED
+        task.ended = self.timers.now
+        self.trace.emit("task-halted", id=task.id, task=task.text, reason=why)
+
+    def cancel(self, task: Task, why: str = "cancelled") -> None:
+        """Halt a task from outside (a person or a program); its parent's step fails."""
+        if task.finished:
+            return
+        self._end(task, FAILED, Failure(task.text, why, fatal=True))
+
+    def live_roots(self) -> list[Task]:
+        """The posted tasks that have not ended, in posting order."""
+        return [task for task in self.roots if not task.finished]
+
+    # -- the agenda ----------------------------------------------------------
+
+    def settle(self) -> None:
+        """Select pending tasks, best first, until none is pending (no time passes)."""
+        pop = self.agenda.pop
+        task = pop()
+        while task is not None:
+            self._select(task)
+            task = pop()
+
+    def advance_to(self, time: float) -> None:
+        """Move the clock to ``time``, firing due timers, and settle the agenda."""
+        self.timers.fire_due(time)
+        self.settle()
+
+    def _select(self, task: Task) -> None:
+        task.selected += 1
+        trace = self.trace
+        if trace.active:
+            fields = {"repeat": task.repeats} if task.repeats else {}
+            trace.emit("task-selected", id=task.id, task=task.text, **fields)
+        rap = self.library.get((task.call.functor, len(task.call.args)))
+        if rap is None:
+            self._fail(task, "no RAP of this name and arity is defined (was it removed by a reload?)", fatal=True)
+            return
+        if task.depth > self.max_depth:
+            chain = " > ".join(t.text for t in _ancestors(task)[-4:])
+            self._fail(task, f"tasks nested deeper than {self.max_depth} (… > {chain}): "
+                             f"does {task.name} call itself without end?", fatal=True)
+            return
+        if task.started is None:
+            task.started = self.timers.now
+            if rap.timeout is not None:
+                task.timers.append(self.timers.after(rap.timeout, lambda: self._timed_out(task, rap.timeout)))
+        bindings = unify(rap.head, task.call)
+        if bindings is None:
+            self._fail(task, f"does not match the RAP's head {term_to_str(rap.head)}", fatal=True)
+            return
+        task.bindings = bindings
+        memory, relations = self.memory, self.relations
+        try:
+            if rap.constraints is not None and not memory.holds(rap.constraints, bindings, relations):
+                self._fail(task, f"its constraints do not hold: {_shown(rap.constraints, bindings)}")
+                return
+            if rap.succeed is not None and memory.holds(rap.succeed, bindings, relations):
+                self._succeed(task)
+                return
+            if task.method_ended_ok:
+                task.method_ended_ok = False
+                task.last_failure = Failure(
+                    f"method {task.last_method}", f"ended, but the succeed test "
+                    f"{_shown(rap.succeed, bindings)} is still false")
+            retries = rap.retries if rap.retries is not None else DEFAULT_RETRIES
+            if task.attempts >= retries:
+                self._fail(task, f"gave up after {_plural(task.attempts, 'attempt')}", task.last_failure)
+                return
+            self._choose_method(task, rap, bindings)
+        except QueryError as exc:
+            self._fail(task, str(exc), fatal=True)
+
+    def _choose_method(self, task: Task, rap: ast.RapDef, bindings: Subst) -> None:
+        best: tuple[int, int, Subst] | None = None
+        for number, method in enumerate(rap.methods, 1):
+            tries = task.tries.get(number, 0)
+            if best is not None and tries >= best[0]:
+                continue
+            if method.context is None:
+                answer: Subst | None = dict(bindings)
+            else:
+                answer = self.memory.ask(method.context, bindings, self.relations)
+            if answer is not None:
+                best = (tries, number, answer)
+        if best is None:
+            self._fail(task, _no_method(rap, bindings), task.last_failure)
+            return
+        _, number, answer = best
+        method = rap.methods[number - 1]
+        task.tries[number] = task.tries.get(number, 0) + 1
+        task.attempts += 1
+        task.status = RUNNING
+        task.last_method = method_label(method, number)
+        self.trace.emit("method-selected", id=task.id, task=task.text, method=task.last_method,
+                        attempt=task.attempts)
+        run = task.run = MethodRun(self, task, method, number, task.attempts, answer)
+        run.start()
+
+    def method_ended(self, run: MethodRun, failure: Failure | None) -> None:
+        """Called by a method run when its body ended (``failure`` None) or failed."""
+        task = run.task
+        if task.run is run:
+            task.run = None
+        if task.finished:
+            return
+        if failure is not None:
+            task.last_failure = failure
+            if failure.fatal:
+                self._fail(task, "a failure that retrying cannot fix", failure, fatal=True)
+                return
+        else:
+            rap = self.library.get((task.call.functor, len(task.call.args)))
+            if rap is not None and rap.succeed is None:
+                self._succeed(task)
+                return
+            task.method_ended_ok = True
+        task.status = PENDING
+        self.agenda.push(task)
+
+    # -- ending tasks --------------------------------------------------------
+
+    def _succeed(self, task: Task) -> None:
+        rap = self.library.get((task.call.functor, len(task.call.args)))
+        if rap is not None and task.attempts and self._repeats(rap, task):
+            now = self.timers.now
+            task.repeats_now = task.repeats_now + 1 if task.repeat_time == now else 1
+            task.repeat_time = now
+            if task.repeats_now > MAX_REPEATS_AT_ONCE:
+                self._fail(task, f"repeated {MAX_REPEATS_AT_ONCE} times without simulated time passing", fatal=True)
+                return
+            task.repeats += 1
+            task.attempts = 0
+            task.tries.clear()
+            task.last_failure = None
+            task.method_ended_ok = False
+            task.status = PENDING
+            self.agenda.push(task)
+            return
+        self._end(task, SUCCEEDED, None)
+
+    def _repeats(self, rap: ast.RapDef, task: Task) -> bool:
+        memory, bindings, relations = self.memory, task.bindings, self.relations
+        if rap.repeat_while is not None and memory.holds(rap.repeat_while, bindings, relations):
+            return True
+        return rap.repeat_until is not None and not memory.holds(rap.repeat_until, bindings, relations)
+
+    def _fail(self, task: Task, reason: str, cause: Failure | None = None, *, fatal: bool = False) -> None:
+        self._end(task, FAILED, Failure(task.text, reason, cause, fatal))
+
+    def _timed_out(self, task: Task, seconds: float) -> None:
+        if not task.finished:
+            self._fail(task, f"timed out after {seconds:g} s (its timeout clause)", task.last_failure)
+
+    def _missed_deadline(self, task: Task) -> None:
+        if not task.finished:
+            self._fail(task, f"missed its deadline at t={task.deadline:g} s", task.last_failure)
+
+    def _end(self, task: Task, status: str, failure: Failure | None) -> None:
+        self._stop(task)
+        task.status = status
+        task.failure = failure
+        task.ended = self.timers.now
+        if status == SUCCEEDED:
+            self.trace.emit("task-succeeded", id=task.id, task=task.text)
+        else:
+            fields = {"because": failure.root().what + ": " + failure.root().reason} if failure.cause else {}
+            self.trace.emit("task-failed", id=task.id, task=task.text, reason=failure.reason, **fields)
+        if task.step is not None:
+            task.step.child_ended(task)
+
+    def _stop(self, task: Task) -> None:
+        for timer in task.timers:
+            timer.cancel()
+        task.timers.clear()
+        run = task.run
+        if run is not None:
+            task.run = None
+            run.halt()
+
+    # -- memory and skills ------------------------------------------------------
+
+    def change(self, changes: Iterable[Change], source: str = "") -> list[Change]:
+        """Assert/retract facts, run the memory rules, trace it, and wake waiters it concerns.
+
+        ``source`` names who made the outside changes (a skill, a task, an
+        ``at-time`` event) in the trace; changes the rules made are traced
+        as ``"by": "memory rule"``.
+        """
+        made: list[Change] = []
+        trace = self.trace
+        for change in changes:
+            done = self.rules.apply(self.memory, (change,), self.timers.now)
+            if trace.active:
+                for i, (kind, fact) in enumerate(done):
+                    by = source if i == 0 else "memory rule"
+                    event = "fact-asserted" if kind == "assert" else "fact-retracted"
+                    trace.emit(event, fact=term_to_str(fact), **({"by": by} if by else {}))
+            made += done
+        if made and self.waits.size:
+            self._wake(made)
+        return made
+
+    def assert_fact(self, fact: Compound, source: str = "") -> list[Change]:
+        """Assert one fact (memory rules run, waiters wake); the changes made."""
+        return self.change((("assert", fact),), source)
+
+    def retract_fact(self, fact: Compound, source: str = "") -> list[Change]:
+        """Retract one fact; the changes made."""
+        return self.change((("retract", fact),), source)
+
+    def _wake(self, made: list[Change]) -> None:
+        memory, relations = self.memory, self.relations
+        for waiter in self.waits.candidates(made):
+            if not waiter.active:
+                continue
+            try:
+                answer = memory.ask(waiter.query, None, relations)
+            except QueryError as exc:
+                waiter.owner.broken(waiter, str(exc))
+                continue
+            if answer is not None:
+                waiter.owner.woken(waiter, answer)
+
+    def apply_memory_op(self, run: MethodRun, op: ast.MemoryOp) -> bool:
+        """Apply an assert/retract step of a method; False (and the method fails) if it is not ground."""
+        fact = substitute(op.fact, run.subst) if run.subst else op.fact
+        if not is_ground(fact):
+            run.fail(Failure(f"({op.kind} {term_to_str(fact)})", "the fact has unbound variables"))
+            return False
+        self.change(((op.kind, fact),), f"task {run.task.id}")
+        return True
+
+    def enable_skill(self, run: MethodRun, call: Compound) -> str | None:
+        """Enable a skill for a method; a message saying why not, or None."""
+        if not is_ground(call):
+            return f"skill {term_to_str(call)} was enabled with unbound arguments"
+        if not self.is_skill(call):
+            return f"no skill {call.functor} with {_plural(len(call.args), 'argument')}"
+        stale = list(self.memory.facts(Compound("done", (call, _ANY))))
+        if stale:
+            self.change([("retract", fact) for fact in stale], "sequencer (a new run of the skill)")
+        self.skills.enable(call)
+        run.enabled[call] = None
+        self.trace.emit("skill-enabled", skill=term_to_str(call), id=run.task.id, task=run.task.text)
+        return None
+
+    def disable_skill(self, run: MethodRun, call: Compound) -> None:
+        """Disable a skill a method enabled (nothing if it did not or already did)."""
+        if call in run.enabled:
+            del run.enabled[call]
+            self.skills.disable(call)
+            self.trace.emit("skill-disabled", skill=term_to_str(call), id=run.task.id, task=run.task.text)
+
+    def step_outcome(self, task: Task, step: str, outcome: str, why: str = "") -> None:
+        """Trace a step's outcome; a failing outcome carries its reason."""
+        if self.trace.active:
+            fields = {"reason": why} if why and outcome in FAILURE_OUTCOMES else {}
+            self.trace.emit("step-outcome", id=task.id, task=task.text, step=step, outcome=outcome, **fields)
+
+
+def _ancestors(task: Task) -> list[Task]:
+    chain = []
+    node: Task | None = task
+    while node is not None:
+        chain.append(node)
+        node = node.parent
+    return chain[::-1]
+
+
+def _shown(query: Term | None, bindings: Subst) -> str:
+    return term_to_str(substitute(query, bindings)) if query is not None else "t"
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
+def _no_method(rap: ast.RapDef, bindings: Subst) -> str:
+    if not rap.methods:
+        return "its RAP has no method"
+    contexts = "; ".join(f"method {method_label(m, i)}: {_shown(m.context, bindings)}"
+                         for i, m in enumerate(rap.methods, 1) if m.context is not None)
+    return f"no applicable method (contexts false: {contexts})"
+

@@ -1,0 +1,139 @@
+"""Missions: a loaded RAP program with its posts, initial memory and scripted events, run.
+
+A mission file (LANGUAGE.md §2.7) is RAP definitions plus ``initial-memory``,
+``post``, ``at-time`` and ``world`` forms. :func:`load_mission` loads and
+checks one; :meth:`Mission.run` runs it on the simulated clock until every
+posted task has ended, nothing more can happen, or a time limit passes.
+
+With ``(world none)`` the skills are the program's virtual skills and time
+jumps from one due timer to the next, so a ten-minute mission takes
+milliseconds; ``pace`` slows it to the wall clock (``--realtime``).
+"""
+
+from __future__ import annotations
+
+import time as wall
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from atlas_rap.errors import Problem, SourceError
+from atlas_rap.lang import ast, load
+from atlas_rap.sequencer.checks import check_program
+from atlas_rap.sequencer.interpreter import Sequencer
+from atlas_rap.sequencer.introspect import waiting_for
+from atlas_rap.sequencer.skill_link import SkillLink
+from atlas_rap.sequencer.task import SUCCEEDED, Task
+from atlas_rap.sequencer.trace import Trace
+from atlas_rap.skills.virtual import VirtualSkills
+
+DEFAULT_TIME_LIMIT = 3600.0
+"""Simulated seconds a mission may run before its remaining tasks fail (``--until``)."""
+
+
+@dataclass
+class RunResult:
+    """How a run ended: the posted tasks (with their outcomes) and the time."""
+
+    tasks: list[Task]
+    time: float
+    ended_by: str = "done"  # done | stalled | time-limit | interrupted
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """True when every posted task succeeded."""
+        return bool(self.tasks) and all(task.status == SUCCEEDED for task in self.tasks)
+
+
+class Mission:
+    """A checked program ready to run: its sequencer, skills and top-level forms."""
+
+    def __init__(self, program, skills: SkillLink | None = None, *, trace: Trace | None = None,
+                 warnings: list[Problem] | None = None) -> None:
+        self.program = program
+        self.skills = skills if skills is not None else VirtualSkills.from_program(program)
+        self.sequencer = Sequencer.from_program(program, self.skills, trace=trace)
+        self.warnings = warnings or []
+        worlds = program.of_type(ast.WorldDecl)
+        self.world: str | None = worlds[-1].world if worlds else None
+        self.started = False
+
+    @property
+    def trace(self) -> Trace:
+        return self.sequencer.trace
+
+    def start(self) -> None:
+        """Put initial memory in place, schedule ``at-time`` events and post the tasks."""
+        if self.started:
+            return
+        self.started = True
+        seq = self.sequencer
+        for form in self.program.of_type(ast.InitialMemory):
+            seq.change([("assert", fact) for fact in form.facts], "initial-memory")
+        for event in self.program.of_type(ast.AtTime):
+            changes = [(op.kind, op.fact) for op in event.actions]
+            seq.timers.at(event.time, lambda changes=changes, t=event.time: seq.change(changes, f"at-time {t:g}"))
+        for post in self.program.of_type(ast.Post):
+            seq.post(post.task, post.priority, post.deadline)
+
+    def run(self, until: float = DEFAULT_TIME_LIMIT, pace: Callable[[float], None] | None = None) -> RunResult:
+        """Run until every posted task has ended (or nothing more can happen, or ``until``).
+
+        Tasks still running at the end fail, saying what they were waiting
+        for. ``pace(t)`` is called before the clock moves to ``t``.
+        """
+        self.start()
+        seq = self.sequencer
+        timers = seq.timers
+        seq.settle()
+        ended_by = "done"
+        while seq.live_roots():
+            due = timers.next_time()
+            if due is None:
+                ended_by = "stalled"
+                break
+            if due > until:
+                ended_by = "time-limit"
+                timers.fire_due(until)
+                break
+            if pace is not None:
+                pace(due)
+            seq.advance_to(due)
+        result = RunResult(list(seq.roots), timers.now, ended_by)
+        for task in seq.live_roots():
+            waits = waiting_for(task)
+            waiting = f"; it was waiting for {', '.join(waits)}" if waits else ""
+            if ended_by == "stalled":
+                why = f"nothing more can happen (no timer is due and no event can arrive){waiting}"
+            else:
+                why = f"still running at the time limit of {until:g} s{waiting}"
+            seq.cancel(task, why)
+        return result
+
+
+def load_mission(path: str | Path, skills: SkillLink | None = None, *, trace: Trace | None = None,
+                 require_post: bool = True) -> Mission:
+    """Load and check a mission; raises :class:`SourceError` listing every error.
+
+    Warnings (a wait-for nothing can wake) are kept on ``mission.warnings``.
+    """
+    program = load(path)
+    link = skills if skills is not None else VirtualSkills.from_program(program)
+    problems = check_program(program, link.skills(), link.produces(), require_post=require_post)
+    errors = [p for p in problems if p.severity == "error"]
+    if errors:
+        raise SourceError(problems)
+    return Mission(program, link, trace=trace, warnings=problems)
+
+
+def wall_clock_pacer(speed: float = 1.0) -> Callable[[float], None]:
+    """A ``pace`` function that sleeps so simulated time runs ``speed`` times the wall clock."""
+    start = wall.monotonic()
+
+    def pace(sim_time: float) -> None:
+        delay = start + sim_time / speed - wall.monotonic()
+        if delay > 0:
+            wall.sleep(delay)
+
+    return pace

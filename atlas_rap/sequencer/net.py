@@ -1,0 +1,575 @@
+"""Running a method: task nets, primitives and wait-fors as live nodes.
+
+When the interpreter chooses a method it builds a :class:`MethodRun`, a tree
+of nodes mirroring the method's body (LANGUAGE.md §2.2-§2.4):
+
+- :class:`SequenceNode` starts its parts one after another; a
+  :class:`ParallelNode` starts them all and ends when all have ended
+  (several nets directly under ``task-net`` are a parallel);
+- a :class:`StepNode` runs one subtask: a child task when its name is a
+  RAP, else the skill-step shorthand (enable the skill, wait for
+  ``(done (SKILL ARG ...) OUTCOME)``, disable it). Its ``wait-for``
+  annotations race with that: the first to match decides the outcome and
+  the rest is halted. ``(for L)`` holds step ``L`` back until this step has
+  ended well; ``(until-end L)`` halts this step when ``L`` ends;
+- a :class:`WaitNode` is a bare ``(wait-for Q)``; a :class:`MemoryNode` an
+  ``assert``/``retract`` step; a :class:`PrimitiveNode` a ``primitive`` body.
+
+Nodes report upward: a part that ends well calls ``parent.child_done``; a
+step that ends with ``:fail`` or ``:timeout`` fails the whole method
+(``MethodRun.fail``), which halts every live node. Bindings made by a
+``wait-for`` join the method's bindings, so later steps can use them.
+Every skill a method enabled is disabled when the method ends, however it
+ends: no skill is ever left running by a dead method.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Callable
+
+from atlas_rap.lang import ast
+from atlas_rap.logic import Compound, QueryError, Subst, Term, Var, substitute, term_to_str
+from atlas_rap.sequencer.task import SUCCEEDED, Failure, Task
+from atlas_rap.sequencer.waiting import Waiter
+
+if TYPE_CHECKING:
+    from atlas_rap.sequencer.interpreter import Sequencer
+    from atlas_rap.sequencer.timers import Timer
+
+FAILURE_OUTCOMES = frozenset({":fail", ":timeout"})
+"""Step outcomes that fail the method; every other outcome counts as success."""
+
+HALTED_OUTCOME = ":halted"
+"""The outcome recorded for a monitor halted by ``until-end``."""
+
+_OUTCOME = Var("%outcome")  # binds the outcome in (done (SKILL ...) ?outcome); no source can name it
+
+
+def method_label(method: ast.Method, number: int) -> str:
+    """How a method is named in the trace: its name, or its 1-based position."""
+    return method.name or str(number)
+
+
+class MethodRun:
+    """One attempt of one method of a task: its live net, bindings and enabled skills."""
+
+    def __init__(self, seq: Sequencer, task: Task, method: ast.Method, number: int,
+                 attempt: int, subst: Subst) -> None:
+        self.seq = seq
+        self.task = task
+        self.method = method
+        self.number = number
+        self.attempt = attempt
+        self.subst = subst
+        self.live = True
+        self.enabled: dict[Compound, None] = {}
+        self.labels: dict[str, StepNode] = {}
+        self.root = _build(method.body, self, self)
+        for node in self.labels.values():
+            for label in node.step.before:
+                successor = self.labels[label]
+                successor.gate += 1
+                node.successors.append(successor)
+            if node.step.until_end is not None:
+                self.labels[node.step.until_end].monitors.append(node)
+
+    @property
+    def label(self) -> str:
+        return method_label(self.method, self.number)
+
+    def start(self) -> None:
+        self.root.start()
+
+    def child_done(self, node: Node) -> None:
+        """The body ended well."""
+        if self.live:
+            self._stop()
+            self.seq.method_ended(self, None)
+
+    def fail(self, failure: Failure) -> None:
+        """A step failed: halt everything still live, then tell the task."""
+        if self.live:
+            self._stop()
+            self.seq.method_ended(self, Failure(f"method {self.label}", "a step failed", failure,
+                                                failure.fatal))
+
+    def halt(self) -> None:
+        """Stop the method from outside (its task ended, failed or was halted)."""
+        if self.live:
+            self._stop()
+
+    def _stop(self) -> None:
+        self.live = False
+        self.root.halt()
+        for call in list(self.enabled):
+            self.seq.disable_skill(self, call)
+
+    def waiting_for(self) -> list[str]:
+        """What the live leaves of this method are waiting for, for introspection."""
+        return self.root.waiting_for()
+
+
+class Node:
+    """A live part of a method body."""
+
+    __slots__ = ("run", "parent")
+
+    def __init__(self, run: MethodRun, parent: Node | MethodRun) -> None:
+        self.run = run
+        self.parent = parent
+
+    def start(self) -> None:
+        raise NotImplementedError
+
+    def halt(self) -> None:
+        """Stop without telling the parent (safe on a node that never started or has ended)."""
+
+    def child_done(self, child: Node) -> None:
+        raise NotImplementedError
+
+    def waiting_for(self) -> list[str]:
+        return []
+
+
+class SequenceNode(Node):
+    __slots__ = ("parts", "index")
+
+    def __init__(self, run: MethodRun, parent: Node | MethodRun, parts: tuple[ast.Net, ...]) -> None:
+        super().__init__(run, parent)
+        self.parts = [_build(part, run, self) for part in parts]
+        self.index = -1
+
+    def start(self) -> None:
+        self.index = 0
+        if self.parts:
+            self.parts[0].start()
+        else:
+            self.parent.child_done(self)
+
+    def child_done(self, child: Node) -> None:
+        if not self.run.live:
+            return
+        self.index += 1
+        if self.index < len(self.parts):
+            self.parts[self.index].start()
+        else:
+            self.parent.child_done(self)
+
+    def halt(self) -> None:
+        if 0 <= self.index < len(self.parts):
+            self.parts[self.index].halt()
+        self.index = len(self.parts)
+
+    def waiting_for(self) -> list[str]:
+        if 0 <= self.index < len(self.parts):
+            return self.parts[self.index].waiting_for()
+        return []
+
+
+class ParallelNode(Node):
+    __slots__ = ("parts", "remaining")
+
+    def __init__(self, run: MethodRun, parent: Node | MethodRun, parts: tuple[ast.Net, ...]) -> None:
+        super().__init__(run, parent)
+        self.parts = [_build(part, run, self) for part in parts]
+        self.remaining = 0
+
+    def start(self) -> None:
+        self.remaining = len(self.parts)
+        if not self.parts:
+            self.parent.child_done(self)
+        for part in self.parts:
+            if not self.run.live:
+                return
+            part.start()
+
+    def child_done(self, child: Node) -> None:
+        if not self.run.live:
+            return
+        self.remaining -= 1
+        if self.remaining == 0:
+            self.parent.child_done(self)
+
+    def halt(self) -> None:
+        for part in self.parts:
+            part.halt()
+
+    def waiting_for(self) -> list[str]:
+        return [text for part in self.parts for text in part.waiting_for()]
+
+
+class WaitGroup:
+    """Several wait-fors raced on one step: the first to match decides the outcome.
+
+    Each entry is ``(query, outcome, timeout, text)`` with the query already
+    substituted; ``outcome`` None takes the outcome from the ``%outcome``
+    binding (a skill's ``done`` fact). Queries that hold when the group
+    starts match at once, in the order written.
+    """
+
+    __slots__ = ("seq", "entries", "on_done", "waiters", "timers", "done")
+
+    def __init__(self, seq: Sequencer, entries: list[tuple[Term, str | None, float | None, str]],
+                 on_done: Callable[[str, str, Subst | None], None]) -> None:
+        self.seq = seq
+        self.entries = entries
+        self.on_done = on_done
+        self.waiters: list[Waiter] = []
+        self.timers: list[Timer] = []
+        self.done = False
+
+    def start(self) -> None:
+        memory, relations = self.seq.memory, self.seq.relations
+        for index, (query, _, _, _) in enumerate(self.entries):
+            try:
+                answer = memory.ask(query, None, relations)
+            except QueryError as exc:
+                self._decide(":fail", f"{self.entries[index][3]} cannot be evaluated: {exc}", None)
+                return
+            if answer is not None:
+                self._matched(index, answer)
+                return
+        waits = self.seq.waits
+        for index, (query, _, timeout, text) in enumerate(self.entries):
+            waiter = Waiter(query, self, index)
+            waits.add(waiter)
+            self.waiters.append(waiter)
+            if timeout is not None:
+                self.timers.append(self.seq.timers.after(
+                    timeout, lambda text=text, timeout=timeout: self._decide(
+                        ":timeout", f"{text} timed out after {_seconds(timeout)}", None)))
+
+    def woken(self, waiter: Waiter, answer: Subst) -> None:
+        self._matched(waiter.tag, answer)  # type: ignore[arg-type]
+
+    def broken(self, waiter: Waiter, message: str) -> None:
+        self._decide(":fail", f"{self.entries[waiter.tag][3]} cannot be evaluated: {message}", None)  # type: ignore[index]
+
+    def _matched(self, index: int, answer: Subst) -> None:
+        query, outcome, _, text = self.entries[index]
+        if outcome is None:
+            outcome = str(answer.get(_OUTCOME, ":succeed"))
+            why = f"finished {outcome}"
+        else:
+            why = f"{text} matched {term_to_str(substitute(query, answer))}"
+        self._decide(outcome, why, answer)
+
+    def _decide(self, outcome: str, why: str, answer: Subst | None) -> None:
+        if self.done:
+            return
+        self.cancel()
+        self.on_done(outcome, why, answer)
+
+    def cancel(self) -> None:
+        self.done = True
+        waits = self.seq.waits
+        for waiter in self.waiters:
+            waits.remove(waiter)
+        for timer in self.timers:
+            timer.cancel()
+
+    def describe(self) -> list[str]:
+        return [] if self.done else [text for _, _, _, text in self.entries]
+
+
+def _wait_entry(wait: ast.WaitFor, subst: Subst) -> tuple[Term, str, float | None, str]:
+    query = substitute(wait.query, subst) if subst else wait.query
+    text = f"(wait-for {term_to_str(query)})"
+    return query, wait.outcome, wait.timeout, text
+
+
+class _Leaf(Node):
+    """A node that ends with an outcome: records it, then fails the method or reports up."""
+
+    __slots__ = ("group",)
+
+    def describe(self) -> str:
+        raise NotImplementedError
+
+    def record(self, outcome: str, why: str, cause: Failure | None = None) -> bool:
+        """Trace the outcome; fail the method on a failure outcome. True when it counts as success."""
+        run = self.run
+        self.run.seq.step_outcome(run.task, self.describe(), outcome, why)
+        if outcome in FAILURE_OUTCOMES:
+            run.fail(Failure(self.describe(), why, cause))
+            return False
+        return True
+
+    def bind(self, answer: Subst | None) -> None:
+        if answer:
+            subst = self.run.subst
+            for var, value in answer.items():
+                if var not in subst and var is not _OUTCOME:
+                    subst[var] = value
+
+
+class WaitNode(_Leaf):
+    """A bare ``(wait-for Q [OUTCOME] [:timeout S])`` in a net."""
+
+    __slots__ = ("wait",)
+
+    def __init__(self, run: MethodRun, parent: Node | MethodRun, wait: ast.WaitFor) -> None:
+        super().__init__(run, parent)
+        self.wait = wait
+        self.group: WaitGroup | None = None
+
+    def describe(self) -> str:
+        return _wait_entry(self.wait, self.run.subst)[3]
+
+    def start(self) -> None:
+        self.group = WaitGroup(self.run.seq, [_wait_entry(self.wait, self.run.subst)], self._decided)
+        self.group.start()
+
+    def _decided(self, outcome: str, why: str, answer: Subst | None) -> None:
+        self.bind(answer)
+        if self.record(outcome, why):
+            self.parent.child_done(self)
+
+    def halt(self) -> None:
+        if self.group is not None:
+            self.group.cancel()
+
+    def waiting_for(self) -> list[str]:
+        return self.group.describe() if self.group is not None else []
+
+
+class MemoryNode(Node):
+    """An ``(assert FACT)`` or ``(retract FACT)`` step: changes memory and ends at once."""
+
+    __slots__ = ("op",)
+
+    def __init__(self, run: MethodRun, parent: Node | MethodRun, op: ast.MemoryOp) -> None:
+        super().__init__(run, parent)
+        self.op = op
+
+    def start(self) -> None:
+        run = self.run
+        if run.seq.apply_memory_op(run, self.op):
+            if run.live:
+                self.parent.child_done(self)
+
+
+class StepNode(_Leaf):
+    """A subtask: a child task (RAP) or the skill-step shorthand, raced by its wait-fors."""
+
+    __slots__ = ("step", "gate", "successors", "monitors", "state", "child", "skill", "cut", "call")
+
+    def __init__(self, run: MethodRun, parent: Node | MethodRun, step: ast.Step) -> None:
+        super().__init__(run, parent)
+        self.step = step
+        self.gate = 0  # steps that must end well first, from their (for L) annotations
+        self.successors: list[StepNode] = []
+        self.monitors: list[StepNode] = []
+        self.state = "new"  # new | blocked | running | done
+        self.child: Task | None = None
+        self.skill: Compound | None = None
+        self.group: WaitGroup | None = None
+        self.cut = False
+        self.call: Term = step.task
+        if step.label is not None:
+            run.labels[step.label] = self
+
+    def describe(self) -> str:
+        label = f"{self.step.label} " if self.step.label else ""
+        return f"step {label}{term_to_str(self.call)}"
+
+    def start(self) -> None:
+        if self.cut:
+            self.state = "done"
+            self._ended()
+        elif self.gate:
+            self.state = "blocked"
+        else:
+            self._begin()
+
+    def open_gate(self) -> None:
+        self.gate -= 1
+        if self.gate == 0 and self.state == "blocked":
+            self._begin()
+
+    def _begin(self) -> None:
+        run = self.run
+        seq = run.seq
+        self.state = "running"
+        call = self.call = substitute(self.step.task, run.subst) if run.subst else self.step.task
+        if seq.is_rap(call):
+            self.child = seq.spawn(call, run.task, self)
+            entries = []
+        elif seq.is_skill(call):
+            problem = seq.enable_skill(run, call)
+            if problem is not None:
+                self.state = "done"
+                self.record(":fail", problem)
+                return
+            self.skill = call
+            entries = [(Compound("done", (call, _OUTCOME)), None, None, f"skill {term_to_str(call)}")]
+        else:
+            self.state = "done"
+            self.record(":fail", f"{call.functor} is neither a RAP nor a skill")
+            return
+        entries += [_wait_entry(wait, run.subst) for wait in self.step.waits]
+        if entries and run.live and self.state == "running":
+            self.group = WaitGroup(seq, entries, self._decided)
+            self.group.start()
+
+    def child_ended(self, child: Task) -> None:
+        """The child task ended (succeeded or failed) before any wait-for matched."""
+        if self.state != "running":
+            return
+        if child.status == SUCCEEDED:
+            self._finish(":succeed", f"{child.text} succeeded", None)
+        else:
+            failure = child.failure
+            self._finish(":fail", failure.reason if failure else "failed", failure,
+                         fatal=bool(failure and failure.fatal))
+
+    def _decided(self, outcome: str, why: str, answer: Subst | None) -> None:
+        if self.state != "running":
+            return
+        self.bind(answer)
+        cause = None
+        if self.skill is not None and outcome in FAILURE_OUTCOMES:
+            cause = Failure(f"skill {term_to_str(self.skill)}", why)
+            why = "the skill failed"
+        self._finish(outcome, why, cause)
+
+    def _finish(self, outcome: str, why: str, cause: Failure | None, fatal: bool = False) -> None:
+        self.state = "done"
+        self._release(f"{self.describe()} ended {outcome}")
+        run = self.run
+        run.seq.step_outcome(run.task, self.describe(), outcome, cause.reason if cause else why)
+        if outcome in FAILURE_OUTCOMES:
+            if cause is not None and self.child is not None:
+                run.fail(Failure(self.describe(), "the subtask failed", cause, fatal))
+            else:
+                run.fail(Failure(self.describe(), why, cause, fatal))
+            return
+        self._ended()
+
+    def _ended(self) -> None:
+        for monitor in self.monitors:
+            monitor.cut_off(self)
+        for successor in self.successors:
+            if self.run.live:
+                successor.open_gate()
+        if self.run.live:
+            self.parent.child_done(self)
+
+    def cut_off(self, target: StepNode) -> None:
+        """``until-end``: the step this one monitors has ended, so this one stops."""
+        if self.state in ("done",) or not self.run.live:
+            return
+        if self.state == "new":
+            self.cut = True
+            return
+        was_running = self.state == "running"
+        self.state = "done"
+        if was_running:
+            self._release(f"{target.describe()} ended (until-end)")
+            self.run.seq.step_outcome(self.run.task, self.describe(), HALTED_OUTCOME)
+        self._ended()
+
+    def _release(self, why: str) -> None:
+        if self.group is not None:
+            self.group.cancel()
+        child = self.child
+        if child is not None and not child.finished:
+            self.run.seq.halt(child, why)
+        if self.skill is not None:
+            self.run.seq.disable_skill(self.run, self.skill)
+
+    def halt(self) -> None:
+        if self.state == "running":
+            self._release("its method was halted")
+        self.state = "done"
+
+    def waiting_for(self) -> list[str]:
+        if self.state == "blocked":
+            return [f"{self.describe()}: waiting for an earlier step (for)"]
+        if self.state != "running" or self.group is None or self.child is not None:
+            return []
+        return self.group.describe()
+
+
+class PrimitiveNode(_Leaf):
+    """A ``primitive`` body: enable, wait-for groups, disable and memory actions, in order."""
+
+    __slots__ = ("actions", "index", "outcome")
+
+    def __init__(self, run: MethodRun, parent: Node | MethodRun, primitive: ast.Primitive) -> None:
+        super().__init__(run, parent)
+        self.actions = primitive.actions
+        self.index = 0
+        self.group: WaitGroup | None = None
+
+    def describe(self) -> str:
+        return "primitive"
+
+    def start(self) -> None:
+        self._continue()
+
+    def _continue(self) -> None:
+        run, seq, actions = self.run, self.run.seq, self.actions
+        while self.index < len(actions) and run.live:
+            action = actions[self.index]
+            if isinstance(action, ast.WaitFor):
+                end = self.index
+                while end < len(actions) and isinstance(actions[end], ast.WaitFor):
+                    end += 1
+                entries = [_wait_entry(wait, run.subst) for wait in actions[self.index:end]]  # type: ignore[arg-type]
+                self.index = end
+                self.group = WaitGroup(seq, entries, self._decided)
+                self.group.start()
+                return
+            self.index += 1
+            if isinstance(action, ast.Enable):
+                for skill in action.skills:
+                    problem = seq.enable_skill(run, substitute(skill, run.subst))
+                    if problem is not None:
+                        self.record(":fail", problem)
+                        return
+            elif isinstance(action, ast.Disable):
+                calls = list(run.enabled) if action.above else [substitute(s, run.subst) for s in action.skills]
+                for call in calls:
+                    seq.disable_skill(run, call)  # type: ignore[arg-type]
+            elif not seq.apply_memory_op(run, action):  # type: ignore[arg-type]
+                return
+        if run.live:
+            self.parent.child_done(self)
+
+    def _decided(self, outcome: str, why: str, answer: Subst | None) -> None:
+        self.bind(answer)
+        if self.record(outcome, why):
+            self._continue()
+
+    def halt(self) -> None:
+        if self.group is not None:
+            self.group.cancel()
+        self.index = len(self.actions)
+
+    def waiting_for(self) -> list[str]:
+        return self.group.describe() if self.group is not None else []
+
+
+def _build(body: object, run: MethodRun, parent: Node | MethodRun) -> Node:
+    if isinstance(body, ast.Step):
+        return StepNode(run, parent, body)
+    if isinstance(body, ast.Sequence):
+        return SequenceNode(run, parent, body.parts)
+    if isinstance(body, ast.WaitFor):
+        return WaitNode(run, parent, body)
+    if isinstance(body, ast.MemoryOp):
+        return MemoryNode(run, parent, body)
+    if isinstance(body, ast.Parallel):
+        return ParallelNode(run, parent, body.parts)
+    if isinstance(body, ast.TaskNet):
+        if len(body.nets) == 1:
+            return _build(body.nets[0], run, parent)
+        return ParallelNode(run, parent, body.nets)
+    if isinstance(body, ast.Primitive):
+        return PrimitiveNode(run, parent, body)
+    raise TypeError(f"not a method body or net: {body!r}")
+
+
+def _seconds(value: float) -> str:
+    return f"{value:g} s"

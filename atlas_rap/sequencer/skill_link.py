@@ -1,0 +1,75 @@
+"""The narrow link between the sequencer and the skills (3T's sequencer ↔ skill manager).
+
+The sequencer needs only three things from whatever runs skills:
+
+- :meth:`SkillLink.enable` a skill with arguments, e.g. ``(move-to 2.0 3.5)``;
+- :meth:`SkillLink.disable` it again;
+- facts coming back: the link asserts and retracts facts through the
+  :class:`SkillHost` it is connected to (events such as ``(at robot office)``
+  and a skill's completion ``(done (move-to 2.0 3.5) :succeed)``).
+
+For load-time checks it also says which skills it knows (:meth:`skills`)
+and which predicates its events may assert (:meth:`produces`). The virtual
+skills of ``atlas_rap.skills.virtual`` implement it for runs without
+physics; the skill manager of the simulator implements it with a world.
+Keeping the link this small is what lets the skill manager run elsewhere
+later (DESIGN.md §7).
+
+A skill is one instance: enabling a skill call that is already enabled
+starts it again with those arguments.
+"""
+
+from __future__ import annotations
+
+from typing import Iterable, Protocol
+
+from atlas_rap.logic import Compound, Memory
+from atlas_rap.sequencer.timers import Timers
+
+
+class SkillHost(Protocol):
+    """What a skill link may use of the sequencer: the clock, memory, and changing memory."""
+
+    timers: Timers
+    memory: Memory
+
+    def change(self, changes: Iterable[tuple[str, Compound]], source: str) -> None:
+        """Assert or retract facts (``('assert', fact)``), running memory rules and waking waiters."""
+
+
+class SkillLink(Protocol):
+    """Enables and disables skills for the sequencer; see the module docstring."""
+
+    def connect(self, host: SkillHost) -> None:
+        """Called once by the sequencer before anything runs."""
+
+    def skills(self) -> dict[str, set[int]]:
+        """The skills this link can enable: name → the arities it accepts."""
+
+    def produces(self) -> set[str]:
+        """Predicates the skills' events may assert (``done`` is always among them)."""
+
+    def enable(self, call: Compound) -> None:
+        """Turn the skill ``call`` (name and ground arguments) on."""
+
+    def disable(self, call: Compound) -> None:
+        """Turn the skill ``call`` off; what it has not done yet is cancelled."""
+
+
+class NoSkills:
+    """A link with no skills at all: for programs whose RAPs only use memory."""
+
+    def connect(self, host: SkillHost) -> None:
+        pass
+
+    def skills(self) -> dict[str, set[int]]:
+        return {}
+
+    def produces(self) -> set[str]:
+        return {"done"}
+
+    def enable(self, call: Compound) -> None:
+        raise KeyError(call.functor)
+
+    def disable(self, call: Compound) -> None:
+        pass

@@ -1,0 +1,122 @@
+"""Tasks: the instances of RAPs on the agenda, and why they fail.
+
+A :class:`Task` is one call such as ``(attach-at-site hull-3)``: posted at
+top level or spawned by a step of its parent's task net. It lives through
+these statuses::
+
+    pending ──selected──▶ running ──method ends──▶ pending (check again) ──▶ ...
+       │                     │
+       └──────────────▶ succeeded | failed | halted
+
+``pending`` tasks are on the agenda, waiting to be selected; ``running``
+tasks have a method whose task net is live. A task that fails keeps a
+:class:`Failure`: what went wrong and, when a subtask, a skill or an
+event caused it, the failure underneath, so the whole chain can be told.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from atlas_rap.logic import Compound, term_to_str
+
+if TYPE_CHECKING:
+    from atlas_rap.sequencer.net import MethodRun, StepNode
+    from atlas_rap.sequencer.timers import Timer
+
+PENDING = "pending"
+RUNNING = "running"
+SUCCEEDED = "succeeded"
+FAILED = "failed"
+HALTED = "halted"
+FINISHED = frozenset({SUCCEEDED, FAILED, HALTED})
+
+
+@dataclass(frozen=True, slots=True)
+class Failure:
+    """Why something failed: a task, a method, a step, a skill or an event.
+
+    ``what`` names the thing (``"(attach-at-site hull-7)"``, ``"method 2"``,
+    ``"step t2 (grip-attach hull-7)"``), ``reason`` says why, and ``cause``
+    is the failure underneath, if any. ``fatal`` failures (a depth bound, an
+    error in a query) are not retried by the tasks above.
+    """
+
+    what: str
+    reason: str
+    cause: Failure | None = None
+    fatal: bool = False
+
+    def chain(self) -> list[Failure]:
+        """This failure and every cause under it, outermost first."""
+        out: list[Failure] = []
+        failure: Failure | None = self
+        while failure is not None:
+            out.append(failure)
+            failure = failure.cause
+        return out
+
+    def explain(self) -> str:
+        """The chain as one line per level, indented, for people."""
+        return "\n".join("  " * depth + f"{f.what}: {f.reason}" for depth, f in enumerate(self.chain()))
+
+    def root(self) -> Failure:
+        """The innermost failure: the skill, event or test that started it."""
+        return self.chain()[-1]
+
+
+class Task:
+    """One call of a RAP on the agenda (see the module docstring for its life).
+
+    ``id`` is stable for the run (creation order, from 1); ``depth`` is 0 for
+    a posted task; ``step`` is the step of the parent's net that spawned it.
+    """
+
+    __slots__ = (
+        "id", "call", "text", "parent", "step", "depth", "priority", "deadline", "status",
+        "attempts", "tries", "run", "children", "failure", "last_failure", "timers",
+        "queued", "method_ended_ok", "repeats", "repeat_time", "repeats_now", "selected",
+        "started", "ended", "bindings", "last_method",
+    )
+
+    def __init__(self, id: int, call: Compound, parent: Task | None, step: StepNode | None,
+                 priority: float, deadline: float | None) -> None:
+        self.id = id
+        self.call = call
+        self.text = term_to_str(call)
+        self.parent = parent
+        self.step = step
+        self.depth = parent.depth + 1 if parent is not None else 0
+        self.priority = priority
+        self.deadline = deadline
+        self.status = PENDING
+        self.attempts = 0
+        self.tries: dict[int, int] = {}
+        self.run: MethodRun | None = None
+        self.children: list[Task] = []
+        self.failure: Failure | None = None
+        self.last_failure: Failure | None = None
+        self.timers: list[Timer] = []
+        self.queued = False
+        self.method_ended_ok = False
+        self.repeats = 0
+        self.repeat_time = -1.0
+        self.repeats_now = 0
+        self.selected = 0
+        self.started: float | None = None
+        self.ended: float | None = None
+        self.bindings: dict = {}
+        self.last_method = ""
+
+    @property
+    def name(self) -> str:
+        """The RAP name, e.g. ``attach-at-site``."""
+        return self.call.functor
+
+    @property
+    def finished(self) -> bool:
+        return self.status in FINISHED
+
+    def __repr__(self) -> str:
+        return f"<Task {self.id} {self.text} {self.status}>"

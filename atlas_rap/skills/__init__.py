@@ -1,0 +1,1 @@
+"""Skills: the reactive tier. ``virtual`` holds scripted skills for runs without physics."""
