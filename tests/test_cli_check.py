@@ -4,20 +4,10 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parent.parent
-
-
-def atlas(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "atlas_rap", *args], cwd=cwd, capture_output=True,
-                          text=True, env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"})
-
-
-def assert_no_traceback(done: subprocess.CompletedProcess) -> None:
-    assert "Traceback" not in done.stderr + done.stdout, done.stderr
+from cli_process import REPO, assert_no_traceback, atlas
 
 
 def test_the_files_that_ship_are_clean():

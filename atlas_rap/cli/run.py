@@ -63,6 +63,8 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     try:
         result = mission.run(until=until, pace=wall_clock_pacer() if realtime else None)
     except KeyboardInterrupt:
+        for task in mission.sequencer.live_roots():
+            mission.sequencer.halt(task, "the run was interrupted")
         result = RunResult(list(mission.sequencer.roots), mission.sequencer.now(), "interrupted")
     finally:
         if sink is not None:

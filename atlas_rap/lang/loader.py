@@ -19,7 +19,8 @@ from pathlib import Path
 from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
 from atlas_rap.lang import ast
 from atlas_rap.lang.reader import read_file, read_text
-from atlas_rap.lang.validator import validate, validate_partial
+from atlas_rap.lang.validator import to_term, validate, validate_partial
+from atlas_rap.logic import Term
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,6 +63,20 @@ def _expand(root: str, files: dict[str, ast.SourceFile]) -> tuple[ast.TopLevel, 
 def parse_text(text: str, filename: str = "<input>") -> ast.SourceFile:
     """Read and validate one file's text (includes are not followed)."""
     return validate(read_text(text, filename), filename, text)
+
+
+def parse_term(text: str, filename: str = "<input>") -> Term:
+    """One term written as text, e.g. ``"(at robot ?where)"``, as a logic term.
+
+    For queries and facts typed by people and programs (the REPL, tests);
+    the text must hold exactly one datum.
+    """
+    forms = read_text(text, filename)
+    if len(forms) != 1:
+        line, column = (forms.locs[1] if len(forms) > 1 else (1, 1))
+        raise SourceError(Problem(f"expected one term, found {len(forms)}",
+                                  SourceLocation(filename, line, column), line_of(source_lines(text), line)))
+    return to_term(forms[0])
 
 
 def parse_file(path: str | Path) -> ast.SourceFile:

@@ -133,6 +133,17 @@ class Sequencer:
         for rap in raps:
             self.library[(rap.name, len(rap.params))] = rap
 
+    def define_rules(self, rules: Iterable[MemoryRule]) -> None:
+        """Add memory rules, replacing any rule of the same name (a reload); order is kept."""
+        new = {rule.name: rule for rule in rules}
+        kept = [new.pop(rule.name, rule) for rule in self.rules.rules]
+        engine = RuleEngine(kept + list(new.values()), relations=self.relations)
+        self.rules = engine
+
+    def refresh_skills(self) -> None:
+        """Ask the skill link again which skills it has (after it gained some)."""
+        self._skill_names = self.skills.skills()
+
     def is_rap(self, call: Compound) -> bool:
         return (call.functor, len(call.args)) in self.library
 
@@ -430,11 +441,12 @@ class Sequencer:
             self.skills.disable(call)
             self.trace.emit("skill-disabled", skill=term_to_str(call), id=run.task.id, task=run.task.text)
 
-    def step_outcome(self, task: Task, step: str, outcome: str, why: str = "") -> None:
-        """Trace a step's outcome; a failing outcome carries its reason."""
+    def step_outcome(self, task: Task, step, outcome: str, why: str = "") -> None:
+        """Trace the outcome of a step (a net node with ``describe()``); a failure carries its reason."""
         if self.trace.active:
             fields = {"reason": why} if why and outcome in FAILURE_OUTCOMES else {}
-            self.trace.emit("step-outcome", id=task.id, task=task.text, step=step, outcome=outcome, **fields)
+            self.trace.emit("step-outcome", id=task.id, task=task.text, step=step.describe(), outcome=outcome,
+                            **fields)
 
 
 def _ancestors(task: Task) -> list[Task]:

@@ -25,7 +25,7 @@ from atlas_rap.sequencer.introspect import waiting_for
 from atlas_rap.sequencer.skill_link import SkillLink
 from atlas_rap.sequencer.task import SUCCEEDED, Task
 from atlas_rap.sequencer.trace import Trace
-from atlas_rap.skills.virtual import VirtualSkills
+from atlas_rap.skills.virtual import VirtualSkills, skill_names
 
 DEFAULT_TIME_LIMIT = 3600.0
 """Simulated seconds a mission may run before its remaining tasks fail (``--until``)."""
@@ -76,6 +76,34 @@ class Mission:
             seq.timers.at(event.time, lambda changes=changes, t=event.time: seq.change(changes, f"at-time {t:g}"))
         for post in self.program.of_type(ast.Post):
             seq.post(post.task, post.priority, post.deadline)
+
+    def reload(self, path: str | Path) -> list[str]:
+        """Load a RAP file again (and what it includes) and replace definitions; the names replaced or added.
+
+        RAPs, memory rules and virtual skills are replaced by name; a running
+        task keeps its current method and uses the new RAP at its next
+        method choice. Posts, initial memory and ``at-time`` forms in the
+        file are ignored: reloading changes what the robot knows how to
+        do, not what it is doing. The file is checked first; on an error
+        nothing changes.
+        """
+        program = load(path)
+        new_skills = program.of_type(ast.VirtualSkillDef) if isinstance(self.skills, VirtualSkills) else []
+        known = self.skills.skills()
+        for name, arities in skill_names(new_skills).items():
+            known[name] = known.get(name, set()) | arities
+        problems = check_program(program, known, self.skills.produces())
+        if any(problem.severity == "error" for problem in problems):
+            raise SourceError(problems)
+        if new_skills:
+            self.skills.define(new_skills)  # type: ignore[attr-defined]
+        seq = self.sequencer
+        seq.refresh_skills()
+        raps = program.of_type(ast.RapDef)
+        seq.define(raps)
+        rules = [form.rule for form in program.of_type(ast.MemoryRuleDef)]
+        seq.define_rules(rules)
+        return [rap.name for rap in raps] + [rule.name for rule in rules] + [skill.name for skill in new_skills]
 
     def run(self, until: float = DEFAULT_TIME_LIMIT, pace: Callable[[float], None] | None = None) -> RunResult:
         """Run until every posted task has ended (or nothing more can happen, or ``until``).

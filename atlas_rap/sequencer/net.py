@@ -201,9 +201,10 @@ class ParallelNode(Node):
 class WaitGroup:
     """Several wait-fors raced on one step: the first to match decides the outcome.
 
-    Each entry is ``(query, outcome, timeout, text)`` with the query already
+    Each entry is ``(query, outcome, timeout, label)`` with the query already
     substituted; ``outcome`` None takes the outcome from the ``%outcome``
-    binding (a skill's ``done`` fact). Queries that hold when the group
+    binding (a skill's ``done`` fact); ``label`` names the entry in messages
+    (None: the ``wait-for`` as written, made only when a message needs it). Queries that hold when the group
     starts match at once, in the order written.
     """
 
@@ -224,34 +225,38 @@ class WaitGroup:
             try:
                 answer = memory.ask(query, None, relations)
             except QueryError as exc:
-                self._decide(":fail", f"{self.entries[index][3]} cannot be evaluated: {exc}", None)
+                self._decide(":fail", f"{_entry_text(self.entries[index])} cannot be evaluated: {exc}", None)
                 return
             if answer is not None:
                 self._matched(index, answer)
                 return
         waits = self.seq.waits
-        for index, (query, _, timeout, text) in enumerate(self.entries):
-            waiter = Waiter(query, self, index)
+        for index, entry in enumerate(self.entries):
+            waiter = Waiter(entry[0], self, index)
             waits.add(waiter)
             self.waiters.append(waiter)
+            timeout = entry[2]
             if timeout is not None:
                 self.timers.append(self.seq.timers.after(
-                    timeout, lambda text=text, timeout=timeout: self._decide(
-                        ":timeout", f"{text} timed out after {_seconds(timeout)}", None)))
+                    timeout, lambda entry=entry, timeout=timeout: self._decide(
+                        ":timeout", f"{_entry_text(entry)} timed out after {_seconds(timeout)}", None)))
 
     def woken(self, waiter: Waiter, answer: Subst) -> None:
         self._matched(waiter.tag, answer)  # type: ignore[arg-type]
 
     def broken(self, waiter: Waiter, message: str) -> None:
-        self._decide(":fail", f"{self.entries[waiter.tag][3]} cannot be evaluated: {message}", None)  # type: ignore[index]
+        self._decide(":fail", f"{_entry_text(self.entries[waiter.tag])} cannot be evaluated: {message}", None)  # type: ignore[index]
 
     def _matched(self, index: int, answer: Subst) -> None:
-        query, outcome, _, text = self.entries[index]
+        entry = self.entries[index]
+        outcome = entry[1]
         if outcome is None:
             outcome = str(answer.get(_OUTCOME, ":succeed"))
             why = f"finished {outcome}"
+        elif outcome in FAILURE_OUTCOMES:  # a reason is only ever shown for a failure
+            why = f"{_entry_text(entry)} matched {term_to_str(substitute(entry[0], answer))}"
         else:
-            why = f"{text} matched {term_to_str(substitute(query, answer))}"
+            why = ""
         self._decide(outcome, why, answer)
 
     def _decide(self, outcome: str, why: str, answer: Subst | None) -> None:
@@ -269,13 +274,18 @@ class WaitGroup:
             timer.cancel()
 
     def describe(self) -> list[str]:
-        return [] if self.done else [text for _, _, _, text in self.entries]
+        return [] if self.done else [_entry_text(entry) for entry in self.entries]
 
 
-def _wait_entry(wait: ast.WaitFor, subst: Subst) -> tuple[Term, str, float | None, str]:
-    query = substitute(wait.query, subst) if subst else wait.query
-    text = f"(wait-for {term_to_str(query)})"
-    return query, wait.outcome, wait.timeout, text
+WaitEntry = tuple[Term, "str | None", "float | None", "str | None"]
+
+
+def _wait_entry(wait: ast.WaitFor, subst: Subst) -> WaitEntry:
+    return (substitute(wait.query, subst) if subst else wait.query), wait.outcome, wait.timeout, None
+
+
+def _entry_text(entry: WaitEntry) -> str:
+    return entry[3] or f"(wait-for {term_to_str(entry[0])})"
 
 
 class _Leaf(Node):
@@ -289,7 +299,7 @@ class _Leaf(Node):
     def record(self, outcome: str, why: str, cause: Failure | None = None) -> bool:
         """Trace the outcome; fail the method on a failure outcome. True when it counts as success."""
         run = self.run
-        self.run.seq.step_outcome(run.task, self.describe(), outcome, why)
+        self.run.seq.step_outcome(run.task, self, outcome, why)
         if outcome in FAILURE_OUTCOMES:
             run.fail(Failure(self.describe(), why, cause))
             return False
@@ -314,7 +324,7 @@ class WaitNode(_Leaf):
         self.group: WaitGroup | None = None
 
     def describe(self) -> str:
-        return _wait_entry(self.wait, self.run.subst)[3]
+        return _entry_text(_wait_entry(self.wait, self.run.subst))
 
     def start(self) -> None:
         self.group = WaitGroup(self.run.seq, [_wait_entry(self.wait, self.run.subst)], self._decided)
@@ -435,9 +445,9 @@ class StepNode(_Leaf):
 
     def _finish(self, outcome: str, why: str, cause: Failure | None, fatal: bool = False) -> None:
         self.state = "done"
-        self._release(f"{self.describe()} ended {outcome}")
+        self._release(self, f"ended {outcome}")
         run = self.run
-        run.seq.step_outcome(run.task, self.describe(), outcome, cause.reason if cause else why)
+        run.seq.step_outcome(run.task, self, outcome, cause.reason if cause else why)
         if outcome in FAILURE_OUTCOMES:
             if cause is not None and self.child is not None:
                 run.fail(Failure(self.describe(), "the subtask failed", cause, fatal))
@@ -465,22 +475,23 @@ class StepNode(_Leaf):
         was_running = self.state == "running"
         self.state = "done"
         if was_running:
-            self._release(f"{target.describe()} ended (until-end)")
-            self.run.seq.step_outcome(self.run.task, self.describe(), HALTED_OUTCOME)
+            self._release(target, "ended (until-end)")
+            self.run.seq.step_outcome(self.run.task, self, HALTED_OUTCOME)
         self._ended()
 
-    def _release(self, why: str) -> None:
+    def _release(self, cause: _Leaf | None, what: str) -> None:
+        """Stop this step's work: its waits, its child task (saying why) and its skill."""
         if self.group is not None:
             self.group.cancel()
         child = self.child
         if child is not None and not child.finished:
-            self.run.seq.halt(child, why)
+            self.run.seq.halt(child, f"{cause.describe()} {what}" if cause is not None else what)
         if self.skill is not None:
             self.run.seq.disable_skill(self.run, self.skill)
 
     def halt(self) -> None:
         if self.state == "running":
-            self._release("its method was halted")
+            self._release(None, "its method was halted")
         self.state = "done"
 
     def waiting_for(self) -> list[str]:

@@ -28,11 +28,16 @@ from atlas_rap.sequencer.timers import Timer
 class VirtualSkills:
     """A :class:`~atlas_rap.sequencer.skill_link.SkillLink` of scripted skills."""
 
-    def __init__(self, definitions: Iterable[ast.VirtualSkillDef]) -> None:
-        self.definitions: dict[tuple[str, int], ast.VirtualSkillDef] = {
-            (d.name, len(d.head.args)): d for d in definitions}
+    def __init__(self, definitions: Iterable[ast.VirtualSkillDef] = ()) -> None:
+        self.definitions: dict[tuple[str, int], ast.VirtualSkillDef] = {}
         self._host: SkillHost | None = None
         self._running: dict[Compound, list[Timer]] = {}
+        self.define(definitions)
+
+    def define(self, definitions: Iterable[ast.VirtualSkillDef]) -> None:
+        """Add or replace scripts (by name and arity); a running skill keeps its old script."""
+        for definition in definitions:
+            self.definitions[(definition.name, len(definition.head.args))] = definition
 
     @classmethod
     def from_program(cls, program) -> VirtualSkills:
@@ -43,10 +48,7 @@ class VirtualSkills:
         self._host = host
 
     def skills(self) -> dict[str, set[int]]:
-        names: dict[str, set[int]] = {}
-        for name, arity in self.definitions:
-            names.setdefault(name, set()).add(arity)
-        return names
+        return skill_names(self.definitions.values())
 
     def produces(self) -> set[str]:
         found = {"done"}
@@ -92,6 +94,14 @@ class VirtualSkills:
                 changes.append((action.kind, substitute(action.fact, bindings)))
         source = f"skill {term_to_str(call)}"
         return host.timers.after(line.delay, lambda: host.change(changes, source))
+
+
+def skill_names(definitions: Iterable[ast.VirtualSkillDef]) -> dict[str, set[int]]:
+    """Skill name → the arities defined, the shape a skill link reports its skills in."""
+    names: dict[str, set[int]] = {}
+    for definition in definitions:
+        names.setdefault(definition.name, set()).add(len(definition.head.args))
+    return names
 
 
 def _lines(lines: Iterable[ast.ScriptLine]) -> Iterable[ast.After]:
