@@ -232,28 +232,25 @@ class _OrderGraph:
         return False
 
     def cycle(self) -> list[object]:
-        state: dict[int, int] = {}
-        path: list[object] = []
-
-        def visit(node: object) -> list[object] | None:
-            state[id(node)] = 1
-            path.append(node)
-            for nxt in self.edges.get(id(node), ()):
-                if state.get(id(nxt)) == 1:
-                    return path[next(i for i, n in enumerate(path) if n is nxt):]
-                if id(nxt) not in state:
-                    found = visit(nxt)
-                    if found:
-                        return found
-            path.pop()
-            state[id(node)] = 2
-            return None
-
-        for node in self.nodes:
-            if id(node) not in state:
-                found = visit(node)
-                if found:
-                    return list(found)
+        """Some cycle of edges, as the nodes along it, or [] (iterative: nets may be long)."""
+        state: dict[int, int] = {}  # 1: on the current path, 2: done
+        for root in self.nodes:
+            if id(root) in state:
+                continue
+            path: list[object] = [root]
+            branches = [iter(self.edges.get(id(root), ()))]
+            state[id(root)] = 1
+            while branches:
+                nxt = next(branches[-1], None)
+                if nxt is None:
+                    state[id(path.pop())] = 2
+                    branches.pop()
+                elif state.get(id(nxt)) == 1:
+                    return path[next(i for i, node in enumerate(path) if node is nxt):]
+                elif id(nxt) not in state:
+                    state[id(nxt)] = 1
+                    path.append(nxt)
+                    branches.append(iter(self.edges.get(id(nxt), ())))
         return []
 
 

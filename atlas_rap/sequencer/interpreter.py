@@ -167,7 +167,7 @@ class Sequencer:
         self.trace.emit("task-posted", id=task.id, task=task.text, priority=priority,
                         **({"deadline": due} if due is not None else {}))
         if due is not None:
-            task.timers.append(self.timers.at(due, lambda: self._missed_deadline(task)))
+            task.timers.append(self.timers.at(due, lambda: self._missed_deadline(task), late=True))
         self.agenda.push(task)
         return task
 
@@ -211,8 +211,21 @@ class Sequencer:
             task = pop()
 
     def advance_to(self, time: float) -> None:
-        """Move the clock to ``time``, firing due timers, and settle the agenda."""
-        self.timers.fire_due(time)
+        """Move the clock to ``time``, instant by instant: fire the timers due, settle the agenda.
+
+        At each instant the ordinary timers fire and the agenda settles
+        before the late ones (timeouts, deadlines): work that ends exactly
+        on time is on time.
+        """
+        timers = self.timers
+        due = timers.next_time()
+        while due is not None and due <= time:
+            timers.fire_due(due, late=False)
+            self.settle()
+            timers.fire_due(due)
+            self.settle()
+            due = timers.next_time()
+        timers.fire_due(time)
         self.settle()
 
     def _select(self, task: Task) -> None:
@@ -233,7 +246,8 @@ class Sequencer:
         if task.started is None:
             task.started = self.timers.now
             if rap.timeout is not None:
-                task.timers.append(self.timers.after(rap.timeout, lambda: self._timed_out(task, rap.timeout)))
+                task.timers.append(self.timers.after(rap.timeout, lambda: self._timed_out(task, rap.timeout),
+                                                     late=True))
         bindings = unify(rap.head, task.call)
         if bindings is None:
             self._fail(task, f"does not match the RAP's head {term_to_str(rap.head)}", fatal=True)
@@ -334,16 +348,19 @@ class Sequencer:
             return True
         return rap.repeat_until is not None and not memory.holds(rap.repeat_until, bindings, relations)
 
-    def _fail(self, task: Task, reason: str, cause: Failure | None = None, *, fatal: bool = False) -> None:
-        self._end(task, FAILED, Failure(task.text, reason, cause, fatal))
+    def _fail(self, task: Task, reason: str, cause: Failure | None = None, *, fatal: bool = False,
+              outcome: str = ":fail") -> None:
+        self._end(task, FAILED, Failure(task.text, reason, cause, fatal, outcome))
 
     def _timed_out(self, task: Task, seconds: float) -> None:
         if not task.finished:
-            self._fail(task, f"timed out after {seconds:g} s (its timeout clause)", task.last_failure)
+            self._fail(task, f"timed out after {seconds:g} s (its timeout clause)", task.last_failure,
+                       outcome=":timeout")
 
     def _missed_deadline(self, task: Task) -> None:
         if not task.finished:
-            self._fail(task, f"missed its deadline at t={task.deadline:g} s", task.last_failure)
+            self._fail(task, f"missed its deadline at t={task.deadline:g} s", task.last_failure,
+                       outcome=":timeout")
 
     def _end(self, task: Task, status: str, failure: Failure | None) -> None:
         self._stop(task)

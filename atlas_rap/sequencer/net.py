@@ -132,28 +132,41 @@ class Node:
 
 
 class SequenceNode(Node):
-    __slots__ = ("parts", "index")
+    """Starts its parts one after another; parts that end at once do not nest calls."""
+
+    __slots__ = ("parts", "index", "starting", "ended_at_once")
 
     def __init__(self, run: MethodRun, parent: Node | MethodRun, parts: tuple[ast.Net, ...]) -> None:
         super().__init__(run, parent)
         self.parts = [_build(part, run, self) for part in parts]
         self.index = -1
+        self.starting = False
+        self.ended_at_once = False
 
     def start(self) -> None:
         self.index = 0
-        if self.parts:
-            self.parts[0].start()
-        else:
-            self.parent.child_done(self)
+        self._run_parts()
+
+    def _run_parts(self) -> None:
+        """Start parts from ``index`` on until one keeps running (or all have ended)."""
+        parts = self.parts
+        while self.index < len(parts):
+            self.starting, self.ended_at_once = True, False
+            parts[self.index].start()
+            self.starting = False
+            if not self.ended_at_once or not self.run.live:
+                return
+            self.index += 1
+        self.parent.child_done(self)
 
     def child_done(self, child: Node) -> None:
         if not self.run.live:
             return
+        if self.starting:
+            self.ended_at_once = True
+            return
         self.index += 1
-        if self.index < len(self.parts):
-            self.parts[self.index].start()
-        else:
-            self.parent.child_done(self)
+        self._run_parts()
 
     def halt(self) -> None:
         if 0 <= self.index < len(self.parts):
@@ -239,7 +252,8 @@ class WaitGroup:
             if timeout is not None:
                 self.timers.append(self.seq.timers.after(
                     timeout, lambda entry=entry, timeout=timeout: self._decide(
-                        ":timeout", f"{_entry_text(entry)} timed out after {_seconds(timeout)}", None)))
+                        ":timeout", f"{_entry_text(entry)} timed out after {_seconds(timeout)}", None),
+                    late=True))
 
     def woken(self, waiter: Waiter, answer: Subst) -> None:
         self._matched(waiter.tag, answer)  # type: ignore[arg-type]
@@ -430,8 +444,8 @@ class StepNode(_Leaf):
             self._finish(":succeed", f"{child.text} succeeded", None)
         else:
             failure = child.failure
-            self._finish(":fail", failure.reason if failure else "failed", failure,
-                         fatal=bool(failure and failure.fatal))
+            self._finish(failure.outcome if failure else ":fail", failure.reason if failure else "failed",
+                         failure, fatal=bool(failure and failure.fatal))
 
     def _decided(self, outcome: str, why: str, answer: Subst | None) -> None:
         if self.state != "running":

@@ -40,13 +40,16 @@ class Failure:
     ``what`` names the thing (``"(attach-at-site hull-7)"``, ``"method 2"``,
     ``"step t2 (grip-attach hull-7)"``), ``reason`` says why, and ``cause``
     is the failure underneath, if any. ``fatal`` failures (a depth bound, an
-    error in a query) are not retried by the tasks above.
+    error in a query) are not retried by the tasks above. ``outcome`` is
+    what the step that ran a failed task ends with: ``:timeout`` for a
+    task's timeout clause or missed deadline, else ``:fail``.
     """
 
     what: str
     reason: str
     cause: Failure | None = None
     fatal: bool = False
+    outcome: str = ":fail"
 
     def chain(self) -> list[Failure]:
         """This failure and every cause under it, outermost first."""
