@@ -5,25 +5,7 @@ from __future__ import annotations
 
 from atlas_rap.lang import ast, parse_text
 from atlas_rap.logic import Compound, Var
-
-ATTACH_AT_SITE = """\
-(define-rap (attach-at-site ?thesite)
-  (succeed (docked ?thesite))
-  (method
-    (context (ferrous-hull ?thesite))
-    (task-net
-      (sequence
-        (t1 (approach-site ?thesite))
-        (t2 (magnetically-attach ?thesite))
-        (wait-for (docked ?thesite)))))
-  (method
-    (context (not (ferrous-hull ?thesite)))
-    (task-net
-      (sequence
-        (t1 (approach-site ?thesite))
-        (t2 (grip-attach ?thesite))
-        (wait-for (docked ?thesite))))))
-"""
+from paper_examples import ATTACH_AT_SITE
 
 GRASP_BULKY_OBJECT = """\
 (operator grasp-bulky-object

@@ -12,30 +12,12 @@ import json
 
 import pytest
 
+from paper_examples import ATTACH_AT_SITE
 from scenario import INCLUDE_LIBRARY, run
 
 # ---------------------------------------------------------------------------
 # 1. method choice by context (the 3T attach-at-site)
 
-ATTACH_AT_SITE = """
-(define-rap (attach-at-site ?thesite)
-  (succeed (docked ?thesite))
-  (method
-    (context (ferrous-hull ?thesite))
-    (task-net
-      (sequence
-        (t1 (approach-site ?thesite))
-        (t2 (magnetically-attach ?thesite))
-        (wait-for (docked ?thesite)))))
-  (method
-    (context (not (ferrous-hull ?thesite)))
-    (task-net
-      (sequence
-        (t1 (approach-site ?thesite))
-        (t2 (grip-attach ?thesite))
-        (wait-for (docked ?thesite))))))
-"""
-"""The 3T paper's RAP exactly as LANGUAGE.md §2.1 gives it."""
 
 ATTACH_SKILLS = """
 (define-virtual-skill (approach-site ?site)
@@ -732,7 +714,9 @@ def test_step_wait_for_bindings_flow_to_later_steps(tmp_path):
 # ---------------------------------------------------------------------------
 # the timeout clause
 
-def test_timeout_clause_fails_the_task_and_disables_its_skills(tmp_path):
+def test_timeout_clause_fails_the_task_with_outcome_timeout_and_disables_its_skills(tmp_path):
+    # LANGUAGE.md §2.1: "the task fails with outcome :timeout if not done in time";
+    # the step of the parent's net that ran it ends with that outcome
     text = """
     (world none)
     (define-rap (outer)
@@ -748,27 +732,10 @@ def test_timeout_clause_fails_the_task_and_disables_its_skills(tmp_path):
         [failed] = s.events("task-failed", task="(slow-job)")
         assert failed["t"] == 3.0 and "timed out" in failed["reason"]
         assert s.times("skill-disabled", skill="(crawl)") == [3.0]
-        assert s.times("task-failed", task="(outer)") == [3.0]
-
-
-
-def test_timeout_clause_is_the_outcome_of_the_step_that_ran_the_task(tmp_path):
-    # LANGUAGE.md §2.1: "the task fails with outcome :timeout if not done in time";
-    # the step of the parent's net that ran it ends with that outcome
-    text = """
-    (world none)
-    (define-rap (outer)
-      (retries 1)
-      (method (task-net (t1 (slow-job)))))
-    (define-rap (slow-job)
-      (timeout 3)
-      (method (task-net (t1 (crawl)))))
-    (define-virtual-skill (crawl) (after 10 (finish :succeed)))
-    (post (outer))
-    """
-    with run(tmp_path, text) as s:
         assert [(r["t"], r["outcome"]) for r in s.events("step-outcome", step="step t1 (slow-job)")] \
             == [(3.0, ":timeout")]
+        assert s.times("task-failed", task="(outer)") == [3.0]
+
 
 # ---------------------------------------------------------------------------
 # more of the contract around the scenarios above

@@ -291,6 +291,7 @@ class Sequencer:
             return
         _, number, answer = best
         method = rap.methods[number - 1]
+        task.children = [child for child in task.children if not child.finished]  # the tree shows this attempt
         task.tries[number] = task.tries.get(number, 0) + 1
         task.attempts += 1
         task.status = RUNNING

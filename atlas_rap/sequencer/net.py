@@ -211,19 +211,24 @@ class ParallelNode(Node):
         return [text for part in self.parts for text in part.waiting_for()]
 
 
+WaitEntry = tuple[Term, "str | None", "float | None", "str | None"]
+"""One raced wait: (query, outcome or None, timeout or None, label or None); see :class:`WaitGroup`."""
+
+
 class WaitGroup:
     """Several wait-fors raced on one step: the first to match decides the outcome.
 
     Each entry is ``(query, outcome, timeout, label)`` with the query already
     substituted; ``outcome`` None takes the outcome from the ``%outcome``
     binding (a skill's ``done`` fact); ``label`` names the entry in messages
-    (None: the ``wait-for`` as written, made only when a message needs it). Queries that hold when the group
-    starts match at once, in the order written.
+    (None: the ``wait-for`` as written, made only when a message needs it).
+    Queries that hold when the group starts match at once, in the order
+    written.
     """
 
     __slots__ = ("seq", "entries", "on_done", "waiters", "timers", "done")
 
-    def __init__(self, seq: Sequencer, entries: list[tuple[Term, str | None, float | None, str]],
+    def __init__(self, seq: Sequencer, entries: list[WaitEntry],
                  on_done: Callable[[str, str, Subst | None], None]) -> None:
         self.seq = seq
         self.entries = entries
@@ -289,9 +294,6 @@ class WaitGroup:
 
     def describe(self) -> list[str]:
         return [] if self.done else [_entry_text(entry) for entry in self.entries]
-
-
-WaitEntry = tuple[Term, "str | None", "float | None", "str | None"]
 
 
 def _wait_entry(wait: ast.WaitFor, subst: Subst) -> WaitEntry:
