@@ -131,6 +131,7 @@ def test_a_wait_for_on_a_fact_that_a_skill_script_asserts_is_not_warned(tmp_path
     path = tmp_path / "m.rap"
     path.write_text(
         "(define-virtual-skill (dock ?s) (after 1 (assert (docked ?s)) (finish :succeed)))\n"
-        "(define-rap (go) (method (task-net (sequence (dock h) (wait-for (docked h)) (wait-for (or (x) (docked h)))))))\n"
+        "(define-rap (go) (method (task-net\n"
+        "  (sequence (dock h) (wait-for (docked h)) (wait-for (or (x) (docked h)))))))\n"
         "(post (go))\n", encoding="utf-8")
     assert load_mission(path).warnings == []
