@@ -1,0 +1,1 @@
+"""The ATLAS multirate executive: physics, skills and the sequencer at their own rates."""

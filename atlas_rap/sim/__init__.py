@@ -1,0 +1,1 @@
+"""The simulated robot: worlds, pymunk physics, the sonar ring, pictures of runs."""

@@ -1,0 +1,175 @@
+"""What a world is: walls, named places, doors, disturbances, the robot and its sonar.
+
+These frozen dataclasses are the contract between the world files
+(``sim.world`` reads YAML into them), the physics (``sim.physics`` builds a
+pymunk space from them), the skills (which plan routes over places and
+doors) and the pictures (``sim.render``). Units are SI: metres, seconds,
+radians; angles are counter-clockwise from the +x axis.
+
+The robot's *prior map* is the places and doors with their connections
+(:meth:`World.facts` puts it in RAP memory); the walls are only known to
+the physics and, through the sonar, to the maps.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+Point = tuple[float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class Segment:
+    """A wall segment from ``a`` to ``b``."""
+
+    a: Point
+    b: Point
+
+    @property
+    def length(self) -> float:
+        return math.dist(self.a, self.b)
+
+    @property
+    def midpoint(self) -> Point:
+        return ((self.a[0] + self.b[0]) / 2, (self.a[1] + self.b[1]) / 2)
+
+
+@dataclass(frozen=True, slots=True)
+class Place:
+    """A named place RAPs refer to, e.g. ``office``.
+
+    ``point`` is where the robot goes when told to go there; ``region`` (a
+    polygon, counter-clockwise or not) is the area that counts as being
+    there. A place without a region is a point place: within ``radius``
+    of ``point`` counts.
+    """
+
+    name: str
+    point: Point
+    region: tuple[Point, ...] | None = None
+    radius: float = 0.5
+
+    def contains(self, x: float, y: float) -> bool:
+        """Whether (x, y) is in this place."""
+        if self.region is None:
+            return math.dist((x, y), self.point) <= self.radius
+        return _inside(self.region, x, y)
+
+
+@dataclass(frozen=True, slots=True)
+class Door:
+    """A doorway between two places: a door that can be open or closed, or a plain opening.
+
+    ``center`` is the middle of the doorway; ``segment`` the door leaf that
+    blocks it when closed (None for an opening that is always open).
+    ``openable`` doors can be opened by the robot (an automatic door with a
+    button); others only by the world's ``schedule``, a tuple of
+    ``(time, is_open)`` changes.
+    """
+
+    name: str
+    between: tuple[str, str]
+    center: Point
+    segment: Segment | None = None
+    open: bool = True
+    openable: bool = False
+    schedule: tuple[tuple[float, bool], ...] = ()
+
+    def side_points(self, clearance: float = 0.7) -> tuple[Point, Point]:
+        """Two points ``clearance`` metres either side of the doorway, on its normal.
+
+        Which is which: the first is on the side of ``between[0]`` when the
+        world file's places say so (the route planner sorts that out); for
+        an opening without a segment both are the centre.
+        """
+        if self.segment is None:
+            return self.center, self.center
+        (ax, ay), (bx, by) = self.segment.a, self.segment.b
+        length = math.hypot(bx - ax, by - ay) or 1.0
+        nx, ny = -(by - ay) / length, (bx - ax) / length
+        cx, cy = self.center
+        return (cx + nx * clearance, cy + ny * clearance), (cx - nx * clearance, cy - ny * clearance)
+
+
+@dataclass(frozen=True, slots=True)
+class Disturbance:
+    """Something the world does to the robot at a time: a person crossing, a box left behind.
+
+    ``kind`` is ``person`` (a moving disc along ``path`` at ``speed``,
+    present from ``start`` to ``end``: short-lived) or ``box`` (a square of
+    side ``size`` at ``path[0]`` from ``start``, until ``end`` or for ever
+    when ``end`` is None: long-lived).
+    """
+
+    name: str
+    kind: str
+    start: float
+    path: tuple[Point, ...]
+    end: float | None = None
+    size: float = 0.5
+    speed: float = 0.8
+
+
+@dataclass(frozen=True, slots=True)
+class RobotConfig:
+    """The robot: a disc of ``radius`` starting at ``start`` = (x, y, heading)."""
+
+    start: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    radius: float = 0.2
+    max_speed: float = 0.6
+    max_turn_rate: float = 2.0
+    odometry_drift: float = 0.0  # std of the relative error per metre travelled and per radian turned
+
+
+@dataclass(frozen=True, slots=True)
+class SonarConfig:
+    """The sonar ring: ``count`` transducers evenly spaced around the robot, the first facing forward."""
+
+    count: int = 16
+    beam_width: float = math.radians(15.0)
+    max_range: float = 5.0
+    min_range: float = 0.05
+    range_noise: float = 0.01  # std in metres, plus ``range_noise_per_m`` per metre of range
+    range_noise_per_m: float = 0.01
+    specular_angle: float = math.radians(60.0)  # beyond this angle between beam and wall normal...
+    specular_dropout: float = 0.8  # ...a reading is lost (max range) with this probability
+    rays_per_beam: int = 3
+    rate: float = 10.0  # readings per second
+
+
+@dataclass(frozen=True, slots=True)
+class World:
+    """A whole world: geometry, named places and doors, disturbances, robot and sonar settings.
+
+    ``bounds`` is (xmin, ymin, xmax, ymax) around everything. ``source`` is
+    the file it was read from (for messages and pictures).
+    """
+
+    name: str
+    walls: tuple[Segment, ...]
+    places: dict[str, Place]
+    doors: dict[str, Door] = field(default_factory=dict)
+    disturbances: tuple[Disturbance, ...] = ()
+    robot: RobotConfig = RobotConfig()
+    sonar: SonarConfig = SonarConfig()
+    bounds: tuple[float, float, float, float] = (0.0, 0.0, 10.0, 10.0)
+    source: str = ""
+
+    def place_at(self, x: float, y: float) -> str | None:
+        """The first place (in file order) that contains (x, y), or None."""
+        for place in self.places.values():
+            if place.contains(x, y):
+                return place.name
+        return None
+
+
+def _inside(polygon: tuple[Point, ...], x: float, y: float) -> bool:
+    """Even-odd rule point-in-polygon test."""
+    inside = False
+    n = len(polygon)
+    for i in range(n):
+        (x1, y1), (x2, y2) = polygon[i], polygon[(i + 1) % n]
+        if (y1 > y) != (y2 > y) and x < x1 + (y - y1) * (x2 - x1) / (y2 - y1):
+            inside = not inside
+    return inside
