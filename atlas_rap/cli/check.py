@@ -56,15 +56,22 @@ def check(files: tuple[str, ...], tree: bool, format_: bool) -> None:
 
 
 def _sequencer_problems(program) -> list:
-    """Load-time checks of the RAPs against the skills they can use (the program's virtual skills)."""
+    """Load-time checks of the RAPs against the skills they can use: the program's virtual
+    skills, and the stock skills of a simulated world unless the program says ``(world none)``."""
     from atlas_rap.lang import ast
     from atlas_rap.sequencer.checks import check_program
+    from atlas_rap.skills.catalog import STOCK_EVENTS, STOCK_SKILLS
     from atlas_rap.skills.virtual import VirtualSkills
 
     if not program.of_type(ast.RapDef) and not program.of_type(ast.Post):
         return []
-    skills = VirtualSkills.from_program(program)
-    return check_program(program, skills.skills(), skills.produces())
+    virtual = VirtualSkills.from_program(program)
+    names, events = virtual.skills(), virtual.produces()
+    worlds = program.of_type(ast.WorldDecl)
+    if not worlds or worlds[-1].world != "none":  # a world run also has the stock skills
+        names = {**STOCK_SKILLS, **names}
+        events |= STOCK_EVENTS
+    return check_program(program, names, events)
 
 
 _KINDS = {"RapDef": "RAP", "MemoryRuleDef": "memory rule", "VirtualSkillDef": "virtual skill",

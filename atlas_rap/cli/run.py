@@ -26,8 +26,10 @@ DEFAULT_WORLD = "lab-corridor-office"
 @click.option("--realtime", is_flag=True, help="Pace simulated time to the wall clock.")
 @click.option("--agenda", "show_agenda", is_flag=True, help="Print the task tree at the end.")
 @click.option("--memory", "show_memory", is_flag=True, help="Print memory at the end.")
+@click.option("--render", type=click.Path(dir_okay=False, writable=True), metavar="OUT.png",
+              help="Draw the world, the robot's path, the places and where each task started and ended.")
 def run(mission_file: str, world: str | None, seed: int, trace_file: str | None, quiet: bool, verbose: bool,
-        until: float, realtime: bool, show_agenda: bool, show_memory: bool) -> None:
+        until: float, realtime: bool, show_agenda: bool, show_memory: bool, render: str | None) -> None:
     """Run a mission: post its tasks, run the RAPs, print a live trace and a summary.
 
     Exits 0 when every posted task succeeded, 1 when one failed (the
@@ -44,16 +46,15 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
 
     out = Console(highlight=False, soft_wrap=True)
     err = Console(stderr=True, highlight=False, soft_wrap=True)
-    mission = load_mission(resolve_user_path(mission_file), trace=Trace())
+    setup = _WorldSetup(world, seed)
+    mission = load_mission(resolve_user_path(mission_file), skills=setup.skills_for, trace=Trace())
     for warning in mission.warnings:
         err.print(warning.render(), style="yellow", markup=False)
-    chosen = world or mission.world or DEFAULT_WORLD
-    if chosen != "none":
-        raise AtlasError(
-            f"world '{chosen}': worlds with physics are not available in this version; "
-            f"run the mission on virtual skills with --world none"
-            + ("" if world or mission.world else " (the mission names no world, so the default "
-                                                 f"'{DEFAULT_WORLD}' was chosen)"))
+    if render and setup.world is None:
+        raise AtlasError("--render needs a world; this run has none (--world none)")
+    setup.start(mission)
+    if render:
+        mission.trace.add_sink(setup.task_events)
     sink = JsonlSink(trace_file) if trace_file else None
     if sink is not None:
         mission.trace.add_sink(sink)
@@ -61,7 +62,7 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         mission.trace.add_sink(LiveTrace(out, verbose=verbose))
     started = time.perf_counter()
     try:
-        result = mission.run(until=until, pace=wall_clock_pacer() if realtime else None)
+        result = mission.run(until=until, pace=wall_clock_pacer() if realtime else None, driver=setup.executive)
     except KeyboardInterrupt:
         for task in mission.sequencer.live_roots():
             mission.sequencer.halt(task, "the run was interrupted")
@@ -69,6 +70,8 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     finally:
         if sink is not None:
             sink.close()
+        if render and setup.world is not None:
+            setup.render(render, mission, click.format_filename(mission_file))
     name = click.format_filename(mission_file)
     if show_agenda:
         out.print(task_tree(agenda_tree(mission.sequencer)))
@@ -78,6 +81,89 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         out.print(line)
     if trace_file:
         out.print(f"trace written to {trace_file}", style="dim")
+    if render:
+        out.print(f"picture written to {render}", style="dim")
     if result.ended_by == "interrupted":
         sys.exit(130)
     sys.exit(0 if result.ok else 1)
+
+
+class _WorldSetup:
+    """Builds what a run needs once the mission's program says which world: skills, simulation, executive."""
+
+    def __init__(self, world_flag: str | None, seed: int) -> None:
+        self.world_flag = world_flag
+        self.seed = seed
+        self.world = None
+        self.simulation = None
+        self.executive = None
+        self.manager = None
+        self.events: list[dict] = []
+        self.depth: dict[int, int] = {}
+
+    def task_events(self, record: dict) -> None:
+        """A trace sink keeping what the picture marks: tasks at most one level below a posted one."""
+        event = record["event"]
+        if event == "task-posted":
+            parent = record.get("parent")
+            self.depth[record["id"]] = self.depth[parent] + 1 if parent is not None else 0
+        elif event in ("task-selected", "task-succeeded", "task-failed") and self.depth.get(record["id"], 9) <= 1:
+            self.events.append(record)
+
+    def skills_for(self, program):
+        from atlas_rap.lang import ast
+        from atlas_rap.sequencer.skill_link import CombinedSkills
+        from atlas_rap.skills.virtual import VirtualSkills
+
+        declared = program.of_type(ast.WorldDecl)
+        chosen = self.world_flag or (declared[-1].world if declared else DEFAULT_WORLD)
+        virtual = VirtualSkills.from_program(program)
+        if chosen == "none":
+            return virtual
+        from atlas_rap.layers.executive import Rates
+        from atlas_rap.sim.physics import Simulation
+        from atlas_rap.sim.world import load_world
+        from atlas_rap.skills.stock import stock_manager
+
+        self.world = load_world(chosen)
+        self.simulation = Simulation(self.world, seed=self.seed, dt=1.0 / Rates().physics)
+        self.manager = stock_manager(self.world, self.simulation, self.simulation.rng)
+        return CombinedSkills(self.manager, virtual)
+
+    def start(self, mission) -> None:
+        """Put the world's prior map in memory and build the executive."""
+        if self.world is None:
+            return
+        from atlas_rap.layers.executive import Executive
+        from atlas_rap.sim.prior import prior_facts
+
+        mission.sequencer.change([("assert", fact) for fact in prior_facts(self.world)], "world")
+        self.executive = Executive(self.simulation, self.manager, mission.sequencer)
+
+    def render(self, out_png: str, mission, title: str) -> None:
+        from atlas_rap.sim.render import render_run
+
+        render_run(self.world, out_png, path=self.simulation.path, doors_open=self.simulation.doors_open,
+                   task_marks=self.marks(),
+                   title=f"{title} in {self.world.name}, seed {self.seed}")
+
+    def marks(self) -> list:
+        """Where each marked task started (first selection) and ended, on the robot's path."""
+        from bisect import bisect_left
+
+        from atlas_rap.sim.render import TaskMark
+
+        path = self.simulation.path
+        times = [p[0] for p in path]
+        marks, started = [], set()
+        for record in self.events:
+            kind = {"task-selected": "started", "task-succeeded": "succeeded", "task-failed": "failed"}[record["event"]]
+            if kind == "started":
+                if record["id"] in started:
+                    continue
+                started.add(record["id"])
+            if not path:
+                break
+            _, x, y, _ = path[min(bisect_left(times, record["t"]), len(path) - 1)]
+            marks.append(TaskMark(record["t"], x, y, record["task"], kind))
+        return marks

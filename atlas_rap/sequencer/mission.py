@@ -15,7 +15,7 @@ from __future__ import annotations
 import time as wall
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable, Protocol
 
 from atlas_rap.errors import Problem, SourceError
 from atlas_rap.lang import ast, load
@@ -105,30 +105,23 @@ class Mission:
         seq.define_rules(rules)
         return [rap.name for rap in raps] + [rule.name for rule in rules] + [skill.name for skill in new_skills]
 
-    def run(self, until: float = DEFAULT_TIME_LIMIT, pace: Callable[[float], None] | None = None) -> RunResult:
+    def run(self, until: float = DEFAULT_TIME_LIMIT, pace: Callable[[float], None] | None = None,
+            driver: Driver | None = None) -> RunResult:
         """Run until every posted task has ended (or nothing more can happen, or ``until``).
 
-        Tasks still running at the end fail, saying what they were waiting
-        for. ``pace(t)`` is called before the clock moves to ``t``.
+        Without a ``driver`` time jumps from one due timer to the next (the
+        virtual world); with one (the multirate executive of a simulated
+        world) the driver moves time. Tasks still running at the end fail,
+        saying what they were waiting for. ``pace(t)`` is called before the
+        clock moves to ``t``.
         """
         self.start()
         seq = self.sequencer
-        timers = seq.timers
-        seq.settle()
-        ended_by = "done"
-        while seq.live_roots():
-            due = timers.next_time()
-            if due is None:
-                ended_by = "stalled"
-                break
-            if due > until:
-                ended_by = "time-limit"
-                timers.fire_due(until)
-                break
-            if pace is not None:
-                pace(due)
-            seq.advance_to(due)
-        result = RunResult(list(seq.roots), timers.now, ended_by)
+        if driver is not None:
+            ended_by = driver.run(seq, until, pace)
+        else:
+            ended_by = self._run_timers(until, pace)
+        result = RunResult(list(seq.roots), seq.timers.now, ended_by)
         for task in seq.live_roots():
             waits = waiting_for(task)
             waiting = f"; it was waiting for {', '.join(waits)}" if waits else ""
@@ -140,14 +133,46 @@ class Mission:
         return result
 
 
-def load_mission(path: str | Path, skills: SkillLink | None = None, *, trace: Trace | None = None,
-                 require_post: bool = True) -> Mission:
+    def _run_timers(self, until: float, pace: Callable[[float], None] | None) -> str:
+        seq = self.sequencer
+        timers = seq.timers
+        seq.settle()
+        while seq.live_roots():
+            due = timers.next_time()
+            if due is None:
+                return "stalled"
+            if due > until:
+                timers.fire_due(until)
+                return "time-limit"
+            if pace is not None:
+                pace(due)
+            seq.advance_to(due)
+        return "done"
+
+
+class Driver(Protocol):
+    """Whatever moves time for a mission in a world (the multirate executive)."""
+
+    def run(self, sequencer: Sequencer, until: float, pace: Callable[[float], None] | None) -> str:
+        """Run until the posted tasks have ended ("done") or ``until`` ("time-limit")."""
+
+
+def load_mission(path: str | Path, skills: SkillLink | Callable[[Any], SkillLink] | None = None, *,
+                 trace: Trace | None = None, require_post: bool = True) -> Mission:
     """Load and check a mission; raises :class:`SourceError` listing every error.
 
-    Warnings (a wait-for nothing can wake) are kept on ``mission.warnings``.
+    ``skills`` is the skill link, or a function that makes one from the
+    loaded program (to combine a world's skills with the file's virtual
+    ones); by default the program's virtual skills. Warnings (a wait-for
+    nothing can wake) are kept on ``mission.warnings``.
     """
     program = load(path)
-    link = skills if skills is not None else VirtualSkills.from_program(program)
+    if skills is None:
+        link: SkillLink = VirtualSkills.from_program(program)
+    elif callable(skills) and not hasattr(skills, "enable"):
+        link = skills(program)
+    else:
+        link = skills  # type: ignore[assignment]
     problems = check_program(program, link.skills(), link.produces(), require_post=require_post)
     errors = [p for p in problems if p.severity == "error"]
     if errors:

@@ -28,7 +28,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Callable
 
 from atlas_rap.lang import ast
-from atlas_rap.logic import Compound, QueryError, Subst, Term, Var, substitute, term_to_str
+from atlas_rap.logic import Compound, QueryError, String, Subst, Term, Var, substitute, term_to_str
 from atlas_rap.sequencer.task import SUCCEEDED, Failure, Task
 from atlas_rap.sequencer.waiting import Waiter
 
@@ -43,6 +43,7 @@ HALTED_OUTCOME = ":halted"
 """The outcome recorded for a monitor halted by ``until-end``."""
 
 _OUTCOME = Var("%outcome")  # binds the outcome in (done (SKILL ...) ?outcome); no source can name it
+_WHY = Var("%why")  # binds the reason in (why (SKILL ...) "reason"), which a skill may post before done
 
 
 def method_label(method: ast.Method, number: int) -> str:
@@ -272,6 +273,10 @@ class WaitGroup:
         if outcome is None:
             outcome = str(answer.get(_OUTCOME, ":succeed"))
             why = f"finished {outcome}"
+            if outcome in FAILURE_OUTCOMES:
+                said = self.seq.memory.ask(Compound("why", (entry[0].args[0], _WHY)))  # type: ignore[union-attr]
+                if said is not None:
+                    why += f": {_plain(said[_WHY])}"
         elif outcome in FAILURE_OUTCOMES:  # a reason is only ever shown for a failure
             why = f"{_entry_text(entry)} matched {term_to_str(substitute(entry[0], answer))}"
         else:
@@ -596,6 +601,11 @@ def _build(body: object, run: MethodRun, parent: Node | MethodRun) -> Node:
     if isinstance(body, ast.Primitive):
         return PrimitiveNode(run, parent, body)
     raise TypeError(f"not a method body or net: {body!r}")
+
+
+def _plain(term: Term) -> str:
+    """A reason as people read it: a string without its quotes."""
+    return term.value if isinstance(term, String) else term_to_str(term)
 
 
 def _seconds(value: float) -> str:

@@ -56,6 +56,43 @@ class SkillLink(Protocol):
         """Turn the skill ``call`` off; what it has not done yet is cancelled."""
 
 
+class CombinedSkills:
+    """Several links as one: each skill is served by the first link that knows it.
+
+    A mission in a world uses the simulator's skill manager and, beside
+    it, the virtual skills the mission file defines (for what the
+    simulation does not model, such as handing over the mail).
+    """
+
+    def __init__(self, *links: SkillLink) -> None:
+        self.links = links
+
+    def connect(self, host: SkillHost) -> None:
+        for link in self.links:
+            link.connect(host)
+
+    def skills(self) -> dict[str, set[int]]:
+        names: dict[str, set[int]] = {}
+        for link in reversed(self.links):
+            names.update(link.skills())
+        return names
+
+    def produces(self) -> set[str]:
+        return set().union(*(link.produces() for link in self.links))
+
+    def _link(self, call: Compound) -> SkillLink:
+        for link in self.links:
+            if len(call.args) in link.skills().get(call.functor, ()):
+                return link
+        raise KeyError(call.functor)
+
+    def enable(self, call: Compound) -> None:
+        self._link(call).enable(call)
+
+    def disable(self, call: Compound) -> None:
+        self._link(call).disable(call)
+
+
 class NoSkills:
     """A link with no skills at all: for programs whose RAPs only use memory."""
 

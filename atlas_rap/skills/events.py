@@ -1,0 +1,137 @@
+"""Event skills: always on, they turn what the robot senses into facts in RAP memory.
+
+- ``place-monitor``: ``(at robot PLACE)`` when the robot enters a named
+  place (a memory rule such as ``at-is-unique`` retracts the old one);
+- ``door-monitor``: ``(door-closed DOOR)`` / ``(door-open DOOR)`` when the
+  sonar beam that points through a nearby doorway echoes at the door's
+  distance (closed) or well beyond it (open), twice in a row; it keeps the
+  belief the route planner uses;
+- ``bump-monitor``: ``(bumped robot)`` on contact, retracted a second after
+  the last one.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+from atlas_rap.logic import Compound
+from atlas_rap.skills.avoidance import angle_difference
+from atlas_rap.skills.navigation import CLOSED_DOORS
+from atlas_rap.skills.skill import Skill
+
+
+class PlaceMonitor(Skill):
+    """Asserts ``(at robot PLACE)`` on entering a place."""
+
+    name = "place-monitor"
+    inputs = ("pose",)
+    always_on = True
+    rate = 10.0
+    events = ("at",)
+
+    def init(self, context) -> None:
+        super().init(context)
+        self.last: str | None = None
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        pose = inputs["pose"]
+        if pose is None:
+            return {}
+        place = self.context.world.place_at(pose[0], pose[1])
+        if place is not None and place != self.last:
+            self.last = place
+            self.context.assert_fact(Compound("at", ("robot", place)))
+        return {}
+
+
+class DoorMonitor(Skill):
+    """Watches doorways within ``sensing_range`` with the sonar; asserts their state when it changes."""
+
+    name = "door-monitor"
+    inputs = ("pose", "sonar")
+    always_on = True
+    rate = 10.0
+    events = ("door-open", "door-closed")
+    sensing_range = 3.0
+    tolerance = 0.3
+
+    def init(self, context) -> None:
+        super().init(context)
+        self.doors = [door for door in context.world.doors.values() if door.segment is not None]
+        self.state: dict[str, str] = {}
+        self.evidence: dict[str, tuple[str, int]] = {}
+        context.beliefs.setdefault(CLOSED_DOORS, set())
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        pose, sonar = inputs["pose"], inputs["sonar"]
+        if pose is None or sonar is None:
+            return {}
+        ranges, angles = sonar
+        radius = self.context.world.robot.radius
+        x, y, heading = pose
+        for door in self.doors:
+            cx, cy = door.center
+            distance = math.hypot(cx - x, cy - y)
+            if not 0.6 < distance < self.sensing_range:
+                continue
+            bearing = math.atan2(cy - y, cx - x)
+            (ax, ay), (bx, by) = door.segment.a, door.segment.b
+            along = math.atan2(by - ay, bx - ax)
+            if abs(math.sin(bearing - along)) < math.sin(math.radians(50)):
+                continue  # looking along the door, not through it
+            beam = int(np.argmin(np.abs(np.arctan2(np.sin(angles - (bearing - heading)),
+                                                   np.cos(angles - (bearing - heading))))))
+            if abs(angle_difference(float(angles[beam]), bearing - heading)) > math.radians(8):
+                continue
+            expected = distance - radius
+            reading = float(ranges[beam])
+            if abs(reading - expected) <= self.tolerance:
+                self._evidence(door.name, "closed")
+            elif reading > expected + 0.6:
+                self._evidence(door.name, "open")
+        return {}
+
+    def _evidence(self, door: str, seen: str) -> None:
+        previous, count = self.evidence.get(door, ("", 0))
+        count = count + 1 if previous == seen else 1
+        self.evidence[door] = (seen, count)
+        if count < 2 or self.state.get(door) == seen:
+            return
+        self.state[door] = seen
+        closed = self.context.beliefs[CLOSED_DOORS]
+        if seen == "closed":
+            closed.add(door)
+            self.context.retract_fact(Compound("door-open", (door,)))
+            self.context.assert_fact(Compound("door-closed", (door,)))
+        else:
+            closed.discard(door)
+            self.context.retract_fact(Compound("door-closed", (door,)))
+            self.context.assert_fact(Compound("door-open", (door,)))
+
+
+class BumpMonitor(Skill):
+    """Asserts ``(bumped robot)`` on contact; retracts it ``hold`` seconds after the last one."""
+
+    name = "bump-monitor"
+    inputs = ("bump",)
+    always_on = True
+    events = ("bumped",)
+    hold = 1.0
+
+    def init(self, context) -> None:
+        super().init(context)
+        self.last_bump: float | None = None
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        now = self.context.now()
+        if inputs["bump"] is not None:
+            if self.last_bump is None:
+                self.context.assert_fact(Compound("bumped", ("robot",)))
+            self.last_bump = now
+        elif self.last_bump is not None and now - self.last_bump > self.hold:
+            self.last_bump = None
+            self.context.retract_fact(Compound("bumped", ("robot",)))
+        return {}

@@ -1,0 +1,226 @@
+"""The skill manager: wires skills output→input by name and runs them at their rates.
+
+3T's skill manager (seed 003 §3.1) connects skills into networks: a
+skill's outputs go to every skill that declares an input of the same name
+(here through a blackboard, ``SkillManager.data``), and skills run in
+dependency order, producers before consumers, each at its own rate.
+Towards the sequencer it is a :class:`~atlas_rap.sequencer.skill_link.SkillLink`:
+RAPs enable and disable skills by name with arguments, and skills' events
+come back as facts in RAP memory:
+
+- ``(done (SKILL ARG ...) OUTCOME)`` when a skill finishes, preceded by
+  ``(why (SKILL ARG ...) "reason")`` when it says why (the sequencer puts
+  the reason in the failure chain);
+- whatever facts event skills assert (``(at robot office)``,
+  ``(door-closed office-door)``, ``(bumped robot)``, ``(blocked robot X)``).
+
+When a skill is disabled or finishes, its outputs are cleared, so a
+stopped motion skill leaves no stale velocity command behind. When two
+enabled skills write the same output, the one later in dependency order
+(then the later enabled) wins.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Iterable
+
+from atlas_rap.errors import AtlasError
+from atlas_rap.logic import Compound, String
+from atlas_rap.sequencer.skill_link import SkillHost
+from atlas_rap.skills.skill import Skill
+
+
+@dataclass
+class SkillContext:
+    """What a skill may use: the world's prior map, the robot, shared beliefs and the event channel.
+
+    ``robot`` is the body the skills sense and drive (the simulation, or a
+    real robot's driver with the same methods); ``beliefs`` is shared
+    state that is not a data flow (doors observed closed, for the route
+    planner); ``rng`` the run's one random generator.
+    """
+
+    manager: SkillManager
+    world: Any = None
+    robot: Any = None
+    rng: Any = None
+    beliefs: dict[str, Any] = field(default_factory=dict)
+
+    def now(self) -> float:
+        return self.manager.now
+
+    def assert_fact(self, fact: Compound) -> None:
+        """Post a fact to RAP memory (an event)."""
+        self.manager.post([("assert", fact)])
+
+    def retract_fact(self, fact: Compound) -> None:
+        self.manager.post([("retract", fact)])
+
+    def retract_matching(self, pattern: Compound) -> None:
+        """Retract every fact in memory that matches ``pattern``."""
+        host = self.manager.host
+        if host is not None:
+            facts = list(host.memory.facts(pattern))
+            if facts:
+                self.manager.post([("retract", fact) for fact in facts])
+
+    def finish(self, skill: Skill, outcome: str = ":succeed", reason: str | None = None) -> None:
+        """The skill is done: post ``(done CALL OUTCOME)`` (and why); it stops being run."""
+        self.manager.finish(skill, outcome, reason)
+
+
+class SkillManager:
+    """Runs skills for the sequencer: enable/disable by name, routing, rates, events.
+
+    Build it with skill instances, then let the sequencer ``connect`` to it
+    (which calls each skill's ``init`` and turns on the always-on skills);
+    the executive calls :meth:`tick` at the skills' base rate.
+    """
+
+    def __init__(self, skills: Iterable[Skill], *, world: Any = None, robot: Any = None, rng: Any = None) -> None:
+        self.catalog: dict[str, Skill] = {}
+        for skill in skills:
+            if not skill.name:
+                raise AtlasError(f"{type(skill).__name__} has no name")
+            if skill.name in self.catalog:
+                raise AtlasError(f"two skills are named {skill.name}")
+            self.catalog[skill.name] = skill
+        self.order = dependency_order(list(self.catalog.values()))
+        self.context = SkillContext(self, world, robot, rng)
+        self.data: dict[str, Any] = {}
+        self.enabled: dict[str, Compound | None] = {}  # name -> call (None for always-on skills)
+        self.finished: set[str] = set()
+        self.due: dict[str, float] = {}
+        self.host: SkillHost | None = None
+        self.now = 0.0
+
+    # -- the SkillLink side ------------------------------------------------------
+
+    def connect(self, host: SkillHost) -> None:
+        self.host = host
+        for skill in self.order:
+            skill.init(self.context)
+        for skill in self.order:
+            if skill.always_on:
+                skill.enable(())
+                self.enabled[skill.name] = None
+                self.due[skill.name] = self.now
+
+    def skills(self) -> dict[str, set[int]]:
+        return {name: {len(skill.params)} for name, skill in self.catalog.items() if not skill.always_on}
+
+    def produces(self) -> set[str]:
+        found = {"done", "why"}
+        for skill in self.catalog.values():
+            found.update(skill.events)
+        return found
+
+    def enable(self, call: Compound) -> None:
+        skill = self.catalog[call.functor]
+        if skill.always_on:
+            raise KeyError(f"{call.functor} is always on")
+        self._clear_outputs(skill)
+        self.finished.discard(skill.name)
+        skill.enable(tuple(_value(arg) for arg in call.args))
+        self.enabled.pop(skill.name, None)
+        self.enabled[skill.name] = call
+        self.due[skill.name] = self.now
+
+    def disable(self, call: Compound) -> None:
+        skill = self.catalog.get(call.functor)
+        if skill is None or self.enabled.get(skill.name) != call:
+            return  # enabled again since, with other arguments: that one stays
+        del self.enabled[skill.name]
+        self.finished.discard(skill.name)
+        skill.disable()
+        self._clear_outputs(skill)
+
+    def running(self) -> list[Compound]:
+        """The skill calls enabled by RAPs now (always-on skills not included)."""
+        return [call for call in self.enabled.values() if call is not None]
+
+    # -- running -------------------------------------------------------------------
+
+    def tick(self, now: float) -> None:
+        """Run every enabled skill that is due at ``now``, producers before consumers."""
+        self.now = now
+        data = self.data
+        for skill in self.order:
+            name = skill.name
+            if name not in self.enabled or name in self.finished:
+                continue
+            due = self.due[name]
+            if now + 1e-9 < due:
+                continue
+            self.due[name] = max(due + 1.0 / skill.rate, now)
+            outputs = skill.transform({key: data.get(key) for key in skill.inputs})
+            if outputs and name not in self.finished:
+                data.update(outputs)
+
+    def post(self, changes: list[tuple[str, Compound]]) -> None:
+        if self.host is not None:
+            self.host.change(changes, "skills")
+
+    def finish(self, skill: Skill, outcome: str, reason: str | None) -> None:
+        call = self.enabled.get(skill.name)
+        if call is None or skill.name in self.finished:
+            return
+        self.finished.add(skill.name)
+        self._clear_outputs(skill)
+        changes: list[tuple[str, Compound]] = []
+        if reason:
+            changes.append(("assert", Compound("why", (call, String(reason)))))
+        changes.append(("assert", Compound("done", (call, outcome))))
+        if self.host is not None:
+            self.host.change(changes, f"skill {_text(call)}")
+
+    def _clear_outputs(self, skill: Skill) -> None:
+        for key in skill.outputs:
+            self.data.pop(key, None)
+
+
+def dependency_order(skills: list[Skill]) -> list[Skill]:
+    """Skills sorted so that each comes after the skills whose outputs it reads (stable).
+
+    Raises :class:`AtlasError` naming the skills of a cycle.
+    """
+    producers: dict[str, list[Skill]] = {}
+    for skill in skills:
+        for key in skill.outputs:
+            producers.setdefault(key, []).append(skill)
+    order: list[Skill] = []
+    state: dict[str, int] = {}
+
+    def visit(skill: Skill, chain: list[str]) -> None:
+        if state.get(skill.name) == 2:
+            return
+        if state.get(skill.name) == 1:
+            cycle = chain[chain.index(skill.name):] + [skill.name]
+            raise AtlasError("skills feed each other in a circle: " + " -> ".join(cycle))
+        state[skill.name] = 1
+        for key in skill.inputs:
+            for producer in producers.get(key, ()):
+                if producer is not skill:
+                    visit(producer, chain + [skill.name])
+        state[skill.name] = 2
+        order.append(skill)
+
+    for skill in skills:
+        visit(skill, [])
+    return order
+
+
+def _value(term: Any) -> Any:
+    """A term as a skill argument: numbers and symbols as they are, strings as str, lists as tuples."""
+    if isinstance(term, String):
+        return term.value
+    if isinstance(term, Compound) and term.functor == "":
+        return tuple(_value(arg) for arg in term.args)
+    return term
+
+
+def _text(call: Compound) -> str:
+    from atlas_rap.logic import term_to_str
+
+    return term_to_str(call)

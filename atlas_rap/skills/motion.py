@@ -1,0 +1,218 @@
+"""Motion skills that RAPs enable: move-to, follow-route, turn-to, wander, wall-follow, stop.
+
+Each writes ``command`` = (v, ω) for the safety reflex and the wheels, and
+finishes with ``(done (SKILL ARG ...) :succeed)`` when it has got where it
+was told, or ``:fail`` with a reason, after asserting ``(blocked robot
+SKILL)``, when it makes no progress for ``patience`` seconds (an obstacle
+it cannot get round). Wander and wall-follow never finish on their own.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+from atlas_rap.logic import Compound
+from atlas_rap.skills.avoidance import angle_difference, steer
+from atlas_rap.skills.skill import Skill
+
+ARRIVED = 0.2  # metres from a final goal that count as there
+PASSED = 0.35  # metres from an intermediate waypoint that count as passed
+
+
+class Progress:
+    """Notices when the robot stops getting closer to its goal."""
+
+    def __init__(self, patience: float = 8.0, gain: float = 0.15) -> None:
+        self.patience = patience
+        self.gain = gain
+        self.best = math.inf
+        self.since = 0.0
+
+    def reset(self, now: float) -> None:
+        self.best = math.inf
+        self.since = now
+
+    def stuck(self, distance: float, now: float) -> bool:
+        """True when ``distance`` has not improved by ``gain`` for ``patience`` seconds."""
+        if distance < self.best - self.gain:
+            self.best = distance
+            self.since = now
+        return now - self.since > self.patience
+
+
+class _Driving(Skill):
+    """A motion skill: knows the robot's limits and how to give up."""
+
+    inputs = ("pose", "sonar")
+    outputs = ("command",)
+    events = ("blocked",)
+    rate = 20.0
+
+    def init(self, context) -> None:
+        super().init(context)
+        robot = context.world.robot if context.world is not None else None
+        self.max_speed = robot.max_speed if robot is not None else 0.5
+        self.max_turn = robot.max_turn_rate if robot is not None else 1.5
+        self.progress = Progress()
+
+    def enable(self, args: tuple[Any, ...]) -> None:
+        super().enable(args)
+        self.progress.reset(self.context.now())
+
+    def give_up(self, why: str) -> dict[str, Any]:
+        self.context.assert_fact(Compound("blocked", ("robot", self.name)))
+        self.context.finish(self, ":fail", why)
+        return {"command": (0.0, 0.0)}
+
+    def drive_to(self, pose, goal, sonar, final: bool) -> tuple[dict[str, Any], bool]:
+        """Steer toward ``goal``; (outputs, arrived)."""
+        distance = math.dist(pose[:2], goal)
+        if distance < (ARRIVED if final else PASSED):
+            return {"command": (0.0, 0.0)}, True
+        v, omega = steer(pose, goal, sonar, max_speed=self.max_speed, max_turn=self.max_turn,
+                         arrive_radius=0.8 if final else 0.3)
+        return {"command": (v, omega)}, False
+
+
+class MoveTo(_Driving):
+    """``(move-to X Y)``: go to the point (X, Y) around obstacles."""
+
+    name = "move-to"
+    params = ("x", "y")
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        pose = inputs["pose"]
+        if pose is None:
+            return {}
+        goal = (float(self.args[0]), float(self.args[1]))
+        out, arrived = self.drive_to(pose, goal, inputs["sonar"], final=True)
+        if arrived:
+            self.context.finish(self)
+        elif self.progress.stuck(math.dist(pose[:2], goal), self.context.now()):
+            return self.give_up(f"no progress toward ({goal[0]:g}, {goal[1]:g}) for "
+                                f"{self.progress.patience:g} s")
+        return out
+
+
+class FollowRoute(_Driving):
+    """``(follow-route ((X1 Y1) (X2 Y2) ...))``: pass each waypoint in turn, stop at the last."""
+
+    name = "follow-route"
+    params = ("waypoints",)
+
+    def enable(self, args: tuple[Any, ...]) -> None:
+        super().enable(args)
+        self.waypoints = [(float(p[0]), float(p[1])) for p in args[0]]
+        self.index = 0
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        pose = inputs["pose"]
+        if pose is None or not self.waypoints:
+            return {}
+        return self.follow(pose, inputs["sonar"])
+
+    def follow(self, pose, sonar) -> dict[str, Any]:
+        """Drive along ``self.waypoints``; finish at the last one."""
+        goal = self.waypoints[self.index]
+        final = self.index == len(self.waypoints) - 1
+        out, arrived = self.drive_to(pose, goal, sonar, final)
+        if arrived:
+            if final:
+                self.context.finish(self)
+                return out
+            self.index += 1
+            self.progress.reset(self.context.now())
+            return self.drive_to(pose, self.waypoints[self.index], sonar,
+                                 self.index == len(self.waypoints) - 1)[0]
+        if self.progress.stuck(math.dist(pose[:2], goal), self.context.now()):
+            return self.give_up(f"no progress toward waypoint {self.index + 1} "
+                                f"({goal[0]:.2f}, {goal[1]:.2f}) for {self.progress.patience:g} s")
+        return out
+
+
+class TurnTo(Skill):
+    """``(turn-to HEADING-DEGREES)``: turn on the spot to face a heading."""
+
+    name = "turn-to"
+    params = ("heading",)
+    inputs = ("pose",)
+    outputs = ("command",)
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        pose = inputs["pose"]
+        if pose is None:
+            return {}
+        error = angle_difference(math.radians(float(self.args[0])), pose[2])
+        if abs(error) < math.radians(3):
+            self.context.finish(self)
+            return {"command": (0.0, 0.0)}
+        turn = self.context.world.robot.max_turn_rate if self.context.world is not None else 1.5
+        return {"command": (0.0, max(-turn, min(turn, 2.0 * error)))}
+
+
+class Stop(Skill):
+    """``(stop)``: command zero velocity, and finish once the command is out."""
+
+    name = "stop"
+    outputs = ("command",)
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        self.context.finish(self)
+        return {"command": (0.0, 0.0)}
+
+
+class Wander(Skill):
+    """``(wander)``: drive ahead, turning away from echoes, with a random drift (never finishes)."""
+
+    name = "wander"
+    inputs = ("sonar",)
+    outputs = ("command",)
+
+    def enable(self, args: tuple[Any, ...]) -> None:
+        super().enable(args)
+        self.drift = 0.0
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        sonar = inputs["sonar"]
+        if sonar is None:
+            return {}
+        ranges, angles = sonar
+        rng = self.context.rng
+        self.drift = 0.9 * self.drift + 0.1 * (float(rng.normal(0.0, 0.6)) if rng is not None else 0.0)
+        heading = math.atan2(float(np.sum(np.sin(angles) * ranges)), float(np.sum(np.cos(angles) * ranges)))
+        speed = self.context.world.robot.max_speed * 0.6 if self.context.world is not None else 0.3
+        return {"command": (speed, 1.5 * heading + self.drift)}
+
+
+class WallFollow(Skill):
+    """``(wall-follow SIDE)``: keep a wall at ``distance`` on the left or right (never finishes)."""
+
+    name = "wall-follow"
+    params = ("side",)
+    inputs = ("sonar",)
+    outputs = ("command",)
+    distance = 0.5
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        sonar = inputs["sonar"]
+        if sonar is None:
+            return {}
+        ranges, angles = sonar
+        sign = 1.0 if str(self.args[0]) == "left" else -1.0
+        side = np.abs(angle_wrap(angles - sign * math.pi / 2)) < math.radians(30)
+        ahead = np.abs(angle_wrap(angles)) < math.radians(25)
+        side_range = float(ranges[side].min()) if side.any() else self.distance
+        ahead_range = float(ranges[ahead].min()) if ahead.any() else math.inf
+        turn = sign * 1.5 * (side_range - self.distance)
+        if ahead_range < 0.6:
+            turn = -sign * 1.2
+        speed = self.context.world.robot.max_speed * 0.5 if self.context.world is not None else 0.25
+        return {"command": (speed if ahead_range > 0.3 else 0.0, turn)}
+
+
+def angle_wrap(angles: np.ndarray) -> np.ndarray:
+    """Angles wrapped to (−π, π]."""
+    return np.arctan2(np.sin(angles), np.cos(angles))

@@ -1,0 +1,69 @@
+"""Sensor and actuator skills: the robot's body as skills (always on).
+
+They connect the skill network to the robot: ``sonar`` (the ring's ranges
+and their body-frame angles), ``pose`` (odometry), ``bump`` (the bumper),
+and the ``drive`` actuator, which sends the final velocity command
+(``safe-command``, after the safety reflex) to the wheels and stops the
+robot when no skill commands it.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import numpy as np
+
+from atlas_rap.skills.skill import Skill
+
+
+class SonarSensor(Skill):
+    """The sonar ring at its own rate: ``sonar`` = (ranges, angles), ranges from the robot's rim."""
+
+    name = "sonar-ring"
+    outputs = ("sonar",)
+    always_on = True
+
+    def init(self, context) -> None:
+        super().init(context)
+        self.rate = float(context.world.sonar.rate) if context.world is not None else 10.0
+        self.angles = np.asarray(context.robot.sonar_angles, dtype=float)
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        return {"sonar": (self.context.robot.sonar(), self.angles)}
+
+
+class Odometry(Skill):
+    """Where the robot believes it is: ``pose`` = (x, y, heading) from odometry."""
+
+    name = "odometry"
+    outputs = ("pose",)
+    always_on = True
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        return {"pose": self.context.robot.odometry}
+
+
+class Bumper(Skill):
+    """The bumper: ``bump`` = the body-frame angle of a contact this period, or None."""
+
+    name = "bumper"
+    outputs = ("bump",)
+    always_on = True
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        robot = self.context.robot
+        return {"bump": robot.bump_angle if robot.bumped else None}
+
+
+class Drive(Skill):
+    """The wheels: sends ``safe-command`` (v, ω) to the robot; no command means stop."""
+
+    name = "drive"
+    inputs = ("safe-command",)
+    always_on = True
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        command = inputs["safe-command"]
+        v, omega = command if command is not None else (0.0, 0.0)
+        self.context.robot.command(v, omega)
+        return {}

@@ -1,0 +1,39 @@
+"""The skills every simulated robot has, and the manager that runs them."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from atlas_rap.skills.events import BumpMonitor, DoorMonitor, PlaceMonitor
+from atlas_rap.skills.manager import SkillManager
+from atlas_rap.skills.motion import FollowRoute, MoveTo, Stop, TurnTo, Wander, WallFollow
+from atlas_rap.skills.navigation import NavigateTo, OpenDoor
+from atlas_rap.skills.safety import SafetyReflex
+from atlas_rap.skills.sensing import Bumper, Drive, Odometry, SonarSensor
+from atlas_rap.skills.skill import Skill
+
+
+def stock_skills() -> list[Skill]:
+    """One fresh instance of each stock skill: sensors, reflex, events, motion, navigation."""
+    return [SonarSensor(), Odometry(), Bumper(), SafetyReflex(), Drive(),
+            PlaceMonitor(), DoorMonitor(), BumpMonitor(),
+            MoveTo(), FollowRoute(), TurnTo(), Wander(), WallFollow(), Stop(),
+            NavigateTo(), OpenDoor()]
+
+
+def stock_manager(world: Any, robot: Any, rng: Any = None) -> SkillManager:
+    """A skill manager with the stock skills for ``robot`` in ``world``."""
+    return SkillManager(stock_skills(), world=world, robot=robot, rng=rng)
+
+
+def stock_skill_names() -> dict[str, set[int]]:
+    """The stock skills RAPs can enable: name → arity (for checking files without a world)."""
+    return {skill.name: {len(skill.params)} for skill in stock_skills() if not skill.always_on}
+
+
+def stock_events() -> set[str]:
+    """Predicates the stock skills may assert."""
+    found = {"done", "why"}
+    for skill in stock_skills():
+        found.update(skill.events)
+    return found
