@@ -92,10 +92,10 @@ def test_bad_input_gets_a_located_message_and_exit_1(tmp_path):
     assert_no_traceback(done)
 
 
-def test_a_world_with_physics_is_refused_clearly_for_now(tmp_path):
-    done = atlas("run", SITE_VISIT, "--world", "maze", cwd=REPO)
+def test_an_unknown_world_is_a_clear_error(tmp_path):
+    done = atlas("run", SITE_VISIT, "--world", "atlantis", cwd=REPO)
     assert done.returncode == 1
-    assert "world 'maze'" in done.stderr and "--world none" in done.stderr
+    assert "atlantis" in done.stderr and "lab-corridor-office" in done.stderr  # the worlds that ship
     assert_no_traceback(done)
 
 

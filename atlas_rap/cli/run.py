@@ -7,9 +7,6 @@ import time
 
 import click
 
-DEFAULT_WORLD = "lab-corridor-office"
-
-
 @click.command()
 @click.argument("mission_file", metavar="MISSION.rap", type=click.Path(dir_okay=False))
 @click.option("--world", "world", metavar="W",
@@ -40,13 +37,14 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
 
     from atlas_rap.cli.views import LiveTrace, memory_table, summary, task_tree
     from atlas_rap.errors import AtlasError
+    from atlas_rap.layers.setup import WorldSetup
     from atlas_rap.sequencer import JsonlSink, Trace, agenda_tree, load_mission
     from atlas_rap.sequencer.mission import RunResult, wall_clock_pacer
     from atlas_rap.shipped import resolve_user_path
 
     out = Console(highlight=False, soft_wrap=True)
     err = Console(stderr=True, highlight=False, soft_wrap=True)
-    setup = _WorldSetup(world, seed)
+    setup = WorldSetup(world, seed)
     mission = load_mission(resolve_user_path(mission_file), skills=setup.skills_for, trace=Trace())
     for warning in mission.warnings:
         err.print(warning.render(), style="yellow", markup=False)
@@ -71,7 +69,7 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         if sink is not None:
             sink.close()
         if render and setup.world is not None:
-            setup.render(render, mission, click.format_filename(mission_file))
+            setup.render(render, click.format_filename(mission_file))
     name = click.format_filename(mission_file)
     if show_agenda:
         out.print(task_tree(agenda_tree(mission.sequencer)))
@@ -86,84 +84,3 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     if result.ended_by == "interrupted":
         sys.exit(130)
     sys.exit(0 if result.ok else 1)
-
-
-class _WorldSetup:
-    """Builds what a run needs once the mission's program says which world: skills, simulation, executive."""
-
-    def __init__(self, world_flag: str | None, seed: int) -> None:
-        self.world_flag = world_flag
-        self.seed = seed
-        self.world = None
-        self.simulation = None
-        self.executive = None
-        self.manager = None
-        self.events: list[dict] = []
-        self.depth: dict[int, int] = {}
-
-    def task_events(self, record: dict) -> None:
-        """A trace sink keeping what the picture marks: tasks at most one level below a posted one."""
-        event = record["event"]
-        if event == "task-posted":
-            parent = record.get("parent")
-            self.depth[record["id"]] = self.depth[parent] + 1 if parent is not None else 0
-        elif event in ("task-selected", "task-succeeded", "task-failed") and self.depth.get(record["id"], 9) <= 1:
-            self.events.append(record)
-
-    def skills_for(self, program):
-        from atlas_rap.lang import ast
-        from atlas_rap.sequencer.skill_link import CombinedSkills
-        from atlas_rap.skills.virtual import VirtualSkills
-
-        declared = program.of_type(ast.WorldDecl)
-        chosen = self.world_flag or (declared[-1].world if declared else DEFAULT_WORLD)
-        virtual = VirtualSkills.from_program(program)
-        if chosen == "none":
-            return virtual
-        from atlas_rap.layers.executive import Rates
-        from atlas_rap.sim.physics import Simulation
-        from atlas_rap.sim.world import load_world
-        from atlas_rap.skills.stock import stock_manager
-
-        self.world = load_world(chosen)
-        self.simulation = Simulation(self.world, seed=self.seed, dt=1.0 / Rates().physics)
-        self.manager = stock_manager(self.world, self.simulation, self.simulation.rng)
-        return CombinedSkills(self.manager, virtual)
-
-    def start(self, mission) -> None:
-        """Put the world's prior map in memory and build the executive."""
-        if self.world is None:
-            return
-        from atlas_rap.layers.executive import Executive
-        from atlas_rap.sim.prior import prior_facts
-
-        mission.sequencer.change([("assert", fact) for fact in prior_facts(self.world)], "world")
-        self.executive = Executive(self.simulation, self.manager, mission.sequencer)
-
-    def render(self, out_png: str, mission, title: str) -> None:
-        from atlas_rap.sim.render import render_run
-
-        render_run(self.world, out_png, path=self.simulation.path, doors_open=self.simulation.doors_open,
-                   task_marks=self.marks(),
-                   title=f"{title} in {self.world.name}, seed {self.seed}")
-
-    def marks(self) -> list:
-        """Where each marked task started (first selection) and ended, on the robot's path."""
-        from bisect import bisect_left
-
-        from atlas_rap.sim.render import TaskMark
-
-        path = self.simulation.path
-        times = [p[0] for p in path]
-        marks, started = [], set()
-        for record in self.events:
-            kind = {"task-selected": "started", "task-succeeded": "succeeded", "task-failed": "failed"}[record["event"]]
-            if kind == "started":
-                if record["id"] in started:
-                    continue
-                started.add(record["id"])
-            if not path:
-                break
-            _, x, y, _ = path[min(bisect_left(times, record["t"]), len(path) - 1)]
-            marks.append(TaskMark(record["t"], x, y, record["task"], kind))
-        return marks

@@ -3,9 +3,10 @@
 - ``place-monitor``: ``(at robot PLACE)`` when the robot enters a named
   place (a memory rule such as ``at-is-unique`` retracts the old one);
 - ``door-monitor``: ``(door-closed DOOR)`` / ``(door-open DOOR)`` when the
-  sonar beam that points through a nearby doorway echoes at the door's
-  distance (closed) or well beyond it (open), twice in a row; it keeps the
-  belief the route planner uses;
+  sonar beam that points through a nearby doorway (the whole beam inside
+  the doorway, seen nearly head-on) echoes at the door's distance (closed)
+  or well beyond it (open), three readings in a row; it keeps the belief
+  the route planner uses;
 - ``bump-monitor``: ``(bumped robot)`` on contact, retracted a second after
   the last one.
 """
@@ -18,7 +19,6 @@ from typing import Any, Mapping
 import numpy as np
 
 from atlas_rap.logic import Compound
-from atlas_rap.skills.avoidance import angle_difference
 from atlas_rap.skills.navigation import CLOSED_DOORS
 from atlas_rap.skills.skill import Skill
 
@@ -57,6 +57,7 @@ class DoorMonitor(Skill):
     events = ("door-open", "door-closed")
     sensing_range = 3.0
     tolerance = 0.3
+    readings_needed = 3
 
     def init(self, context) -> None:
         super().init(context)
@@ -70,23 +71,19 @@ class DoorMonitor(Skill):
         if pose is None or sonar is None:
             return {}
         ranges, angles = sonar
-        radius = self.context.world.robot.radius
+        world = self.context.world
+        radius, half_beam = world.robot.radius, world.sonar.beam_width / 2
         x, y, heading = pose
         for door in self.doors:
             cx, cy = door.center
-            distance = math.hypot(cx - x, cy - y)
-            if not 0.6 < distance < self.sensing_range:
+            if not 0.8 < math.hypot(cx - x, cy - y) < self.sensing_range:
                 continue
-            bearing = math.atan2(cy - y, cx - x)
-            (ax, ay), (bx, by) = door.segment.a, door.segment.b
-            along = math.atan2(by - ay, bx - ax)
-            if abs(math.sin(bearing - along)) < math.sin(math.radians(50)):
-                continue  # looking along the door, not through it
-            beam = int(np.argmin(np.abs(np.arctan2(np.sin(angles - (bearing - heading)),
-                                                   np.cos(angles - (bearing - heading))))))
-            if abs(angle_difference(float(angles[beam]), bearing - heading)) > math.radians(8):
-                continue
-            expected = distance - radius
+            beam = int(np.argmin(np.abs(np.arctan2(np.sin(angles + heading - math.atan2(cy - y, cx - x)),
+                                                   np.cos(angles + heading - math.atan2(cy - y, cx - x))))))
+            along = _through_doorway(door.segment, x, y, heading + float(angles[beam]), half_beam)
+            if along is None:
+                continue  # the whole beam would not fit through the doorway: a reading says nothing
+            expected = along - radius
             reading = float(ranges[beam])
             if abs(reading - expected) <= self.tolerance:
                 self._evidence(door.name, "closed")
@@ -98,7 +95,7 @@ class DoorMonitor(Skill):
         previous, count = self.evidence.get(door, ("", 0))
         count = count + 1 if previous == seen else 1
         self.evidence[door] = (seen, count)
-        if count < 2 or self.state.get(door) == seen:
+        if count < self.readings_needed or self.state.get(door) == seen:
             return
         self.state[door] = seen
         closed = self.context.beliefs[CLOSED_DOORS]
@@ -135,3 +132,25 @@ class BumpMonitor(Skill):
             self.last_bump = None
             self.context.retract_fact(Compound("bumped", ("robot",)))
         return {}
+
+
+def _through_doorway(segment, x: float, y: float, direction: float, half_beam: float) -> float | None:
+    """How far along a beam from (x, y) the door's line is, if the whole beam passes inside the doorway.
+
+    None when the beam misses the doorway, grazes it (less than 30° off the
+    door's line), or is wider there than the gap, so part of it would echo
+    off the frame.
+    """
+    (ax, ay), (bx, by) = segment.a, segment.b
+    dx, dy = math.cos(direction), math.sin(direction)
+    ex, ey = bx - ax, by - ay
+    width = math.hypot(ex, ey)
+    denominator = dx * ey - dy * ex
+    if width == 0 or abs(denominator) < width * math.sin(math.radians(60)):
+        return None
+    along = ((ax - x) * ey - (ay - y) * ex) / denominator
+    across = ((ax - x) * dy - (ay - y) * dx) / denominator * width  # metres from a along the door
+    spread = along * math.tan(half_beam) / abs(denominator / width)
+    if along <= 0 or across - spread < 0.05 or across + spread > width - 0.05:
+        return None
+    return along

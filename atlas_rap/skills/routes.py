@@ -2,7 +2,7 @@
 
 The world's places and doors form a graph (a place is a node, a door an
 edge between its two places). :func:`plan_route` finds the shortest route
-(Dijkstra on waypoint distances) from where the robot is to a place,
+(Dijkstra on waypoint distances, plus ``DOOR_COST`` a door) from where the robot is to a place,
 leaving out the doors believed closed, and returns the waypoints: for each
 door, a point in front of it on this side, its centre and a point past it,
 then the place's point. This is the seed's Layer III in its simplest form;
@@ -18,6 +18,8 @@ from dataclasses import dataclass
 from atlas_rap.sim.model import Door, Point, World
 
 DOOR_CLEARANCE = 0.7
+DOOR_COST = 2.0
+"""Metres a route is charged for each door it passes: doorways are slow and may be closed."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,7 +64,9 @@ def plan_route(world: World, start: Point, goal: str, closed: frozenset[str] | s
                 continue
             other = door.between[1] if door.between[0] == place else door.between[0]
             through = door_waypoints(world, door, place, other)
-            step = math.dist(here, through[0]) + sum(math.dist(a, b) for a, b in zip(through, through[1:]))
+            step = DOOR_COST + math.dist(here, through[0]) + sum(math.dist(a, b) for a, b in zip(through, through[1:]))
+            if other == goal:
+                step += math.dist(through[-1], world.places[goal].point)
             if cost + step < best.get(other, math.inf):
                 best[other] = cost + step
                 heapq.heappush(queue, (cost + step, order, other, through[-1], places + (other,),

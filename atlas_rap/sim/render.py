@@ -1,0 +1,474 @@
+"""Pictures of runs: a PNG of a world with the robot's path, doors, places and task marks.
+
+:func:`render_run` draws, in metres with equal aspect:
+
+* walls as dark lines;
+* door leaves green and dashed when open, red and solid when closed;
+  openings without a leaf as a small diamond;
+* places as light translucent regions (point places as circles of their
+  radius), each named at its point;
+* obstacles (boxes and people seen during the run) as brown squares and
+  orange discs;
+* the robot's path as a line coloured by time (with a colorbar) from a
+  start marker, and its final pose as a disc of the robot's radius with
+  a heading tick (never smaller than 0.8 % of the map's width, so it
+  stays visible in big worlds);
+* task marks (:class:`TaskMark`) as small markers, numbered in time order;
+  the legend beside the map lists them ("1 (go-to office) started at
+  3.0 s"), so the map itself carries only numbers, and marks that fall
+  in the same spot share one label ("3–5").
+
+matplotlib is imported inside :func:`render_run` (object-oriented
+``Figure`` + Agg canvas, no pyplot and no global state), so importing this
+module stays cheap. The same inputs give the same PNG bytes: no software
+version or date is written into the file.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from atlas_rap.sim.model import World
+
+__all__ = ["TASK_MARK_KINDS", "TaskMark", "render_run"]
+
+TASK_MARK_KINDS = ("started", "succeeded", "failed")
+
+
+@dataclass(frozen=True, slots=True)
+class TaskMark:
+    """Something that happened to a task at a time and place: ``kind`` is started, succeeded or failed."""
+
+    time: float
+    x: float
+    y: float
+    label: str
+    kind: str
+
+
+# Look of the picture -------------------------------------------------------
+
+_DPI = 110
+_MAX_MAP_W = 7.5  # inches for the map itself, at most...
+_MAX_MAP_H = 6.5  # ...and at most this tall
+_MIN_MAP_SIDE = 2.5  # a very long thin world still gets this much on its short side
+_MAX_LISTED_MARKS = 40  # beyond this the legend says "... and N more"
+_MAX_LABEL_CHARS = 36
+
+_WALL = "#2b2b2b"
+_DOOR_OPEN = "#2e9e44"
+_DOOR_CLOSED = "#d62728"
+_ROBOT_FACE = "#fdd835"
+_ROBOT_EDGE = "#333333"
+_BOX = "#8d6e63"
+_PERSON = "#fb8c00"
+_PLACE_COLOURS = (
+    "#4e79a7", "#f28e2b", "#59a14f", "#b07aa1", "#76b7b2",
+    "#edc948", "#e15759", "#9c755f", "#ff9da7", "#bab0ac",
+)
+_MARK_STYLE: dict[str, tuple[str, str, float]] = {
+    # kind: (marker, colour, size in points)
+    "started": (">", "#1f63c6", 7.0),
+    "succeeded": (r"$\checkmark$", "#1a9641", 9.0),
+    "failed": ("X", "#d62728", 8.0),
+}
+_OTHER_MARK = ("o", "#666666", 6.0)
+
+
+def render_run(
+    world: World,
+    out_png: str | Path,
+    *,
+    path: Sequence[tuple[float, float, float, float]] = (),
+    doors_open: Mapping[str, bool] | None = None,
+    task_marks: Sequence[TaskMark] = (),
+    title: str | None = None,
+    obstacles: Sequence[tuple[str, tuple[float, float], float]] = (),
+) -> Path:
+    """Draw ``world`` and a run in it to the PNG ``out_png``; return its path.
+
+    ``path`` is the robot's trajectory as ``(t, x, y, heading)`` items in
+    time order; its last item is the final pose (with no path, the robot
+    is drawn at its start pose). ``doors_open`` maps door names to whether
+    they are open at the end of the run (doors not in it keep their
+    ``open`` from the world). ``task_marks`` are numbered in time order.
+    ``title`` follows the world's name in the title (e.g. ``"deliver.rap,
+    seed 0"``). ``obstacles`` are ``(kind, (x, y), size)``: ``box`` is a
+    square of side ``size``, anything else (``person``) a disc of diameter
+    ``size``. The parent directory of ``out_png`` is created if needed.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    out = Path(out_png)
+    out.parent.mkdir(parents=True, exist_ok=True)
+
+    marks = sorted(task_marks, key=lambda m: m.time)  # stable: ties keep their given order
+    xmin, ymin, xmax, ymax = _extent(world, path, marks, obstacles)
+    dx, dy = xmax - xmin, ymax - ymin
+    scale = min(_MAX_MAP_W / dx, _MAX_MAP_H / dy)  # inches per metre
+    map_w = max(dx * scale, _MIN_MAP_SIDE)
+    map_h = max(dy * scale, _MIN_MAP_SIDE)
+    if map_w / map_h > dx / dy:  # a clamp widened the map: widen the data range to keep 1:1
+        extra = (map_w / map_h * dy - dx) / 2
+        xmin, xmax = xmin - extra, xmax + extra
+    else:
+        extra = (map_h / map_w * dx - dy) / 2
+        ymin, ymax = ymin - extra, ymax + extra
+
+    left, bottom, top, right = 0.75, 1.05 if path else 0.6, 0.55, 0.25
+    fig_w, fig_h = left + map_w + right, bottom + map_h + top
+    fig = Figure(figsize=(fig_w, fig_h), dpi=_DPI)
+    FigureCanvasAgg(fig)
+    try:
+        ax = fig.add_axes((left / fig_w, bottom / fig_h, map_w / fig_w, map_h / fig_h))
+        ax.set_xlim(xmin, xmax)
+        ax.set_ylim(ymin, ymax)
+        ax.set_aspect("equal", adjustable="box")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.grid(True, color="#e6e6e6", linewidth=0.6, zorder=0)
+        ax.set_axisbelow(True)
+        ax.tick_params(labelsize=8)
+        for spine in ax.spines.values():
+            spine.set_color("#999999")
+        heading = world.name if not title else f"{world.name} \u2014 {title}"
+        ax.set_title(_plain(heading), fontsize=11, loc="left")
+
+        handles: list[Any] = []
+        _draw_places(ax, world)
+        _draw_walls(ax, world, handles)
+        _draw_doors(ax, world, doors_open or {}, handles)
+        _draw_obstacles(ax, obstacles, handles)
+        _draw_path(fig, ax, path, handles, left / fig_w, (bottom - 0.78) / fig_h, map_w / fig_w)
+        _draw_robot(ax, world, path, handles)
+        _draw_marks(fig, ax, marks, handles)
+
+        if handles:
+            ax.legend(
+                handles=handles,
+                loc="upper left",
+                bbox_to_anchor=(1.02, 1.0),
+                borderaxespad=0.0,
+                fontsize=8,
+                frameon=False,
+                handlelength=1.8,
+                labelspacing=0.45,
+            )
+        fig.savefig(
+            out,
+            format="png",
+            dpi=_DPI,
+            bbox_inches="tight",
+            pad_inches=0.15,
+            facecolor="white",
+            metadata={"Software": None},
+        )
+    finally:
+        fig.clear()
+    return out
+
+
+# Pieces -------------------------------------------------------------------
+
+
+def _extent(world, path, marks, obstacles) -> tuple[float, float, float, float]:
+    """The world's bounds grown to hold everything drawn, plus a small margin."""
+    xmin, ymin, xmax, ymax = (float(v) for v in world.bounds)
+    xs = [p[1] for p in path] + [m.x for m in marks] + [o[1][0] for o in obstacles]
+    ys = [p[2] for p in path] + [m.y for m in marks] + [o[1][1] for o in obstacles]
+    for seg in world.walls:
+        xs += [seg.a[0], seg.b[0]]
+        ys += [seg.a[1], seg.b[1]]
+    finite = [(x, y) for x, y in zip(xs, ys) if math.isfinite(x) and math.isfinite(y)]
+    if finite:
+        xmin = min(xmin, min(x for x, _ in finite))
+        xmax = max(xmax, max(x for x, _ in finite))
+        ymin = min(ymin, min(y for _, y in finite))
+        ymax = max(ymax, max(y for _, y in finite))
+    if not (xmax > xmin):
+        xmin, xmax = xmin - 1.0, xmin + 1.0
+    if not (ymax > ymin):
+        ymin, ymax = ymin - 1.0, ymin + 1.0
+    margin = 0.04 * max(xmax - xmin, ymax - ymin) + world.robot.radius
+    return xmin - margin, ymin - margin, xmax + margin, ymax + margin
+
+
+def _halo(width: float = 2.5):
+    from matplotlib import patheffects
+
+    return [patheffects.withStroke(linewidth=width, foreground="white")]
+
+
+def _draw_places(ax, world: World) -> None:
+    from matplotlib.patches import Circle, Polygon
+
+    for i, place in enumerate(world.places.values()):
+        colour = _PLACE_COLOURS[i % len(_PLACE_COLOURS)]
+        if place.region is not None and len(place.region) >= 3:
+            patch = Polygon(place.region, closed=True)
+        else:
+            patch = Circle(place.point, place.radius)
+        patch.set(facecolor=colour, alpha=0.16, edgecolor="none", zorder=1)
+        ax.add_patch(patch)
+        if place.region is not None and len(place.region) >= 3:
+            edge = Polygon(place.region, closed=True, fill=False)
+        else:
+            edge = Circle(place.point, place.radius, fill=False)
+        edge.set(edgecolor=colour, alpha=0.55, linewidth=0.8, linestyle=(0, (3, 2)), zorder=1.1)
+        ax.add_patch(edge)
+        ax.plot(*place.point, marker="o", markersize=2.5, color=colour, zorder=6)
+        # The name goes just below the point, clear of a robot standing there
+        # (task-mark numbers go up and to the right).
+        ax.annotate(
+            _plain(place.name),
+            (place.point[0], place.point[1] - world.robot.radius),
+            xytext=(0, -2),
+            textcoords="offset points",
+            ha="center",
+            va="top",
+            fontsize=8.5,
+            color=_darker(colour),
+            fontweight="bold",
+            path_effects=_halo(),
+            zorder=6,
+        )
+
+
+def _draw_walls(ax, world: World, handles: list) -> None:
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+
+    if not world.walls:
+        return
+    segs = [(seg.a, seg.b) for seg in world.walls]
+    ax.add_collection(LineCollection(segs, colors=_WALL, linewidths=2.4, capstyle="round", zorder=3))
+    handles.append(Line2D([], [], color=_WALL, linewidth=2.4, label="wall"))
+
+
+def _draw_doors(ax, world: World, doors_open: Mapping[str, bool], handles: list) -> None:
+    from matplotlib.lines import Line2D
+
+    seen: set[str] = set()
+    for door in world.doors.values():
+        is_open = bool(doors_open.get(door.name, door.open))
+        if door.segment is None:
+            ax.plot(
+                *door.center, marker="D", markersize=4.5, markerfacecolor="white",
+                markeredgecolor=_DOOR_OPEN, markeredgewidth=1.2, zorder=4,
+            )
+            colour, kind = _DOOR_OPEN, "opening"
+        else:
+            (ax_, ay), (bx, by) = door.segment.a, door.segment.b
+            if is_open:
+                ax.plot([ax_, bx], [ay, by], color=_DOOR_OPEN, linewidth=1.3,
+                        linestyle=(0, (3, 2)), solid_capstyle="butt", zorder=4)
+                colour, kind = _DOOR_OPEN, "door open"
+            else:
+                ax.plot([ax_, bx], [ay, by], color=_DOOR_CLOSED, linewidth=3.2,
+                        solid_capstyle="butt", zorder=4)
+                colour, kind = _DOOR_CLOSED, "door closed"
+        ax.annotate(
+            _plain(door.name), door.center, xytext=(4, -4), textcoords="offset points",
+            ha="left", va="top", fontsize=6.5, color=colour, fontstyle="italic",
+            path_effects=_halo(2.0), zorder=6,
+        )
+        seen.add(kind)
+    if "door open" in seen:
+        handles.append(Line2D([], [], color=_DOOR_OPEN, linewidth=1.3, linestyle=(0, (3, 2)), label="door open"))
+    if "door closed" in seen:
+        handles.append(Line2D([], [], color=_DOOR_CLOSED, linewidth=3.2, label="door closed"))
+    if "opening" in seen:
+        handles.append(Line2D([], [], linestyle="none", marker="D", markersize=4.5, markerfacecolor="white",
+                              markeredgecolor=_DOOR_OPEN, markeredgewidth=1.2, label="opening"))
+
+
+def _draw_obstacles(ax, obstacles, handles: list) -> None:
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Circle, Rectangle
+
+    kinds: set[str] = set()
+    for kind, (x, y), size in obstacles:
+        size = float(size)
+        if kind == "box":
+            patch = Rectangle((x - size / 2, y - size / 2), size, size)
+            patch.set(facecolor=_BOX, edgecolor="#4e342e", alpha=0.85, linewidth=0.8, zorder=3.5)
+            kinds.add("box")
+        else:
+            patch = Circle((x, y), size / 2)
+            patch.set(facecolor=_PERSON, edgecolor="#a35400", alpha=0.8, linewidth=0.8, zorder=3.5)
+            kinds.add("person" if kind == "person" else "obstacle")
+        ax.add_patch(patch)
+    if "box" in kinds:
+        handles.append(Line2D([], [], linestyle="none", marker="s", markersize=7, markerfacecolor=_BOX,
+                              markeredgecolor="#4e342e", label="box"))
+    for kind in ("person", "obstacle"):
+        if kind in kinds:
+            handles.append(Line2D([], [], linestyle="none", marker="o", markersize=7,
+                                  markerfacecolor=_PERSON, markeredgecolor="#a35400", label=kind))
+
+
+def _draw_path(fig, ax, path, handles: list, cb_left: float, cb_bottom: float, cb_width: float) -> None:
+    from matplotlib.collections import LineCollection
+    from matplotlib.colors import Normalize
+    from matplotlib.lines import Line2D
+
+    if not path:
+        return
+    ts = [float(p[0]) for p in path]
+    pts = [(float(p[1]), float(p[2])) for p in path]
+    t0, t1 = ts[0], ts[-1]
+    if not (t1 > t0):
+        t1 = t0 + 1.0
+    norm = Normalize(vmin=t0, vmax=t1)
+    lc = LineCollection(
+        [(pts[i], pts[i + 1]) for i in range(len(pts) - 1)],
+        cmap="viridis", norm=norm, linewidths=2.0, capstyle="round", joinstyle="round", zorder=5,
+    )
+    lc.set_array([(ts[i] + ts[i + 1]) / 2 for i in range(len(ts) - 1)])
+    ax.add_collection(lc)
+    ax.plot(*pts[0], marker="o", markersize=6, markerfacecolor="white",
+            markeredgecolor="#440154", markeredgewidth=1.5, zorder=5.5)
+    handles.append(Line2D([], [], color="#21918c", linewidth=2.0, label="path (colour = time)"))
+    handles.append(Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="white",
+                          markeredgecolor="#440154", markeredgewidth=1.5, label=f"start, t = {ts[0]:g} s"))
+
+    from matplotlib.cm import ScalarMappable
+
+    cax = fig.add_axes((cb_left, cb_bottom, min(cb_width * 0.55, 3.2 / fig.get_figwidth()), 0.1 / fig.get_figheight()))
+    cb = fig.colorbar(ScalarMappable(norm=norm, cmap="viridis"), cax=cax, orientation="horizontal")
+    cb.set_label("time (s)", fontsize=8, labelpad=2)
+    cb.ax.tick_params(labelsize=7, length=2)
+    cb.outline.set_linewidth(0.5)
+
+
+def _draw_robot(ax, world: World, path, handles: list) -> None:
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Circle
+
+    if path:
+        _, x, y, heading = (float(v) for v in path[-1])
+        label = "robot, final pose"
+    else:
+        x, y, heading = (float(v) for v in world.robot.start)
+        label = "robot, start pose"
+    r = world.robot.radius
+    xlo, xhi = ax.get_xlim()
+    tiny = 0.008 * (xhi - xlo)  # in a big world the true disc is a speck: draw it at least this big
+    shown = max(r, tiny)
+    ax.add_patch(Circle((x, y), shown, facecolor=_ROBOT_FACE, edgecolor=_ROBOT_EDGE, linewidth=1.2, zorder=7))
+    ax.plot([x, x + 1.6 * shown * math.cos(heading)], [y, y + 1.6 * shown * math.sin(heading)],
+            color=_ROBOT_EDGE, linewidth=1.6, solid_capstyle="round", zorder=7.1)
+    handles.append(Line2D([], [], linestyle="none", marker="o", markersize=8, markerfacecolor=_ROBOT_FACE,
+                          markeredgecolor=_ROBOT_EDGE, label=label))
+
+
+def _draw_marks(fig, ax, marks: list[TaskMark], handles: list) -> None:
+    from matplotlib.lines import Line2D
+    from matplotlib.transforms import offset_copy
+
+    if not marks:
+        return
+    # Marks that fall in (nearly) the same spot share one label; their markers sit side by side.
+    xlo, xhi = ax.get_xlim()
+    ylo, yhi = ax.get_ylim()
+    near = 0.025 * max(xhi - xlo, yhi - ylo)
+    groups: list[tuple[float, float, list[int]]] = []
+    for i, m in enumerate(marks):
+        for gx, gy, members in groups:
+            if math.hypot(m.x - gx, m.y - gy) <= near:
+                members.append(i)
+                break
+        else:
+            groups.append((m.x, m.y, [i]))
+
+    step = 8.0  # points between markers of one group
+    fontsize = 7.5
+    pos = ax.get_position()
+    ppm = pos.width * fig.get_figwidth() * 72 / (xhi - xlo)  # points per metre (equal aspect)
+    anchors = [((gx - xlo) * ppm, (gy - ylo) * ppm) for gx, gy, _ in groups]
+    # Every marker row is taken; each label then goes where it hits nothing placed so far.
+    taken = [(ax0 - 5, ay0 - 5, ax0 + (min(len(g[2]), 8) - 1) * step + 5, ay0 + 5)
+             for (ax0, ay0), g in zip(anchors, groups)]
+    for (gx, gy, members), (px, py) in zip(groups, anchors):
+        shown = members[:8]
+        for k, i in enumerate(shown):
+            marker, colour, size = _MARK_STYLE.get(marks[i].kind, _OTHER_MARK)
+            tr = offset_copy(ax.transData, fig=fig, x=k * step, y=0.0, units="points")
+            ax.plot(gx, gy, transform=tr, linestyle="none", marker=marker, markersize=size,
+                    color=colour, markeredgecolor="white" if marker in (">", "X", "o") else colour,
+                    markeredgewidth=0.6, zorder=8)
+        text = _ranges([i + 1 for i in members])
+        w, h = 0.62 * fontsize * len(text) + 2, 1.2 * fontsize
+        right = (len(shown) - 1) * step + 6
+        mid = (len(shown) - 1) * step / 2
+        candidates = [  # (x offset, y offset) of the label's lower-left corner, in points
+            (right, 3), (right, -3 - h), (-6 - w, 3), (-6 - w, -3 - h),
+            (mid - w / 2, 7), (mid - w / 2, -7 - h), (right, -h / 2), (-6 - w, -h / 2),
+        ]
+        # the first of the least crowded places
+        best = min(candidates, key=lambda c: _overlap((px + c[0], py + c[1], px + c[0] + w, py + c[1] + h), taken))
+        taken.append((px + best[0], py + best[1], px + best[0] + w, py + best[1] + h))
+        ax.annotate(
+            text, (gx, gy), xytext=best, textcoords="offset points",
+            ha="left", va="bottom", fontsize=fontsize, color="#222222", fontweight="bold",
+            path_effects=_halo(2.2), zorder=9,
+        )
+
+    handles.append(Line2D([], [], linestyle="none", label="task marks:"))
+    for i, m in enumerate(marks[:_MAX_LISTED_MARKS]):
+        marker, colour, size = _MARK_STYLE.get(m.kind, _OTHER_MARK)
+        handles.append(Line2D(
+            [], [], linestyle="none", marker=marker, markersize=size, color=colour,
+            markeredgecolor="white" if marker in (">", "X", "o") else colour, markeredgewidth=0.6,
+            label=f"{i + 1} {_short(m.label)} {m.kind} at {m.time:.1f} s",
+        ))
+    if len(marks) > _MAX_LISTED_MARKS:
+        handles.append(Line2D([], [], linestyle="none",
+                              label=f"\u2026 and {len(marks) - _MAX_LISTED_MARKS} more"))
+
+
+# Helpers --------------------------------------------------------------------
+
+
+def _overlap(box: tuple[float, float, float, float], others: list[tuple[float, float, float, float]]) -> float:
+    """Total area of ``box`` (x0, y0, x1, y1) covered by ``others`` (counting overlaps among them twice)."""
+    x0, y0, x1, y1 = box
+    return sum(max(0.0, min(x1, b[2]) - max(x0, b[0])) * max(0.0, min(y1, b[3]) - max(y0, b[1])) for b in others)
+
+
+def _plain(text: str) -> str:
+    """Text shown as written: a ``$`` would otherwise start matplotlib's mathtext."""
+    return str(text).replace("$", r"\$")
+
+
+def _short(text: str) -> str:
+    """A task label for the legend: one line, cut short, in parentheses (once)."""
+    text = " ".join(str(text).split())
+    if text.startswith("(") and text.endswith(")"):
+        text = text[1:-1]
+    text = text if len(text) <= _MAX_LABEL_CHARS else text[: _MAX_LABEL_CHARS - 1] + "\u2026"
+    return _plain(f"({text})")
+
+
+def _ranges(numbers: list[int]) -> str:
+    """``[1, 2, 3, 5]`` -> ``"1\u20133, 5"``."""
+    parts: list[str] = []
+    start = prev = numbers[0]
+    for n in numbers[1:] + [None]:  # type: ignore[list-item]
+        if n is not None and n == prev + 1:
+            prev = n
+            continue
+        parts.append(str(start) if start == prev else f"{start}\u2013{prev}")
+        if n is not None:
+            start = prev = n
+    return ", ".join(parts)
+
+
+def _darker(hex_colour: str, factor: float = 0.65) -> tuple[float, float, float]:
+    h = hex_colour.lstrip("#")
+    return tuple(int(h[i:i + 2], 16) / 255 * factor for i in (0, 2, 4))  # type: ignore[return-value]
