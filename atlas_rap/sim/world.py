@@ -1,0 +1,589 @@
+"""World files: YAML that describes a world for the simulator, read into a :class:`World`.
+
+``load_world("maze")`` reads the shipped ``worlds/maze.yaml``;
+``load_world("my/world.yaml")`` reads that file. Every key is optional.
+Distances are metres, times seconds; **angles are degrees in the file**
+(keys ending in ``_deg``, and the heading in ``robot.start``) and radians in
+the model. An example with every key::
+
+    name: lab-corridor-office          # default: the file's name
+    description: free text
+    walls:                             # segments [x1, y1, x2, y2], or polylines [[x, y], [x, y], ...]
+      - [0, 4, 6, 4]
+      - [[8, 6], [8, 10], [13, 10]]
+    polygons:                          # closed outlines (the last point joins the first)
+      - [[0, 0], [8, 0], [8, 4], [0, 4]]
+    map: maps/small-office-map.yaml    # a ROS map_server map, relative to this file:
+                                       # its occupied cells become walls (atlas_rap.maps.rosmap)
+    places:                            # where RAPs can send the robot
+      lab: {point: [4, 2], region: [[0, 0], [8, 0], [8, 4], [0, 4]]}
+      corner: {point: [1, 1], radius: 0.5}     # a point place (radius default 0.5)
+    doors:
+      lab-door:
+        between: [lab, corridor]       # two places
+        segment: [6, 4, 7, 4]          # the leaf across the doorway when closed; omit for an opening
+        center: [6.5, 4]               # default: the segment's midpoint (required for an opening)
+        open: true                     # at the start (default true)
+        openable: false                # can the robot open it (default false)
+        schedule: [[30, closed], [90, open]]   # [time, open|closed] changes
+    disturbances:
+      - {name: visitor, kind: person, start: 10, end: 30, path: [[12, 5.6], [12, 4.4]], size: 0.45, speed: 0.5}
+      - {name: crate, kind: box, start: 0, path: [[1.5, 5]], size: 0.6}    # no end: for ever
+    robot: {start: [1.5, 1.5, 0], radius: 0.2, max_speed: 0.6, max_turn_rate_deg: 115, odometry_drift: 0.0}
+    sonar: {count: 16, beam_width_deg: 15, max_range: 5, min_range: 0.05, range_noise: 0.01,
+            range_noise_per_m: 0.01, specular_angle_deg: 60, specular_dropout: 0.8, rays_per_beam: 3, rate: 10}
+
+A *variant* of a world changes only its doors::
+
+    base: lab-corridor-office          # a shipped world, or a path relative to this file
+    name: lab-corridor-office-door-closed
+    doors:
+      office-door: {open: false}       # open, openable, schedule may be changed
+
+What is checked, with every problem reported at its key's file:line:column:
+unknown keys (with the nearest known key as a hint), wrong types and
+shapes, doors between places that do not exist, a place point outside its
+region or closer than the robot's radius + 0.15 m to a wall, a robot that
+starts inside a wall, a schedule out of time order, duplicate names.
+
+``bounds`` is the box around the walls, the places and the robot's start,
+with a margin of :data:`BOUNDS_MARGIN`. Without ``robot.start`` the robot
+starts at the first place's point, facing east.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import replace
+from itertools import pairwise
+from pathlib import Path
+
+import numpy as np
+from yaml.nodes import MappingNode, Node, ScalarNode
+
+from atlas_rap.errors import AtlasError, SourceError
+from atlas_rap.lang.validator import nearest
+from atlas_rap.maps.rosmap import YamlSource, load_ros_map, wall_segments
+from atlas_rap.shipped import resolve_user_path, shipped_root
+from atlas_rap.sim.model import Disturbance, Door, Place, Point, RobotConfig, Segment, SonarConfig, World
+
+TOP_KEYS = ("name", "description", "walls", "polygons", "map", "places", "doors", "disturbances", "robot", "sonar")
+VARIANT_KEYS = ("name", "description", "base", "doors")
+VARIANT_DOOR_KEYS = ("open", "openable", "schedule")
+PLACE_KEYS = ("point", "region", "radius")
+DOOR_KEYS = ("between", "center", "segment", "open", "openable", "schedule")
+DISTURBANCE_KEYS = ("name", "kind", "start", "end", "path", "size", "speed")
+ROBOT_KEYS = ("start", "radius", "max_speed", "max_turn_rate_deg", "odometry_drift")
+SONAR_KEYS = ("count", "beam_width_deg", "max_range", "min_range", "range_noise", "range_noise_per_m",
+              "specular_angle_deg", "specular_dropout", "rays_per_beam", "rate")
+DISTURBANCE_KINDS = ("person", "box")
+WALL_CLEARANCE_MARGIN = 0.15  # a place point must be this much more than the robot's radius from walls
+BOUNDS_MARGIN = 1.0
+NAME_PATTERN = re.compile(r"[a-z][a-z0-9_-]*\Z")
+
+
+def shipped_worlds() -> list[str]:
+    """Names of the worlds that ship with atlas-rap (``worlds/*.yaml``)."""
+    root = shipped_root("worlds")
+    if root is None:
+        return []
+    return sorted(p.stem for p in root.glob("*.yaml"))
+
+
+def world_path(name_or_path: str | Path) -> Path:
+    """The file a world name or path means: a bare name is a shipped world, anything else a path.
+
+    An unknown bare name raises :class:`AtlasError` listing the shipped worlds.
+    """
+    text = str(name_or_path)
+    given = Path(text)
+    if given.suffix or len(given.parts) != 1:
+        return resolve_user_path(given)
+    root = shipped_root("worlds")
+    candidate = root / f"{text}.yaml" if root is not None else None
+    if candidate is not None and candidate.is_file():
+        return candidate
+    if given.is_file():
+        return given
+    names = shipped_worlds()
+
+    near = nearest(text, names)
+    message = f"no shipped world named '{text}'"
+    message += f"; did you mean '{near}'?" if near else ""
+    message += f"\n  shipped worlds: {', '.join(names) if names else '(none found)'}"
+    message += "\n  or give the path of a world file, e.g. my-world.yaml"
+    raise AtlasError(message)
+
+
+def load_world(name_or_path: str | Path) -> World:
+    """Read a world: a shipped one by name (``maze``) or a YAML file by path.
+
+    Raises :class:`SourceError` with every problem found in the file (and in
+    the ROS map it names), or :class:`AtlasError` for an unknown name.
+    """
+    path = world_path(name_or_path)
+    return _WorldReader(YamlSource.read(path, _shown(path), "world file"), path).read()
+
+
+def _shown(path: Path) -> str:
+    """How a world file is named in messages: ``worlds/NAME.yaml`` for a shipped one, else its path."""
+    root = shipped_root("worlds")
+    if root is not None and path.resolve().parent == root.resolve():
+        return f"worlds/{path.name}"
+    return str(path)
+
+
+class _WorldReader:
+    """Reads one world file's nodes into a World, collecting problems in its YamlSource."""
+
+    def __init__(self, src: YamlSource, path: Path) -> None:
+        self.src = src
+        self.path = path
+        self.wall_nodes: list[tuple[Segment, Node]] = []
+        self.start_node: Node | None = None
+        self.declared_places: set[str] = set()
+
+    def read(self) -> World:
+        src = self.src
+        if isinstance(src.root, MappingNode) and any(getattr(k, "value", None) == "base" for k, _ in src.root.value):
+            return self.variant()
+        top = src.keys(src.root, "", TOP_KEYS, what=" (a world file)")
+        if top is None:
+            src.check()
+        assert top is not None
+        node = {key: value for key, (_, value) in top.items()}
+        name = self.path.stem
+        if "name" in node:
+            name = src.string(node["name"], "name") or name
+        if "description" in node:
+            src.string(node["description"], "description")
+        walls = self.walls(node.get("walls"), node.get("polygons"))
+        map_walls = self.map_walls(node["map"]) if "map" in node else []
+        sonar = self.sonar(node["sonar"]) if "sonar" in node else SonarConfig()
+        places, place_nodes = self.places(node["places"]) if "places" in node else ({}, {})
+        self.declared_places = set(place_nodes) | self._place_keys(node.get("places"))
+        robot = self.robot(node.get("robot"), places)
+        doors = self.doors(node["doors"], places) if "doors" in node else {}
+        disturbances = self.disturbances(node["disturbances"]) if "disturbances" in node else ()
+        all_walls = tuple(walls) + tuple(map_walls)
+        self.check_clearances(all_walls, places, place_nodes, robot)
+        src.check()
+        return World(name, all_walls, places, doors, disturbances, robot, sonar,
+                     _bounds(all_walls, places, robot), src.file)
+
+    def variant(self) -> World:
+        """A world file with ``base: WORLD``: that world with its doors changed (open, openable, schedule)."""
+        src = self.src
+        top = src.keys(src.root, "", VARIANT_KEYS, what=" (a world variant: base, name, description, doors)")
+        src.check()
+        assert top is not None
+        base_node = top["base"][1]
+        base_name = src.string(base_node, "base") or ""
+        src.check()
+        target = base_name if not _looks_like_path(base_name) else str(self.path.resolve().parent / base_name)
+        if Path(target).resolve() == self.path.resolve():
+            src.error(base_node, "a world cannot be its own base")
+            src.check()
+        world = load_world(target)
+        doors = dict(world.doors)
+        entries = src.keys(top["doors"][1], "doors", None) if "doors" in top and _given(top["doors"][1]) else {}
+        for name, (key, value) in (entries or {}).items():
+            path = f"doors.{name}"
+            if name not in doors:
+                guess = nearest(name, list(doors))
+                src.error(key, f"the base world {world.name} has no door '{name}'",
+                          f"did you mean '{guess}'?" if guess else "the doors are: " + ", ".join(doors))
+                continue
+            fields = src.keys(value, path, VARIANT_DOOR_KEYS, what=" such as {open: false}")
+            if not fields:
+                continue
+            door = doors[name]
+            changes: dict = {}
+            if "open" in fields:
+                changes["open"] = src.boolean(fields["open"][1], f"{path}.open")
+            if "openable" in fields:
+                changes["openable"] = src.boolean(fields["openable"][1], f"{path}.openable")
+            if "schedule" in fields:
+                changes["schedule"] = self._schedule(fields["schedule"][1], f"{path}.schedule")
+            if door.segment is None and changes:
+                src.error(key, f"door '{name}' is an opening: it has no leaf to close")
+                continue
+            if all(v is not None for v in changes.values()):
+                doors[name] = replace(door, **changes)
+        name = src.string(top["name"][1], "name") if "name" in top else self.path.stem
+        src.check()
+        return replace(world, name=name or self.path.stem, doors=doors, source=src.file)
+
+    # -- geometry -------------------------------------------------------------
+
+    def walls(self, walls: Node | None, polygons: Node | None) -> list[Segment]:
+        src, found = self.src, []
+        shape = "[x1, y1, x2, y2] or a polyline [[x, y], [x, y], ...]"
+        for i, item in enumerate(src.items(walls, "walls", f"each wall is {shape}") or [] if _given(walls) else []):
+            path = f"walls[{i}]"
+            if item.tag.endswith(":seq") and item.value and item.value[0].tag.endswith(":seq"):
+                points = src.points(item, path, 2, "[[x, y], [x, y], ...]")
+                found += self._chain(points or [], item, closed=False)
+            else:
+                values = src.numbers(item, path, (4,), "[x1, y1, x2, y2]")
+                if values is not None:
+                    found += self._chain([(values[0], values[1]), (values[2], values[3])], item, closed=False)
+        for i, item in enumerate(src.items(polygons, "polygons", "each polygon is [[x, y], ...]") or []
+                                 if _given(polygons) else []):
+            points = src.points(item, f"polygons[{i}]", 3, "[[x, y], [x, y], [x, y], ...]")
+            found += self._chain(points or [], item, closed=True)
+        return found
+
+    def _chain(self, points: list[Point], node: Node, closed: bool) -> list[Segment]:
+        ring = points + points[:1] if closed and points else points
+        segments = [Segment(a, b) for a, b in pairwise(ring) if a != b]
+        if points and not segments:
+            self.src.error(node, "this wall has no length (its points are all the same)")
+        self.wall_nodes += [(s, node) for s in segments]
+        return segments
+
+    def map_walls(self, node: Node) -> list[Segment]:
+        src = self.src
+        name = src.string(node, "map", "name a ROS map_server YAML file, e.g. map: maps/office.yaml")
+        if name is None:
+            return []
+        path = Path(name) if Path(name).is_absolute() else self.path.parent / name
+        if not path.is_file():
+            src.error(node, f"map file '{name}' not found", f"looked for {path}; the path is relative to the world file")
+            return []
+        shown = str(Path(src.file).parent / name) if not Path(name).is_absolute() else name
+        try:
+            rosmap = load_ros_map(path, shown)
+        except SourceError as error:
+            src.problems += error.problems
+            src.error(node, f"the map '{name}' has problems (above)")
+            return []
+        segments = wall_segments(rosmap)
+        self.wall_nodes += [(s, node) for s in segments]
+        return segments
+
+    # -- places and doors --------------------------------------------------------
+
+    def places(self, node: Node) -> tuple[dict[str, Place], dict[str, Node]]:
+        src = self.src
+        entries = src.keys(node, "places", None) if _given(node) else {}
+        places: dict[str, Place] = {}
+        point_nodes: dict[str, Node] = {}
+        for name, (key, value) in (entries or {}).items():
+            path = f"places.{name}"
+            self._check_name(key, name, "place")
+            fields = src.keys(value, path, PLACE_KEYS, ("point",), what=" such as {point: [x, y], radius: 0.5}")
+            if fields is None or "point" not in fields:
+                continue
+            point = src.point(fields["point"][1], f"{path}.point")
+            region = None
+            if "region" in fields:
+                found = src.points(fields["region"][1], f"{path}.region", 3, "[[x, y], [x, y], [x, y], ...]")
+                region = tuple(found) if found else None
+            radius = 0.5
+            if "radius" in fields:
+                if "region" in fields:
+                    src.error(fields["radius"][0], f"{path} has a region, so its radius is not used",
+                              "give a region or a radius, not both")
+                radius = src.number(fields["radius"][1], f"{path}.radius", above=0.0) or radius
+            if point is None:
+                continue
+            place = Place(name, point, region, radius)
+            if region is not None and not place.contains(*point):
+                src.error(fields["point"][1], f"the point of place '{name}' is outside its region",
+                          "move the point inside the region: it is where the robot goes to be there")
+            places[name] = place
+            point_nodes[name] = fields["point"][1]
+        return places, point_nodes
+
+    def doors(self, node: Node, places: dict[str, Place]) -> dict[str, Door]:
+        src = self.src
+        entries = src.keys(node, "doors", None) if _given(node) else {}
+        doors: dict[str, Door] = {}
+        for name, (key, value) in (entries or {}).items():
+            path = f"doors.{name}"
+            self._check_name(key, name, "door")
+            if name in places:
+                self.src.error(key, f"door '{name}' has the name of a place", "give doors and places different names")
+            fields = src.keys(value, path, DOOR_KEYS, ("between",), what=" such as {between: [a, b], center: [x, y]}")
+            if fields is None:
+                continue
+            between = self._between(fields["between"][1], f"{path}.between", places) if "between" in fields else None
+            segment = None
+            if "segment" in fields:
+                values = src.numbers(fields["segment"][1], f"{path}.segment", (4,), "[x1, y1, x2, y2]")
+                if values is not None:
+                    segment = Segment((values[0], values[1]), (values[2], values[3]))
+                    if segment.length == 0:
+                        src.error(fields["segment"][1], f"the leaf of door '{name}' has no length")
+                        segment = None
+            center = src.point(fields["center"][1], f"{path}.center") if "center" in fields else None
+            if center is None and "center" not in fields:
+                if segment is not None:
+                    center = segment.midpoint
+                elif "segment" not in fields:
+                    src.error(value, f"{path} needs a center: [x, y] (an opening has no segment to take it from)",
+                              "add center: [x, y], the middle of the doorway")
+            if center is not None and segment is not None and "center" in fields:
+                gap, _ = nearest_wall([segment], center)
+                if gap > 0.1:
+                    src.error(fields["center"][1], f"the center of door '{name}' is {gap:.2f} m off its segment",
+                              "leave out center: it defaults to the segment's midpoint")
+            is_open = src.boolean(fields["open"][1], f"{path}.open") if "open" in fields else True
+            openable = src.boolean(fields["openable"][1], f"{path}.openable") if "openable" in fields else False
+            schedule = self._schedule(fields["schedule"][1], f"{path}.schedule") if "schedule" in fields else ()
+            if segment is None and (is_open is False or schedule or openable) and "segment" not in fields:
+                where = fields.get("open", fields.get("schedule", fields.get("openable")))
+                src.error(where[0] if where else value,
+                          f"door '{name}' has no segment, so it is an opening that cannot close",
+                          "add segment: [x1, y1, x2, y2], the door leaf across the doorway")
+            if between is None or center is None or is_open is None or openable is None or schedule is None:
+                continue
+            doors[name] = Door(name, between, center, segment, is_open, openable, schedule)
+        return doors
+
+    def _place_keys(self, node: Node | None) -> set[str]:
+        """The names under ``places:``, including those of places with problems."""
+        if not isinstance(node, MappingNode):
+            return set()
+        return {str(key.value) for key, _ in node.value if isinstance(key, ScalarNode)}
+
+    def _check_name(self, node: Node, name: str, what: str) -> None:
+        if not NAME_PATTERN.match(name):
+            suggestion = re.sub(r"[^a-z0-9_-]+", "-", name.lower()).strip("-")
+            self.src.error(node, f"'{name}' cannot be a {what} name: RAPs could not refer to it",
+                           f"use lower-case letters, digits, '-' and '_', starting with a letter, "
+                           f"e.g. '{suggestion or what + '-1'}'")
+
+    def _between(self, node: Node, path: str, places: dict[str, Place]) -> tuple[str, str] | None:
+        src = self.src
+        items = src.items(node, path, "write it as [place-a, place-b]")
+        if items is None:
+            return None
+        if len(items) != 2:
+            src.error(node, f"{path} must name two places, not {len(items)}", "write it as [place-a, place-b]")
+            return None
+        names = [src.string(item, f"{path}[{i}]") for i, item in enumerate(items)]
+        ok = True
+        for item, place in zip(items, names):
+            if place is not None and place not in places and place in self.declared_places:
+                ok = False  # a place with problems of its own, reported there
+            elif place is not None and place not in places:
+            
+                near = nearest(place, list(places))
+                known = ", ".join(places) or "none yet"
+                src.error(item, f"no place named '{place}'",
+                          (f"did you mean '{near}'? " if near else "") + f"places: {known}")
+                ok = False
+        if names[0] is not None and names[0] == names[1]:
+            src.error(items[1], f"a door joins two different places, not '{names[0]}' with itself")
+            ok = False
+        if not ok or names[0] is None or names[1] is None:
+            return None
+        return names[0], names[1]
+
+    def _schedule(self, node: Node, path: str) -> tuple[tuple[float, bool], ...] | None:
+        src = self.src
+        items = src.items(node, path, "write it as [[time, open], [time, closed], ...]")
+        if items is None:
+            return None
+        changes: list[tuple[float, bool]] = []
+        last = 0.0
+        for i, item in enumerate(items):
+            here = f"{path}[{i}]"
+            pair = src.items(item, here, "write each change as [time, open] or [time, closed]")
+            if pair is None:
+                continue
+            if len(pair) != 2:
+                src.error(item, f"{here} must be [time, open|closed], not a list of {len(pair)}")
+                continue
+            time = src.number(pair[0], f"{here}[0]", minimum=0.0)
+            state = _door_state(pair[1])
+            if state is None:
+                src.error(pair[1], f"{here}[1] must be open or closed", "write [time, open] or [time, closed]")
+            if time is not None and time < last:
+                src.error(pair[0], f"{here} at {time:g} s comes before the change above it ({last:g} s)",
+                          "list the changes in time order")
+            if time is None or state is None:
+                continue
+            last = time
+            changes.append((time, state))
+        return tuple(changes)
+
+    # -- disturbances, robot, sonar --------------------------------------------
+
+    def disturbances(self, node: Node) -> tuple[Disturbance, ...]:
+        src = self.src
+        found: list[Disturbance] = []
+        seen: dict[str, int] = {}
+        items = src.items(node, "disturbances", "write a list of {kind: person|box, ...}") if _given(node) else []
+        for i, item in enumerate(items or []):
+            path = f"disturbances[{i}]"
+            fields = src.keys(item, path, DISTURBANCE_KEYS, ("kind", "path"),
+                              what=" such as {kind: box, path: [[x, y]]}")
+            if fields is None:
+                continue
+            kind = src.string(fields["kind"][1], f"{path}.kind") if "kind" in fields else None
+            if kind is not None and kind not in DISTURBANCE_KINDS:
+                src.error(fields["kind"][1], f"unknown disturbance kind '{kind}'", "kinds: person, box")
+                kind = None
+            name = f"{kind or 'disturbance'}-{i + 1}"
+            if "name" in fields:
+                name = src.string(fields["name"][1], f"{path}.name") or name
+                if name in seen:
+                    src.error(fields["name"][1], f"two disturbances are named '{name}'", "give each its own name")
+            seen[name] = i
+            start = src.number(fields["start"][1], f"{path}.start", minimum=0.0) if "start" in fields else 0.0
+            end = None
+            if "end" in fields and fields["end"][1].tag != "tag:yaml.org,2002:null":
+                end = src.number(fields["end"][1], f"{path}.end", minimum=0.0)
+                if end is not None and start is not None and end <= start:
+                    src.error(fields["end"][1], f"{path}.end ({end:g}) must be after its start ({start:g})")
+            at_least = 2 if kind == "person" else 1
+            points = src.points(fields["path"][1], f"{path}.path", at_least,
+                                "[[x, y], ...] (a person walks along it; a box stands at the first point)") \
+                if "path" in fields else None
+            size = src.number(fields["size"][1], f"{path}.size", above=0.0) if "size" in fields else 0.5
+            speed = src.number(fields["speed"][1], f"{path}.speed", above=0.0) if "speed" in fields else 0.8
+            if kind is None or start is None or points is None or size is None or speed is None:
+                continue
+            found.append(Disturbance(name, kind, start, tuple(points), end, size, speed))
+        return tuple(found)
+
+    def robot(self, node: Node | None, places: dict[str, Place]) -> RobotConfig:
+        src, default = self.src, RobotConfig()
+        fields = (src.keys(node, "robot", ROBOT_KEYS) or {}) if _given(node) else {}
+        start = default.start
+        if places:  # without a start, the robot starts at the first place, facing east
+            start = (*next(iter(places.values())).point, 0.0)
+        if "start" in fields:
+            self.start_node = fields["start"][1]
+            values = src.numbers(fields["start"][1], "robot.start", (2, 3), "[x, y] or [x, y, heading_deg]")
+            if values is not None:
+                start = (values[0], values[1], math.radians(values[2]) if len(values) == 3 else 0.0)
+        radius = self._number(fields, "robot", "radius", default.radius, above=0.0)
+        max_speed = self._number(fields, "robot", "max_speed", default.max_speed, above=0.0)
+        turn = self._number(fields, "robot", "max_turn_rate_deg", math.degrees(default.max_turn_rate), above=0.0)
+        drift = self._number(fields, "robot", "odometry_drift", default.odometry_drift, minimum=0.0)
+        return RobotConfig(start, radius, max_speed, math.radians(turn), drift)
+
+    def sonar(self, node: Node) -> SonarConfig:
+        src, d = self.src, SonarConfig()
+        fields = src.keys(node, "sonar", SONAR_KEYS) or {}
+        count = self._number(fields, "sonar", "count", d.count, minimum=1, integer=True)
+        beam = self._number(fields, "sonar", "beam_width_deg", math.degrees(d.beam_width), above=0.0, maximum=180.0)
+        max_range = self._number(fields, "sonar", "max_range", d.max_range, above=0.0)
+        min_range = self._number(fields, "sonar", "min_range", d.min_range, minimum=0.0)
+        if min_range >= max_range:
+            where = fields.get("min_range", fields.get("max_range"))
+            src.error(where[1] if where else node,
+                      f"sonar.min_range ({min_range:g}) must be less than sonar.max_range ({max_range:g})")
+        noise = self._number(fields, "sonar", "range_noise", d.range_noise, minimum=0.0)
+        noise_per_m = self._number(fields, "sonar", "range_noise_per_m", d.range_noise_per_m, minimum=0.0)
+        specular = self._number(fields, "sonar", "specular_angle_deg", math.degrees(d.specular_angle),
+                                minimum=0.0, maximum=90.0)
+        dropout = self._number(fields, "sonar", "specular_dropout", d.specular_dropout, minimum=0.0, maximum=1.0)
+        rays = self._number(fields, "sonar", "rays_per_beam", d.rays_per_beam, minimum=1, integer=True)
+        rate = self._number(fields, "sonar", "rate", d.rate, above=0.0)
+        return SonarConfig(int(count), math.radians(beam), max_range, min_range, noise, noise_per_m,
+                           math.radians(specular), dropout, int(rays), rate)
+
+    def _number(self, fields: dict[str, tuple[Node, Node]], section: str, key: str, default: float,
+                **limits: float | bool) -> float:
+        if key not in fields:
+            return default
+        value = self.src.number(fields[key][1], f"{section}.{key}", **limits)  # type: ignore[arg-type]
+        return default if value is None else value
+
+    # -- clearances ----------------------------------------------------------------
+
+    def check_clearances(self, walls: tuple[Segment, ...], places: dict[str, Place], point_nodes: dict[str, Node],
+                         robot: RobotConfig) -> None:
+        """Place points must leave the robot room; the robot must not start inside a wall."""
+        if not walls:
+            return
+        need = robot.radius + WALL_CLEARANCE_MARGIN
+        for name, place in places.items():
+            gap, wall = nearest_wall(walls, place.point)
+            if gap < need:
+                self.src.error(point_nodes[name],
+                               f"the point of place '{name}' is {gap:.2f} m from a wall "
+                               f"({self._wall_text(wall)}); the robot needs {need:.2f} m",
+                               "move the point away from the wall: the robot drives to it")
+        gap, wall = nearest_wall(walls, robot.start[:2])
+        if gap < robot.radius and self.start_node is not None:
+            self.src.error(self.start_node, f"the robot starts {gap:.2f} m from a wall ({self._wall_text(wall)}), "
+                                  f"less than its radius {robot.radius:g} m",
+                           "move robot.start into free space")
+
+    def _wall_text(self, wall: Segment | None) -> str:
+        """A wall for messages: its ends and the line of the file that made it."""
+        node = next((n for s, n in self.wall_nodes if s == wall), None)
+        line = f" from line {self.src.location(node).line}" if node is not None else ""
+        return _segment_text(wall) + line
+
+
+def _looks_like_path(text: str) -> bool:
+    return "/" in text or text.endswith((".yaml", ".yml"))
+
+
+def _given(node: Node | None) -> bool:
+    """Whether a section is there and not empty (``walls:`` with nothing after it is no walls)."""
+    return node is not None and node.tag != "tag:yaml.org,2002:null"
+
+
+def _door_state(node: Node) -> bool | None:
+    """open/closed (or true/false) as a bool; None for anything else."""
+    value = getattr(node, "value", None)
+    if not isinstance(value, str):
+        return None
+    word = value.strip().lower()
+    if word in ("open", "true", "yes", "on"):
+        return True
+    if word in ("closed", "close", "false", "no", "off"):
+        return False
+    return None
+
+
+def nearest_wall(walls: tuple[Segment, ...] | list[Segment], point: Point) -> tuple[float, Segment | None]:
+    """Distance from ``point`` to the nearest wall segment, and that segment (inf, None without walls)."""
+    if not walls:
+        return math.inf, None
+    ends = np.array([(s.a[0], s.a[1], s.b[0], s.b[1]) for s in walls], dtype=float)
+    distances = _point_segment_distances(np.asarray(point, dtype=float), ends)
+    index = int(np.argmin(distances))
+    return float(distances[index]), walls[index]
+
+
+def _point_segment_distances(p: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    a, b = ends[:, :2], ends[:, 2:]
+    ab = b - a
+    length2 = np.maximum((ab * ab).sum(axis=1), 1e-18)
+    t = np.clip(((p - a) * ab).sum(axis=1) / length2, 0.0, 1.0)
+    closest = a + t[:, None] * ab
+    return np.hypot(*(p - closest).T)
+
+
+def _segment_text(segment: Segment | None) -> str:
+    if segment is None:
+        return "none"
+    (ax, ay), (bx, by) = segment.a, segment.b
+    return f"[{ax:g}, {ay:g}, {bx:g}, {by:g}]"
+
+
+def _bounds(walls: tuple[Segment, ...], places: dict[str, Place], robot: RobotConfig) -> tuple[float, float, float, float]:
+    xs: list[float] = [robot.start[0]]
+    ys: list[float] = [robot.start[1]]
+    for wall in walls:
+        xs += (wall.a[0], wall.b[0])
+        ys += (wall.a[1], wall.b[1])
+    for place in places.values():
+        xs.append(place.point[0])
+        ys.append(place.point[1])
+        for x, y in place.region or ():
+            xs.append(x)
+            ys.append(y)
+    m = BOUNDS_MARGIN
+    return min(xs) - m, min(ys) - m, max(xs) + m, max(ys) + m
+
