@@ -444,7 +444,8 @@ class Sequencer:
             return f"skill {term_to_str(call)} was enabled with unbound arguments"
         if not self.is_skill(call):
             return f"no skill {call.functor} with {_plural(len(call.args), 'argument')}"
-        stale = list(self.memory.facts(Compound("done", (call, _ANY))))
+        stale = list(self.memory.facts(Compound("done", (call, _ANY)))) + list(
+            self.memory.facts(Compound("why", (call, _ANY))))
         if stale:
             self.change([("retract", fact) for fact in stale], "sequencer (a new run of the skill)")
         self.skills.enable(call)

@@ -56,6 +56,7 @@ class DoorMonitor(Skill):
     rate = 10.0
     events = ("door-open", "door-closed")
     sensing_range = 3.0
+    nearest = 0.4  # closer, the robot is in the doorway and its beams see the frame
     tolerance = 0.3
     readings_needed = 3
 
@@ -76,7 +77,7 @@ class DoorMonitor(Skill):
         x, y, heading = pose
         for door in self.doors:
             cx, cy = door.center
-            if not 0.8 < math.hypot(cx - x, cy - y) < self.sensing_range:
+            if not self.nearest < math.hypot(cx - x, cy - y) < self.sensing_range:
                 continue
             beam = int(np.argmin(np.abs(np.arctan2(np.sin(angles + heading - math.atan2(cy - y, cx - x)),
                                                    np.cos(angles + heading - math.atan2(cy - y, cx - x))))))
