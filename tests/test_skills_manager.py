@@ -6,7 +6,7 @@ import pytest
 
 from atlas_rap.errors import AtlasError
 from atlas_rap.lang import parse_term, parse_text
-from atlas_rap.sequencer import Sequencer, Trace
+from atlas_rap.sequencer import Sequencer
 from atlas_rap.skills import Skill, SkillManager
 from atlas_rap.skills.catalog import STOCK_EVENTS, STOCK_SKILLS
 from atlas_rap.skills.manager import dependency_order
