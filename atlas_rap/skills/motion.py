@@ -77,26 +77,6 @@ class _Driving(Skill):
         return {"command": (v, omega)}, False
 
 
-class MoveTo(_Driving):
-    """``(move-to X Y)``: go to the point (X, Y) around obstacles."""
-
-    name = "move-to"
-    params = ("x", "y")
-
-    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
-        pose = inputs["pose"]
-        if pose is None:
-            return {}
-        goal = (float(self.args[0]), float(self.args[1]))
-        out, arrived = self.drive_to(pose, goal, inputs["sonar"], final=True)
-        if arrived:
-            self.context.finish(self)
-        elif self.progress.stuck(math.dist(pose[:2], goal), self.context.now()):
-            return self.give_up(f"no progress toward ({goal[0]:g}, {goal[1]:g}) for "
-                                f"{self.progress.patience:g} s")
-        return out
-
-
 class FollowRoute(_Driving):
     """``(follow-route ((X1 Y1) (X2 Y2) ...))``: pass each waypoint in turn, stop at the last."""
 
@@ -128,9 +108,22 @@ class FollowRoute(_Driving):
             return self.drive_to(pose, self.waypoints[self.index], sonar,
                                  self.index == len(self.waypoints) - 1)[0]
         if self.progress.stuck(math.dist(pose[:2], goal), self.context.now()):
-            return self.give_up(f"no progress toward waypoint {self.index + 1} "
-                                f"({goal[0]:.2f}, {goal[1]:.2f}) for {self.progress.patience:g} s")
+            which = f"waypoint {self.index + 1} " if len(self.waypoints) > 1 else ""
+            return self.give_up(f"no progress toward {which}({goal[0]:g}, {goal[1]:g}) "
+                                f"for {self.progress.patience:g} s")
         return out
+
+
+class MoveTo(FollowRoute):
+    """``(move-to X Y)``: go to the point (X, Y) around obstacles (a route of one waypoint)."""
+
+    name = "move-to"
+    params = ("x", "y")
+
+    def enable(self, args: tuple[Any, ...]) -> None:
+        _Driving.enable(self, args)
+        self.waypoints = [(float(args[0]), float(args[1]))]
+        self.index = 0
 
 
 class TurnTo(Skill):
