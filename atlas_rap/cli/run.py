@@ -10,8 +10,9 @@ import click
 @click.command()
 @click.argument("mission_file", metavar="MISSION.rap", type=click.Path(dir_okay=False))
 @click.option("--world", "world", metavar="W",
-              help="World to run in; 'none' runs on virtual skills and scripted events only. "
-                   "Overrides the mission's (world ...) form.")
+              help="World to run in: a shipped world's name (lab-corridor-office, office-building, maze, "
+                   "small-office-map), a world file, or 'none' for virtual skills and scripted events only. "
+                   "Default: the mission's (world ...) form, else lab-corridor-office.")
 @click.option("--seed", type=int, default=0, show_default=True,
               help="Seed for every random choice of the run (same files and seed, same trace).")
 @click.option("--trace", "trace_file", type=click.Path(dir_okay=False, writable=True), metavar="FILE",
