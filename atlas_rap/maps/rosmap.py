@@ -46,6 +46,7 @@ from yaml.constructor import SafeConstructor
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.maps.frame import GridFrame
 from atlas_rap.sim.model import Segment
 
 MAX_YAML_BYTES = 4 * 1024 * 1024
@@ -393,50 +394,27 @@ class RosMap:
         """Boolean mask of the cells labelled occupied (100)."""
         return self.labels == OCCUPIED
 
-    def cell_to_world(self, row: Any, col: Any) -> tuple[Any, Any]:
-        """World (x, y) of the centre of cell (row, col); row 0 is the image's top row.
+    @property
+    def frame(self) -> GridFrame:
+        """Where the cells are in the world (row 0 = the image's top row)."""
+        return GridFrame(self.height, self.width, self.resolution, self.origin)
 
-        Works on numbers (returns floats) and on numpy arrays; fractional
-        rows and columns are points between cell centres.
-        """
-        r, c = np.asarray(row, dtype=float), np.asarray(col, dtype=float)
-        lx = (c + 0.5) * self.resolution
-        ly = (self.height - r - 0.5) * self.resolution
-        x, y = self._rotate(lx, ly)
-        if x.ndim == 0:
-            return float(x), float(y)
-        return x, y
+    def cell_to_world(self, row: Any, col: Any) -> tuple[Any, Any]:
+        """World (x, y) of the centre of cell (row, col); see :class:`GridFrame`."""
+        return self.frame.cell_to_world(row, col)
 
     def world_to_cell(self, x: Any, y: Any) -> tuple[Any, Any]:
-        """The cell (row, col) that contains world point (x, y); may be outside the map (see :meth:`contains_cell`)."""
-        ox, oy, yaw = self.origin
-        dx, dy = np.asarray(x, dtype=float) - ox, np.asarray(y, dtype=float) - oy
-        cos, sin = math.cos(yaw), math.sin(yaw)
-        lx, ly = cos * dx + sin * dy, -sin * dx + cos * dy
-        col = np.floor(lx / self.resolution).astype(int)
-        row = self.height - 1 - np.floor(ly / self.resolution).astype(int)
-        if row.ndim == 0:
-            return int(row), int(col)
-        return row, col
+        """The cell (row, col) that contains world point (x, y); may be outside the map."""
+        return self.frame.world_to_cell(x, y)
 
     def contains_cell(self, row: int, col: int) -> bool:
         """Whether (row, col) is a cell of this map."""
-        return 0 <= row < self.height and 0 <= col < self.width
+        return self.frame.contains_cell(row, col)
 
     @property
     def extent(self) -> tuple[float, float, float, float]:
         """(xmin, ymin, xmax, ymax) of the map's area in the world (axis-aligned, yaw included)."""
-        corners_r = np.array([-0.5, -0.5, self.height - 0.5, self.height - 0.5])
-        corners_c = np.array([-0.5, self.width - 0.5, -0.5, self.width - 0.5])
-        xs, ys = self.cell_to_world(corners_r, corners_c)
-        return float(xs.min()), float(ys.min()), float(xs.max()), float(ys.max())
-
-    def _rotate(self, lx: np.ndarray, ly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        ox, oy, yaw = self.origin
-        if yaw == 0.0:
-            return lx + ox, ly + oy
-        cos, sin = math.cos(yaw), math.sin(yaw)
-        return ox + cos * lx - sin * ly, oy + sin * lx + cos * ly
+        return self.frame.extent
 
 
 def load_ros_map(path_yaml: str | Path, shown_as: str | None = None) -> RosMap:

@@ -1,0 +1,77 @@
+"""Where a grid's cells are in the world: the one cell ↔ metre convention of every map.
+
+The convention is ROS map_server's (and an image's): row 0 is the TOP row,
+``origin`` = (x, y, yaw) is the lower-left corner of the lower-left cell,
+``resolution`` is metres per cell. Occupancy grids, ROS map files, the
+distance transform, the skeleton and the topological graph all use it, so
+a cell index means the same place everywhere.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True, slots=True)
+class GridFrame:
+    """A grid of ``height`` × ``width`` cells of ``resolution`` metres placed at ``origin``."""
+
+    height: int
+    width: int
+    resolution: float
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @classmethod
+    def covering(cls, bounds: tuple[float, float, float, float], resolution: float) -> GridFrame:
+        """The smallest frame (yaw 0) that covers (xmin, ymin, xmax, ymax)."""
+        xmin, ymin, xmax, ymax = bounds
+        width = max(1, math.ceil((xmax - xmin) / resolution))
+        height = max(1, math.ceil((ymax - ymin) / resolution))
+        return cls(height, width, resolution, (xmin, ymin, 0.0))
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.height, self.width
+
+    def cell_to_world(self, row: Any, col: Any) -> tuple[Any, Any]:
+        """World (x, y) of the centre of cell (row, col); numbers or numpy arrays (fractions allowed)."""
+        r, c = np.asarray(row, dtype=float), np.asarray(col, dtype=float)
+        lx = (c + 0.5) * self.resolution
+        ly = (self.height - r - 0.5) * self.resolution
+        ox, oy, yaw = self.origin
+        if yaw == 0.0:
+            x, y = lx + ox, ly + oy
+        else:
+            cos, sin = math.cos(yaw), math.sin(yaw)
+            x, y = ox + cos * lx - sin * ly, oy + sin * lx + cos * ly
+        if x.ndim == 0:
+            return float(x), float(y)
+        return x, y
+
+    def world_to_cell(self, x: Any, y: Any) -> tuple[Any, Any]:
+        """The cell (row, col) containing world point (x, y); may be outside (see :meth:`contains_cell`)."""
+        ox, oy, yaw = self.origin
+        dx, dy = np.asarray(x, dtype=float) - ox, np.asarray(y, dtype=float) - oy
+        cos, sin = math.cos(yaw), math.sin(yaw)
+        lx, ly = cos * dx + sin * dy, -sin * dx + cos * dy
+        col = np.floor(lx / self.resolution).astype(int)
+        row = self.height - 1 - np.floor(ly / self.resolution).astype(int)
+        if row.ndim == 0:
+            return int(row), int(col)
+        return row, col
+
+    def contains_cell(self, row: int, col: int) -> bool:
+        """Whether (row, col) is a cell of this grid."""
+        return 0 <= row < self.height and 0 <= col < self.width
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the grid's area in the world (axis-aligned, yaw included)."""
+        corners_r = np.array([-0.5, -0.5, self.height - 0.5, self.height - 0.5])
+        corners_c = np.array([-0.5, self.width - 0.5, -0.5, self.width - 0.5])
+        xs, ys = self.cell_to_world(corners_r, corners_c)
+        return float(xs.min()), float(ys.min()), float(xs.max()), float(ys.max())
