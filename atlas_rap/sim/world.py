@@ -64,7 +64,8 @@ from yaml.nodes import MappingNode, Node, ScalarNode
 
 from atlas_rap.errors import AtlasError, SourceError
 from atlas_rap.lang.validator import nearest
-from atlas_rap.maps.rosmap import YamlSource, load_ros_map, wall_segments
+from atlas_rap.maps.rosmap import load_ros_map, wall_segments
+from atlas_rap.yamlsource import YamlSource
 from atlas_rap.shipped import resolve_user_path, shipped_root
 from atlas_rap.sim.model import Disturbance, Door, Place, Point, RobotConfig, Segment, SonarConfig, World
 
