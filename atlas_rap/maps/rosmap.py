@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from atlas_rap.maps.frame import GridFrame
+from atlas_rap.maps.geometry import outlines
 from atlas_rap.yamlsource import YamlSource, _kind, _nearest
 from atlas_rap.sim.model import Segment
 
@@ -352,7 +353,8 @@ def write_ros_map(path_yaml: str | Path, labels_or_probabilities: np.ndarray, re
 def wall_segments(rosmap: RosMap, tolerance: float | None = None) -> list[Segment]:
     """The outlines of the occupied cells as wall segments in world coordinates.
 
-    The occupied mask is padded with free cells (so blobs touching the
+    The outlines are :func:`atlas_rap.maps.geometry.outlines` of the occupied
+    cells: the occupied mask is padded with free cells (so blobs touching the
     border still close), outlined with ``skimage.measure.find_contours`` along
     the cells' edges (half a cell from occupied cell centres; corners are cut
     by half a cell at 45 degrees) and simplified with ``approximate_polygon``
@@ -360,17 +362,9 @@ def wall_segments(rosmap: RosMap, tolerance: float | None = None) -> list[Segmen
     straight walls on the cells' edges; a cell or more merges the corner cuts
     and staircases into fewer, slightly slanted segments.
     """
-    from skimage.measure import approximate_polygon, find_contours
-
-    mask = np.pad(rosmap.occupied, 1, constant_values=False).astype(np.float32)
-    if not mask.any():
-        return []
-    cells = tolerance / rosmap.resolution if tolerance is not None else 0.3
     segments: list[Segment] = []
-    for contour in find_contours(mask, 0.5, fully_connected="high"):
-        simple = approximate_polygon(contour, tolerance=cells) if cells > 0 else contour
-        xs, ys = rosmap.cell_to_world(simple[:, 0] - 1.0, simple[:, 1] - 1.0)
-        points = [(round(float(x), 6), round(float(y), 6)) for x, y in zip(xs, ys)]
+    for polygon in outlines(rosmap.occupied, rosmap.frame, tolerance):
+        points = [(round(float(x), 6), round(float(y), 6)) for x, y in polygon]
         for a, b in pairwise(points):
             if a != b:
                 segments.append(Segment(a, b))
