@@ -13,6 +13,7 @@ import click
 
 from atlas_rap import __version__
 from atlas_rap.cli.check import check
+from atlas_rap.cli.map import map_group
 from atlas_rap.cli.run import run
 
 
@@ -23,12 +24,14 @@ def cli() -> None:
 
     Write routine procedures as RAPs (.rap files) and planning operators as
     AP files (.ap); check them with `atlas check`; run a mission with
-    `atlas run`.
+    `atlas run`;
+    build and abstract maps with `atlas map`.
     """
 
 
 cli.add_command(check)
 cli.add_command(run)
+cli.add_command(map_group)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -1,0 +1,71 @@
+"""Every level of a map written to a folder: data for programs, PNG for people.
+
+:func:`write_levels` takes an occupancy map (probabilities, NaN unknown)
+and its abstraction and writes:
+
+- ``grid.npz`` (``p_occ``, ``dt``, ``skeleton``, ``places``, ``skeleton_probability``
+  and the frame) and ``grid.png``;
+- ``edges.png`` and ``polygons.png`` (the geometric map), when computed;
+- ``distance-transform.png``, ``places.png``, ``stochastic-sdt.png``;
+- ``topology.json``, ``topology.graphml`` and ``topology.png`` (X/T/L nodes over the map).
+
+``atlas map abstract`` and ``atlas map build`` both end here.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from atlas_rap.errors import AtlasError
+from atlas_rap.maps.frame import GridFrame
+from atlas_rap.maps.sdt import Abstraction, abstract
+
+
+def abstract_map(p_occ: np.ndarray, frame: GridFrame, robot_radius: float = 0.2, *, geometry: bool = True,
+                 source: str = "the map") -> Abstraction:
+    """The whole abstraction, or a clear error when the map has no room for the robot."""
+    free = np.asarray(p_occ) < 0.5
+    if not free.any():
+        raise AtlasError(f"{source} has no free space (no cell with an occupancy below 0.5): "
+                         f"is it a map, and is its negate setting right?")
+    result = abstract(p_occ, frame, robot_radius, geometry=geometry)
+    if result.topology.graph.number_of_nodes() == 0:
+        raise AtlasError(f"{source} has no free space wide enough for a robot of radius {robot_radius:g} m")
+    return result
+
+
+def write_levels(p_occ: np.ndarray, result: Abstraction, out_dir: str | Path, *,
+                 path_xy: np.ndarray | None = None, title: str = "") -> list[Path]:
+    """Write every level (data and pictures) into ``out_dir``; the files written, in order."""
+    from atlas_rap.maps import render
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    frame, sdt = result.frame, result.sdt
+    prefix = f"{title}: " if title else ""
+    probability = sdt.probability_grid()
+    np.savez_compressed(out / "grid.npz", p_occ=np.asarray(p_occ, dtype=np.float32), dt=sdt.dt,
+                        skeleton=sdt.skeleton, places=sdt.places, skeleton_probability=probability,
+                        frame=np.array([frame.height, frame.width, frame.resolution, *frame.origin]))
+    written = [out / "grid.npz",
+               render.render_grid(p_occ, frame, out / "grid.png", title=prefix + "occupancy grid", path_xy=path_xy)]
+    if result.geometry is not None:
+        geo = result.geometry
+        written.append(render.render_edges(geo.occupied_edges, geo.empty_edges, frame, out / "edges.png",
+                                           title=prefix + "edges", background=p_occ))
+        written.append(render.render_polygons(geo.polygons, frame, out / "polygons.png", background=p_occ,
+                                              title=prefix + "polygons"))
+    written.append(render.render_distance_transform(sdt.dt, frame, out / "distance-transform.png",
+                                                    title=prefix + "distance transform"))
+    written.append(render.render_places(sdt.places, frame, out / "places.png", background=p_occ,
+                                        title=prefix + "places"))
+    written.append(render.render_stochastic_sdt(probability, frame, out / "stochastic-sdt.png", background=p_occ,
+                                                title=prefix + "stochastic SDT"))
+    topology = result.topology
+    written.append(topology.to_json(out / "topology.json"))
+    written.append(topology.to_graphml(out / "topology.graphml"))
+    written.append(render.render_topology(topology.graph, frame, out / "topology.png", background=p_occ,
+                                          title=prefix + "topological map"))
+    return written

@@ -1,0 +1,55 @@
+"""`atlas map` as a user runs it: a map in, every level out; a map that is not a map, a clear error."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from atlas_rap.maps.rosmap import write_ros_map
+from cli_process import assert_no_traceback, atlas
+
+LEVELS = ("grid.npz", "grid.png", "edges.png", "polygons.png", "distance-transform.png", "places.png",
+          "stochastic-sdt.png", "topology.json", "topology.graphml", "topology.png")
+
+
+def two_rooms(tmp_path):
+    cells = np.zeros((80, 160), dtype=np.int8)  # 8 m x 4 m at 0.05 m
+    cells[[0, -1], :] = 100
+    cells[:, [0, -1]] = 100
+    cells[:, 79:81] = 100
+    cells[30:50, 79:81] = 0  # a 1 m door in the middle wall
+    return write_ros_map(tmp_path / "two-rooms.yaml", cells, 0.05, (0.0, 0.0, 0.0)).with_suffix(".yaml")
+
+
+def test_abstract_writes_every_level_of_a_map(tmp_path):
+    done = atlas("map", "abstract", str(two_rooms(tmp_path)), "--out", "levels", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    for name in LEVELS:
+        assert (tmp_path / "levels" / name).stat().st_size > 0, name
+    graph = json.loads((tmp_path / "levels" / "topology.json").read_text())
+    assert "2 places" in done.stdout
+    assert graph
+
+
+def test_render_draws_a_map_file_and_a_written_grid(tmp_path):
+    map_yaml = two_rooms(tmp_path)
+    assert atlas("map", "render", str(map_yaml), "--out", "a.png", cwd=tmp_path).returncode == 0
+    assert atlas("map", "abstract", str(map_yaml), "--out", "levels", cwd=tmp_path).returncode == 0
+    done = atlas("map", "render", "levels/grid.npz", "--out", "b.png", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "a.png").read_bytes()[:4] == (tmp_path / "b.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_a_map_that_is_not_a_map_gets_a_clear_error(tmp_path):
+    (tmp_path / "bad.yaml").write_text("image: nowhere.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n"
+                                       "occupied_thresh: 0.65\nfree_thresh: 0.196\n", encoding="utf-8")
+    done = atlas("map", "abstract", "bad.yaml", "--out", "levels", cwd=tmp_path)
+    assert done.returncode == 1
+    assert "bad.yaml:1:" in done.stderr and "nowhere.pgm" in done.stderr
+    assert_no_traceback(done)
+    write_ros_map(tmp_path / "solid.yaml", np.full((20, 20), 100, dtype=np.int8), 0.05, (0, 0, 0))
+    done = atlas("map", "abstract", "solid.yaml", "--out", "levels", cwd=tmp_path)
+    assert done.returncode == 1
+    assert "has no free space" in done.stderr
+    assert_no_traceback(done)
