@@ -29,7 +29,7 @@ def test_abstract_writes_every_level_of_a_map(tmp_path):
         assert (tmp_path / "levels" / name).stat().st_size > 0, name
     graph = json.loads((tmp_path / "levels" / "topology.json").read_text())
     assert "2 places" in done.stdout
-    assert graph
+    assert [node["kind"] for node in graph["nodes"]].count("L") == 2 and len(graph["edges"]) == 1
 
 
 def test_render_draws_a_map_file_and_a_written_grid(tmp_path):
@@ -53,3 +53,16 @@ def test_a_map_that_is_not_a_map_gets_a_clear_error(tmp_path):
     assert done.returncode == 1
     assert "has no free space" in done.stderr
     assert_no_traceback(done)
+
+
+def test_build_maps_the_default_world_from_sonar_and_writes_every_level(tmp_path):
+    done = atlas("map", "build", "--out", "built", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "mission done" in done.stdout
+    quality = float(done.stdout.split("map quality ")[1].split()[0])
+    assert quality > 0.9
+    for name in ("occupancy.npz", "occupancy.yaml", "occupancy.pgm") + LEVELS:
+        assert (tmp_path / "built" / name).stat().st_size > 0, name
+    graph = json.loads((tmp_path / "built" / "topology.json").read_text())
+    kinds = [node["kind"] for node in graph["nodes"]]
+    assert kinds.count("T") >= 2 and len(graph["edges"]) >= 4  # rooms joined through the corridor

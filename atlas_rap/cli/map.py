@@ -10,6 +10,76 @@ def map_group() -> None:
     """Occupancy grids and their abstractions: build, abstract, render."""
 
 
+@map_group.command("build")
+@click.option("--world", "world", default="lab-corridor-office", show_default=True, metavar="W",
+              help="The world to map (a shipped world's name or a world file).")
+@click.option("--mission", "mission_file", type=click.Path(dir_okay=False), metavar="MISSION.rap",
+              help="What the robot does while mapping; default: visit every place of the world in turn.")
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False), help="Folder for the maps.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the run.")
+@click.option("--until", type=float, default=1800.0, show_default=True, metavar="SECONDS",
+              help="Simulated time limit.")
+def build_command(world: str, mission_file: str | None, out_dir: str, seed: int, until: float) -> None:
+    """Drive the robot in a world, build an occupancy grid from its sonar, and write every level.
+
+    Writes the grid (npz, ROS map) and, from it, the same levels as
+    `atlas map abstract`, even when the mission fails or is interrupted.
+    """
+    from pathlib import Path
+
+    from rich.progress import Progress
+
+    from atlas_rap.layers.setup import WorldSetup
+    from atlas_rap.maps.inference import InferenceGrid
+    from atlas_rap.maps.levels import abstract_map, write_levels
+    from atlas_rap.sequencer import load_mission
+    from atlas_rap.shipped import resolve_user_path
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    setup = WorldSetup(world, seed, mapping=True)
+    path = resolve_user_path(mission_file) if mission_file else _tour_mission(world, out)
+    mission = load_mission(path, skills=setup.skills_for)
+    setup.start(mission)
+    ended = "done"
+    try:
+        with Progress(transient=True) as progress:
+            bar = progress.add_task("mapping (simulated s)", total=until)
+            result = mission.run(until=until, pace=lambda t: progress.update(bar, completed=t),
+                                 driver=setup.executive)
+            ended = result.ended_by
+    except KeyboardInterrupt:
+        ended = "interrupted"
+    finally:
+        grid = setup.manager.context.beliefs["grid"]
+        poses = setup.manager.context.beliefs["poses"]
+        grid.save_npz(out / "occupancy.npz")
+        grid.to_ros_map(out / "occupancy.yaml")
+    sim, radius = setup.simulation, setup.world.robot.radius
+    quality = InferenceGrid(grid, sim.pose[:2], radius, setup.world.sonar.max_range, poses).quality()
+    click.echo(f"mission {ended} at {sim.time:.1f} s simulated; map quality {quality:.3f}")
+    p_occ = grid.probabilities()
+    p_occ[~grid.updated] = float("nan")
+    path_xy = [(x, y) for _, x, y, _ in sim.path]
+    result = abstract_map(p_occ, grid.frame, radius, source=f"the map of {world}")
+    _report(result, [out / "occupancy.npz", out / "occupancy.yaml"]
+            + write_levels(p_occ, result, out, path_xy=path_xy, title=setup.world.name))
+
+
+def _tour_mission(world: str, out) -> str:
+    """A mission that visits every place of ``world`` in file order, with the shipped navigation RAPs."""
+    from atlas_rap.shipped import shipped_root
+    from atlas_rap.sim.world import load_world
+
+    places = list(load_world(world).places)
+    navigation = shipped_root("rap_library") / "navigation.rap"
+    steps = " ".join(f"(t{i} (go-to {place}))" for i, place in enumerate(places + places[:1], 1))
+    path = out / "tour.rap"
+    path.write_text(f'(include "{navigation}")\n(define-rap (tour) (method (task-net (sequence {steps}))))\n'
+                    f"(post (tour))\n", encoding="utf-8")
+    return str(path)
+
+
 @map_group.command("abstract")
 @click.argument("map_yaml", metavar="MAP.yaml", type=click.Path(dir_okay=False))
 @click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False), help="Folder for the levels.")

@@ -26,9 +26,10 @@ DEFAULT_WORLD = "lab-corridor-office"
 class WorldSetup:
     """Builds what a run needs once the mission's program says which world: skills, simulation, executive."""
 
-    def __init__(self, world_flag: str | None, seed: int) -> None:
+    def __init__(self, world_flag: str | None, seed: int, *, mapping: bool = False) -> None:
         self.world_flag = world_flag
         self.seed = seed
+        self.mapping = mapping
         self.world = None
         self.simulation = None
         self.executive = None
@@ -65,7 +66,7 @@ class WorldSetup:
 
         self.world = load_world(chosen)
         self.simulation = Simulation(self.world, seed=self.seed, dt=1.0 / Rates().physics)
-        self.manager = stock_manager(self.world, self.simulation, self.simulation.rng)
+        self.manager = stock_manager(self.world, self.simulation, self.simulation.rng, mapping=self.mapping)
         return CombinedSkills(self.manager, virtual)
 
     def start(self, mission) -> None:

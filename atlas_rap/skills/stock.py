@@ -21,9 +21,14 @@ def stock_skills() -> list[Skill]:
             NavigateTo(), OpenDoor()]
 
 
-def stock_manager(world: Any, robot: Any, rng: Any = None) -> SkillManager:
-    """A skill manager with the stock skills for ``robot`` in ``world``."""
-    return SkillManager(stock_skills(), world=world, robot=robot, rng=rng)
+def stock_manager(world: Any, robot: Any, rng: Any = None, *, mapping: bool = False) -> SkillManager:
+    """A skill manager with the stock skills for ``robot`` in ``world``; ``mapping`` adds the map-builder."""
+    skills = stock_skills()
+    if mapping:
+        from atlas_rap.skills.mapping import MapBuilder
+
+        skills.append(MapBuilder())
+    return SkillManager(skills, world=world, robot=robot, rng=rng)
 
 
 def stock_skill_names() -> dict[str, set[int]]:
