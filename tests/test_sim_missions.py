@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from atlas_rap.lang import parse_term
 from atlas_rap.maps.rosmap import write_ros_map
 from atlas_rap.sim.world import load_world, shipped_worlds
 from cli_process import assert_no_traceback, atlas
@@ -49,6 +50,9 @@ def test_a_closed_door_sends_the_robot_round_by_the_storeroom():
     assert run.result.ok, run.explain()
     asserted = run.facts("fact-asserted")
     assert asserted.index("(door-closed office-door)") < asserted.index("(at robot storeroom)")
+    memory = run.mission.sequencer.memory
+    assert memory.holds(parse_term("(and (edge-blocked corridor office) (connected storeroom office))"))
+    assert not memory.holds(parse_term("(edge-blocked corridor storeroom)"))
     attempts = [(r["method"], r["attempt"]) for r in run.records if r["event"] == "method-selected"]
     assert attempts == [("drive", 1), ("drive", 2)]
 

@@ -6,10 +6,13 @@ starts with these facts in memory, so RAPs can reason about routes:
 
 - ``(place NAME)`` for each place;
 - ``(door DOOR A B)`` and ``(door DOOR B A)`` for each doorway between places A and B;
+- ``(connected A B)`` and ``(connected B A)`` for each pair of places a doorway joins;
 - ``(openable DOOR)`` for each door the robot can open itself.
 
 Door states are not prior knowledge: the door monitor asserts
-``(door-open D)`` / ``(door-closed D)`` when the sonar sees them.
+``(door-open D)`` / ``(door-closed D)`` when the sonar sees them, and
+``(edge-blocked A B)`` (both ways) while the only door it knows between A
+and B is closed.
 """
 
 from __future__ import annotations
@@ -25,6 +28,10 @@ def prior_facts(world: World) -> list[Compound]:
         a, b = door.between
         facts.append(Compound("door", (door.name, a, b)))
         facts.append(Compound("door", (door.name, b, a)))
+        for pair in ((a, b), (b, a)):
+            connected = Compound("connected", pair)
+            if connected not in facts:
+                facts.append(connected)
         if door.openable:
             facts.append(Compound("openable", (door.name,)))
     return facts

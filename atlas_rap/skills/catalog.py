@@ -11,5 +11,5 @@ STOCK_SKILLS: dict[str, set[int]] = {
 }
 """Skills RAPs can enable in a world: name → arities."""
 
-STOCK_EVENTS: set[str] = {"done", "why", "blocked", "at", "door-open", "door-closed", "bumped"}
+STOCK_EVENTS: set[str] = {"done", "why", "blocked", "at", "door-open", "door-closed", "edge-blocked", "bumped"}
 """Predicates the stock skills may assert."""

@@ -6,7 +6,8 @@
   sonar beam that points through a nearby doorway (the whole beam inside
   the doorway, seen nearly head-on) echoes at the door's distance (closed)
   or well beyond it (open), three readings in a row; it keeps the belief
-  the route planner uses;
+  the route planner uses, and ``(edge-blocked A B)`` while no door it
+  believes open joins places A and B;
 - ``bump-monitor``: ``(bumped robot)`` on contact, retracted a second after
   the last one.
 """
@@ -54,7 +55,7 @@ class DoorMonitor(Skill):
     inputs = ("pose", "sonar")
     always_on = True
     rate = 10.0
-    events = ("door-open", "door-closed")
+    events = ("door-open", "door-closed", "edge-blocked")
     sensing_range = 3.0
     nearest = 0.4  # closer, the robot is in the doorway and its beams see the frame
     tolerance = 0.3
@@ -100,14 +101,22 @@ class DoorMonitor(Skill):
             return
         self.state[door] = seen
         closed = self.context.beliefs[CLOSED_DOORS]
+        context = self.context
         if seen == "closed":
             closed.add(door)
-            self.context.retract_fact(Compound("door-open", (door,)))
-            self.context.assert_fact(Compound("door-closed", (door,)))
+            context.retract_fact(Compound("door-open", (door,)))
+            context.assert_fact(Compound("door-closed", (door,)))
         else:
             closed.discard(door)
-            self.context.retract_fact(Compound("door-closed", (door,)))
-            self.context.assert_fact(Compound("door-open", (door,)))
+            context.retract_fact(Compound("door-closed", (door,)))
+            context.assert_fact(Compound("door-open", (door,)))
+        a, b = context.world.doors[door].between
+        others = [d for d in context.world.doors.values() if set(d.between) == {a, b} and d.name not in closed]
+        for pair in ((a, b), (b, a)):
+            if others:
+                context.retract_fact(Compound("edge-blocked", pair))
+            else:
+                context.assert_fact(Compound("edge-blocked", pair))
 
 
 class BumpMonitor(Skill):
