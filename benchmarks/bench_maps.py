@@ -10,7 +10,17 @@
   recording (target >= 10,000,000/s); the cone templates are built before
   timing (``template_build_s`` says how long that took).
 
-Run: ``pip install . && python benchmarks/bench_maps.py``.
+- ``maps-abstraction``: the whole abstraction (distance transform →
+  skeleton → places → topological graph) on synthetic 2,000 × 2,000 and
+  4,000 × 4,000 floor plans, beside the bare scikit-image ``skeletonize`` +
+  scipy ``distance_transform_edt`` calls on the same array, as a ratio
+  (target <= 1.5; see ``bench_abstraction.py``, which also runs alone).
+- ``maps-real``: when ``../shared/data/maps`` is there, every level of the
+  two real ROS maps it holds, timed, with the pictures written to
+  ``--pictures`` (default ``bench-maps-pictures/``).
+
+Run: ``pip install . && python benchmarks/bench_maps.py`` (``--quick``:
+fewer runs, the 2,000 plan only).
 """
 
 from __future__ import annotations
@@ -84,5 +94,45 @@ def bench_sonar_updates(runs: int) -> dict:
             "template_build_s": round(build, 3)}
 
 
+def bench_real_maps(pictures: Path) -> list[dict]:
+    """Every level of each real map in ../shared/data/maps, with pictures; [] when the data is absent."""
+    from atlas_rap.maps.levels import abstract_map, write_levels
+    from atlas_rap.maps.rosmap import load_ros_map
+
+    folder = HERE.parent.parent / "shared" / "data" / "maps"
+    records = []
+    for map_yaml in sorted(folder.glob("*.yaml")) if folder.is_dir() else []:
+        start = time.perf_counter()
+        rosmap = load_ros_map(map_yaml)
+        loaded = time.perf_counter()
+        result = abstract_map(rosmap.occupancy, rosmap.frame, source=str(map_yaml))
+        abstracted = time.perf_counter()
+        written = write_levels(rosmap.occupancy, result, pictures / map_yaml.stem, title=map_yaml.stem)
+        records.append({"bench": "maps-real", "map": map_yaml.name, "cells": rosmap.height * rosmap.width,
+                        "load_s": round(loaded - start, 3), "abstract_s": round(abstracted - loaded, 3),
+                        "write_levels_s": round(time.perf_counter() - abstracted, 3),
+                        "nodes": result.topology.kinds(), "places": int(result.sdt.places.max()),
+                        "pictures": str(pictures / map_yaml.stem), "files": len(written)})
+    return records
+
+
+def main() -> None:
+    import argparse
+
+    from bench_abstraction import bench_abstraction
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer runs, the 2,000 plan only")
+    parser.add_argument("--pictures", type=Path, default=Path("bench-maps-pictures"))
+    args = parser.parse_args()
+    print(json.dumps(bench_sonar_updates(2 if args.quick else 5)), flush=True)
+    for size in [2000] if args.quick else [2000, 4000]:
+        print(json.dumps({**bench_abstraction(size, 1 if args.quick else 3), "bench": "maps-abstraction"}),
+              flush=True)
+    for record in bench_real_maps(args.pictures):
+        print(json.dumps(record), flush=True)
+
+
 if __name__ == "__main__":
-    print(json.dumps(bench_sonar_updates(5)), flush=True)
+    sys.path.insert(0, str(HERE))
+    main()
