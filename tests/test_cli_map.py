@@ -7,10 +7,10 @@ import json
 import numpy as np
 
 from atlas_rap.maps.rosmap import write_ros_map
-from cli_process import assert_no_traceback, atlas
+from cli_process import REPO, assert_no_traceback, atlas
 
 LEVELS = ("grid.npz", "grid.png", "edges.png", "polygons.png", "distance-transform.png", "places.png",
-          "stochastic-sdt.png", "topology.json", "topology.graphml", "topology.png")
+          "stochastic-sdt.png", "topology.json", "topology.graphml", "topology.png", "route.png")
 
 
 def two_rooms(tmp_path):
@@ -66,3 +66,22 @@ def test_build_maps_the_default_world_from_sonar_and_writes_every_level(tmp_path
     graph = json.loads((tmp_path / "built" / "topology.json").read_text())
     kinds = [node["kind"] for node in graph["nodes"]]
     assert kinds.count("T") >= 2 and len(graph["edges"]) >= 4  # rooms joined through the corridor
+
+
+def test_navigation_plans_on_the_built_topology_and_reroutes_round_a_closed_door(tmp_path):
+    assert atlas("map", "build", "--out", "built", cwd=tmp_path).returncode == 0
+    trace = tmp_path / "run.jsonl"
+    done = atlas("run", str(REPO / "rap_library" / "missions" / "door-closed.rap"), "-q",
+                 "--map", "built/topology.json", "--trace", str(trace), cwd=tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr
+    records = [json.loads(line) for line in trace.read_text().splitlines()]
+    facts = [r["fact"] for r in records if r["event"] == "fact-asserted"]
+    assert facts.index("(door-closed office-door)") < facts.index("(at robot storeroom)")
+    assert "(edge-blocked corridor office)" in facts
+    walled = tmp_path / "walled.yaml"
+    walled.write_text("base: lab-corridor-office\ndoors:\n  office-door: {open: false}\n"
+                      "  storeroom-office-door: {open: false, openable: false}\n", encoding="utf-8")
+    done = atlas("run", str(REPO / "rap_library" / "missions" / "deliver.rap"), "-q", "--world", str(walled),
+                 "--map", "built/topology.json", cwd=tmp_path)
+    assert done.returncode == 1
+    assert "no route on the topological map from" in done.stdout and "to office" in done.stdout

@@ -62,8 +62,10 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
     p_occ[~grid.updated] = float("nan")
     path_xy = [(x, y) for _, x, y, _ in sim.path]
     result = abstract_map(p_occ, grid.frame, radius, source=f"the map of {world}")
+    places = [place.point for place in setup.world.places.values()]
+    ends = (places[0], places[-1]) if len(places) > 1 else None
     _report(result, [out / "occupancy.npz", out / "occupancy.yaml"]
-            + write_levels(p_occ, result, out, path_xy=path_xy, title=setup.world.name))
+            + write_levels(p_occ, result, out, path_xy=path_xy, title=setup.world.name, route_ends=ends))
 
 
 def _tour_mission(world: str, out) -> str:

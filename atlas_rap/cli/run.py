@@ -24,10 +24,13 @@ import click
 @click.option("--realtime", is_flag=True, help="Pace simulated time to the wall clock.")
 @click.option("--agenda", "show_agenda", is_flag=True, help="Print the task tree at the end.")
 @click.option("--memory", "show_memory", is_flag=True, help="Print memory at the end.")
+@click.option("--map", "topology_file", type=click.Path(dir_okay=False, exists=True), metavar="TOPOLOGY.json",
+              help="A topological map built from sonar (atlas map build): navigate-to plans its routes on it.")
 @click.option("--render", type=click.Path(dir_okay=False, writable=True), metavar="OUT.png",
               help="Draw the world, the robot's path, the places and where each task started and ended.")
 def run(mission_file: str, world: str | None, seed: int, trace_file: str | None, quiet: bool, verbose: bool,
-        until: float, realtime: bool, show_agenda: bool, show_memory: bool, render: str | None) -> None:
+        until: float, realtime: bool, show_agenda: bool, show_memory: bool, topology_file: str | None,
+        render: str | None) -> None:
     """Run a mission: post its tasks, run the RAPs, print a live trace and a summary.
 
     Exits 0 when every posted task succeeded, 1 when one failed (the
@@ -45,7 +48,7 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
 
     out = Console(highlight=False, soft_wrap=True)
     err = Console(stderr=True, highlight=False, soft_wrap=True)
-    setup = WorldSetup(world, seed)
+    setup = WorldSetup(world, seed, topology=topology_file)
     mission = load_mission(resolve_user_path(mission_file), skills=setup.skills_for, trace=Trace())
     for warning in mission.warnings:
         err.print(warning.render(), style="yellow", markup=False)

@@ -26,10 +26,12 @@ DEFAULT_WORLD = "lab-corridor-office"
 class WorldSetup:
     """Builds what a run needs once the mission's program says which world: skills, simulation, executive."""
 
-    def __init__(self, world_flag: str | None, seed: int, *, mapping: bool = False) -> None:
+    def __init__(self, world_flag: str | None, seed: int, *, mapping: bool = False,
+                 topology: str | None = None) -> None:
         self.world_flag = world_flag
         self.seed = seed
         self.mapping = mapping
+        self.topology = topology
         self.world = None
         self.simulation = None
         self.executive = None
@@ -67,6 +69,11 @@ class WorldSetup:
         self.world = load_world(chosen)
         self.simulation = Simulation(self.world, seed=self.seed, dt=1.0 / Rates().physics)
         self.manager = stock_manager(self.world, self.simulation, self.simulation.rng, mapping=self.mapping)
+        if self.topology is not None:
+            from atlas_rap.maps.topology import Topology
+            from atlas_rap.skills.navigation import TOPOLOGY
+
+            self.manager.context.beliefs[TOPOLOGY] = Topology.from_json(self.topology)
         return CombinedSkills(self.manager, virtual)
 
     def start(self, mission) -> None:

@@ -7,7 +7,9 @@ and its abstraction and writes:
   and the frame) and ``grid.png``;
 - ``edges.png`` and ``polygons.png`` (the geometric map), when computed;
 - ``distance-transform.png``, ``places.png``, ``stochastic-sdt.png``;
-- ``topology.json``, ``topology.graphml`` and ``topology.png`` (X/T/L nodes over the map).
+- ``topology.json``, ``topology.graphml`` and ``topology.png`` (X/T/L nodes over the map);
+- ``route.png``: a route on the graph, between two given points or else
+  between the two graph nodes farthest apart.
 
 ``atlas map abstract`` and ``atlas map build`` both end here.
 """
@@ -37,7 +39,8 @@ def abstract_map(p_occ: np.ndarray, frame: GridFrame, robot_radius: float = 0.2,
 
 
 def write_levels(p_occ: np.ndarray, result: Abstraction, out_dir: str | Path, *,
-                 path_xy: np.ndarray | None = None, title: str = "") -> list[Path]:
+                 path_xy: np.ndarray | None = None, title: str = "",
+                 route_ends: tuple[tuple[float, float], tuple[float, float]] | None = None) -> list[Path]:
     """Write every level (data and pictures) into ``out_dir``; the files written, in order."""
     from atlas_rap.maps import render
 
@@ -68,4 +71,21 @@ def write_levels(p_occ: np.ndarray, result: Abstraction, out_dir: str | Path, *,
     written.append(topology.to_graphml(out / "topology.graphml"))
     written.append(render.render_topology(topology.graph, frame, out / "topology.png", background=p_occ,
                                           title=prefix + "topological map"))
+    ends = route_ends or _farthest_nodes(topology.graph)
+    route = topology.route(*ends) if ends else None
+    if route is not None:
+        written.append(render.render_route(p_occ, frame, np.asarray(route.waypoints), out / "route.png",
+                                           graph=topology.graph, title=prefix + f"a route, {route.length:.1f} m, "
+                                           f"P(clear) {route.probability:.2f}"))
     return written
+
+
+def _farthest_nodes(graph) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """The world positions of the two nodes farthest apart (straight line), or None for fewer than two."""
+    if graph.number_of_nodes() < 2:
+        return None
+    nodes = list(graph.nodes)
+    xy = np.array([graph.nodes[n]["xy"] for n in nodes], dtype=float)
+    gaps = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
+    i, j = np.unravel_index(int(np.argmax(gaps)), gaps.shape)
+    return tuple(xy[i]), tuple(xy[j])

@@ -430,8 +430,18 @@ class Topology:
         d = self.graph.edges[u, v]
         return list(d["cells"]) if d["head"] == u else list(reversed(d["cells"]))
 
+    def _near(self, data: Mapping[str, Any], points: Sequence[Sequence[float]], radius: float) -> bool:
+        """Whether an edge's skeleton cells pass within ``radius`` metres of any of ``points``."""
+        if not points:
+            return False
+        cells = np.asarray(data["cells"], dtype=float).reshape(-1, 2)
+        xs, ys = self.frame.cell_to_world(cells[:, 0], cells[:, 1])
+        xs, ys = np.atleast_1d(xs), np.atleast_1d(ys)
+        return any(float(np.min(np.hypot(xs - px, ys - py))) < radius for px, py in points)
+
     def route(self, a_xy: Sequence[float], b_xy: Sequence[float], *, risk: float = RISK, step: int = 5,
-              tolerance: float | None = None) -> GraphRoute | None:
+              tolerance: float | None = None, avoid: Sequence[Sequence[float]] = (),
+              avoid_radius: float = 0.5) -> GraphRoute | None:
         """The best route from world point ``a_xy`` to ``b_xy``, or None if they are not connected.
 
         Each point joins the skeleton at its nearest cell in line of sight
@@ -442,13 +452,16 @@ class Topology:
         with ``approximate_polygon`` to within ``tolerance`` metres (default
         half the robot's radius) while every leg stays in line of sight.
         A part of an edge is charged the length and cost of its own cells.
+        Edges passing within ``avoid_radius`` metres of a point of ``avoid``
+        (a door seen closed, a blocked corridor) are left out: Layer III's
+        re-routing on the topology.
         """
         start, goal = self._attach(a_xy), self._attach(b_xy)
         if start is None or goal is None:
             return None
         work = nx.MultiGraph()
         work.add_nodes_from(self.graph.nodes)
-        work.add_edges_from(self.graph.edges(data=True))
+        work.add_edges_from(edge for edge in self.graph.edges(data=True) if not self._near(edge[2], avoid, avoid_radius))
         A, B = ("route", "a"), ("route", "b")
         res = self.frame.resolution
         diameter = 2 * self.robot_radius if self.robot_radius > 0 else res
@@ -471,13 +484,17 @@ class Topology:
             d = self.graph.edges[owner]
             head = d["head"]
             tail = owner[1] if owner[0] == head else owner[0]
-            work.add_edge(end, head, **part(d, i, 0, end))
-            work.add_edge(end, tail, **part(d, i, len(d["cells"]) - 1, end))  # a second edge when a ring
+            for node, j in ((head, 0), (tail, len(d["cells"]) - 1)):  # two edges to one node when a ring
+                piece = part(d, i, j, end)
+                if not self._near(piece, avoid, avoid_radius):
+                    work.add_edge(end, node, **piece)
 
         join(A, start)
         join(B, goal)
         if isinstance(start[0], tuple) and isinstance(goal[0], tuple) and set(start[0]) == set(goal[0]):
-            work.add_edge(A, B, **part(self.graph.edges[start[0]], start[1], goal[1], A))
+            piece = part(self.graph.edges[start[0]], start[1], goal[1], A)
+            if not self._near(piece, avoid, avoid_radius):
+                work.add_edge(A, B, **piece)
         elif start[2] == goal[2]:
             work.add_edge(A, B, length=0.0, cost=0.0, head=A, cells=(start[2],))
 

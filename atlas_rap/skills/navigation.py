@@ -8,11 +8,18 @@ asserts ``(blocked robot WHAT)`` and fails with the reason, so that the
 ``go-to`` RAP can recover: open the door, or navigate again, which plans
 another way round. ``(open-door DOOR)`` drives up to a door that the robot
 can open (``openable`` in the world) and opens it.
+
+With a topological map built from sonar (``atlas map build``, then
+``atlas run --map DIR/topology.json``), navigate-to plans on that graph
+instead (ATLAS Layer III): the most probable short route along the
+skeleton, leaving out edges through doors seen closed.
 """
 
 from __future__ import annotations
 
 import math
+
+import numpy as np
 from typing import Any, Mapping
 
 from atlas_rap.logic import Compound, Var
@@ -21,6 +28,9 @@ from atlas_rap.skills.routes import door_waypoints, plan_route, where_is
 
 CLOSED_DOORS = "closed-doors"
 """The belief (a set of door names) the door monitor keeps and the route planner avoids."""
+
+TOPOLOGY = "topology"
+"""The belief holding a topological map built from sonar (``atlas run --map``); routes are planned on it when set."""
 
 
 class NavigateTo(FollowRoute):
@@ -43,6 +53,10 @@ class NavigateTo(FollowRoute):
             return
         x, y, _ = context.robot.odometry
         closed = context.beliefs.get(CLOSED_DOORS, set())
+        topology = context.beliefs.get(TOPOLOGY)
+        if topology is not None:
+            self._route_on_topology(topology, (x, y), closed)
+            return
         route = plan_route(world, (x, y), self.goal, closed)
         if route is None:
             here = where_is(world, x, y)
@@ -52,6 +66,24 @@ class NavigateTo(FollowRoute):
         self.route = route
         self.waypoints = list(route.waypoints)
         self.door_at = self._door_positions(route)
+
+    def _route_on_topology(self, topology, start: tuple[float, float], closed: set[str]) -> None:
+        """Plan on the topological map built from sonar, leaving out edges through doors seen closed."""
+        world = self.context.world
+        avoid = [world.doors[door].center for door in sorted(closed)]
+        route = topology.route(start, world.places[self.goal].point, avoid=avoid)
+        if route is None:
+            known = f" (doors seen closed: {', '.join(sorted(closed))})" if closed else ""
+            self.failure = f"no route on the topological map from {where_is(world, *start)} to {self.goal}{known}"
+            return
+        self.waypoints = [(float(x), float(y)) for x, y in route.waypoints]
+        self.door_at = {}
+        for door in world.doors.values():
+            if door.segment is None:
+                continue
+            gaps = [_distance_to_segment(door.center, a, b) for a, b in zip(self.waypoints, self.waypoints[1:])]
+            if gaps and min(gaps) < 0.5:
+                self.door_at[door.name] = int(np.argmin(gaps))
 
     def _door_positions(self, route) -> dict[str, int]:
         """For each door of the route, the index of the last waypoint before passing it."""
@@ -120,3 +152,11 @@ class OpenDoor(_Driving):
             context.assert_fact(Compound("door-open", (door.name,)))
             context.finish(self)
         return {"command": (0.0, 0.0)}
+
+
+def _distance_to_segment(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+    ax, ay = a
+    dx, dy = b[0] - ax, b[1] - ay
+    length2 = dx * dx + dy * dy
+    t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / length2))
+    return math.hypot(p[0] - ax - t * dx, p[1] - ay - t * dy)
