@@ -39,26 +39,13 @@ TARGET_UPDATES_PER_S = 10_000_000
 
 
 def _record_rings(world) -> list[tuple[tuple[float, float, float], object]]:
-    """(true pose, ranges) at 10 Hz along lab -> office -> lab, steering as benchmarks/bench_sim.py does."""
+    """(true pose, ranges) at 10 Hz along lab -> office -> lab (``sim.scripted``, as bench_sim.py drives)."""
     from atlas_rap.sim.physics import Simulation
-    from atlas_rap.skills.routes import plan_route
+    from atlas_rap.sim.scripted import drive_waypoints, there_and_back
 
     sim = Simulation(world, seed=0)
-    there = plan_route(world, world.robot.start[:2], "office")
-    back = plan_route(world, world.places["office"].point, "lab")
-    waypoints = list(there.waypoints) + list(back.waypoints)
     rings = []
-    reached = 0
-    while reached < len(waypoints) and sim.time < 600:
-        x, y, heading = sim.pose
-        gx, gy = waypoints[reached]
-        if math.hypot(gx - x, gy - y) < 0.3:
-            reached += 1
-            continue
-        error = (math.atan2(gy - y, gx - x) - heading + math.pi) % (2 * math.pi) - math.pi
-        sim.command(0.5 * max(0.0, math.cos(error)) ** 2, 2.5 * error)
-        rings.append(((x, y, heading), sim.sonar().copy()))
-        sim.step_many(10)
+    drive_waypoints(sim, there_and_back(world), on_tick=lambda pose: rings.append((pose, sim.sonar().copy())))
     return rings
 
 

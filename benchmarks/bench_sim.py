@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
@@ -41,38 +40,18 @@ def emit(record: dict) -> None:
     print(json.dumps(record), flush=True)
 
 
-def route_there_and_back(world) -> list[tuple[float, float]]:
-    from atlas_rap.skills.routes import plan_route
-
-    there = plan_route(world, world.robot.start[:2], "office")
-    back = plan_route(world, world.places["office"].point, "lab")
-    return list(there.waypoints) + list(back.waypoints)
-
-
 def drive(with_sonar: bool) -> tuple[float, float, int]:
     """Drive the route once; (wall seconds, simulated seconds, waypoints reached)."""
     from atlas_rap.sim.physics import Simulation
+    from atlas_rap.sim.scripted import drive_waypoints, there_and_back
     from atlas_rap.sim.world import load_world
 
     world = load_world(WORLD)
     sim = Simulation(world, seed=0, dt=1.0 / PHYSICS_HZ)
-    waypoints = route_there_and_back(world)
-    per_tick = PHYSICS_HZ // CONTROL_HZ
-    step, command, sonar = sim.step, sim.command, sim.sonar
-    reached = 0
+    waypoints = there_and_back(world)
     start = time.perf_counter()
-    while reached < len(waypoints) and sim.time < 600:
-        x, y, heading = sim.pose
-        gx, gy = waypoints[reached]
-        if math.hypot(gx - x, gy - y) < 0.3:
-            reached += 1
-            continue
-        error = (math.atan2(gy - y, gx - x) - heading + math.pi) % (2 * math.pi) - math.pi
-        command(0.5 * max(0.0, math.cos(error)) ** 2, 2.5 * error)
-        if with_sonar:
-            sonar()
-        for _ in range(per_tick):
-            step()
+    reached = drive_waypoints(sim, waypoints, control_hz=CONTROL_HZ,
+                              on_tick=(lambda pose: sim.sonar()) if with_sonar else None)
     return time.perf_counter() - start, sim.time, reached
 
 

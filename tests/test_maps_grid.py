@@ -16,10 +16,10 @@ from atlas_rap.maps.inference import InferenceGrid
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, load_ros_map
 from atlas_rap.sim.model import SonarConfig
 from atlas_rap.sim.physics import Simulation
+from atlas_rap.sim.scripted import drive_waypoints, there_and_back
 from atlas_rap.sim.world import load_world
 from atlas_rap.skills.manager import SkillManager
 from atlas_rap.skills.mapping import MapBuilder
-from atlas_rap.skills.routes import plan_route
 from atlas_rap.skills.sensing import Odometry, SonarSensor
 
 SONAR = SonarConfig()
@@ -247,25 +247,16 @@ def drive_and_map(seed: int = 0) -> tuple:
     """Drive lab -> office -> lab along plan_route's waypoints, fusing the sonar at 10 Hz at the TRUE pose."""
     world = load_world(WORLD)
     sim = Simulation(world, seed=seed)
-    there = plan_route(world, world.robot.start[:2], "office")
-    back = plan_route(world, world.places["office"].point, "lab")
-    waypoints = list(there.waypoints) + list(back.waypoints)
+    waypoints = there_and_back(world)
     grid = OccupancyGrid.covering(world.bounds, 0.05)
     angles = sim.sonar_angles
     poses = []
-    reached = 0
-    while reached < len(waypoints) and sim.time < 300:
-        x, y, heading = sim.pose
-        gx, gy = waypoints[reached]
-        if math.hypot(gx - x, gy - y) < 0.3:
-            reached += 1
-            continue
-        error = (math.atan2(gy - y, gx - x) - heading + math.pi) % (2 * math.pi) - math.pi
-        sim.command(0.5 * max(0.0, math.cos(error)) ** 2, 2.5 * error)
-        grid.update_sonar(x, y, heading, sim.sonar(), angles, world.robot.radius, world.sonar)
-        poses.append((x, y, heading))
-        sim.step_many(10)
-    assert reached == len(waypoints)
+
+    def fuse(pose: tuple[float, float, float]) -> None:
+        grid.update_sonar(*pose, sim.sonar(), angles, world.robot.radius, world.sonar)
+        poses.append(pose)
+
+    assert drive_waypoints(sim, waypoints, time_limit=300, on_tick=fuse) == len(waypoints)
     return world, grid, poses
 
 
