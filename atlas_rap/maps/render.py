@@ -50,6 +50,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from atlas_rap.maps.frame import GridFrame
+from atlas_rap.pictures import DPI as _DPI
+from atlas_rap.pictures import map_layout
 
 if TYPE_CHECKING:
     import networkx
@@ -68,10 +70,6 @@ __all__ = [
 
 # Look of the pictures ---------------------------------------------------------
 
-_DPI = 110
-_MAX_MAP_W = 7.5  # inches for the map itself, at most...
-_MAX_MAP_H = 6.5  # ...and at most this tall
-_MIN_MAP_SIDE = 2.5  # a long thin map still gets this much on its short side
 _LINE_PX = 4.0  # thin things (skeletons, edge cells) are thickened to about this many pixels
 
 _UNKNOWN = "#c5d3e6"  # NaN in the occupancy grid: a blue-grey, never mistaken for a grey probability
@@ -371,17 +369,8 @@ class _Picture:
         from matplotlib.figure import Figure
 
         self.frame = frame
-        xmin, ymin, xmax, ymax = frame.extent
-        dx, dy = max(xmax - xmin, 1e-9), max(ymax - ymin, 1e-9)
-        scale = min(_MAX_MAP_W / dx, _MAX_MAP_H / dy)  # inches per metre
-        map_w, map_h = max(dx * scale, _MIN_MAP_SIDE), max(dy * scale, _MIN_MAP_SIDE)
-        if map_w / map_h > dx / dy:  # a clamp widened the map: widen the data range to keep 1:1
-            extra = (map_w / map_h * dy - dx) / 2
-            xmin, xmax = xmin - extra, xmax + extra
-        else:
-            extra = (map_h / map_w * dx - dy) / 2
-            ymin, ymax = ymin - extra, ymax + extra
-        self.limits = (xmin, xmax, ymin, ymax)
+        self.limits, map_w, map_h = map_layout(*frame.extent)
+        xmin, xmax, ymin, ymax = self.limits
         scale = map_w / (xmax - xmin)
 
         # Reduce grids to at most about one cell per screen pixel (k × k cells per shown cell).

@@ -32,6 +32,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from atlas_rap.pictures import DPI as _DPI
+from atlas_rap.pictures import map_layout
 from atlas_rap.sim.model import World
 
 __all__ = ["TASK_MARK_KINDS", "TaskMark", "render_run"]
@@ -52,10 +54,6 @@ class TaskMark:
 
 # Look of the picture -------------------------------------------------------
 
-_DPI = 110
-_MAX_MAP_W = 7.5  # inches for the map itself, at most...
-_MAX_MAP_H = 6.5  # ...and at most this tall
-_MIN_MAP_SIDE = 2.5  # a very long thin world still gets this much on its short side
 _MAX_LISTED_MARKS = 40  # beyond this the legend says "... and N more"
 _MAX_LABEL_CHARS = 36
 
@@ -108,17 +106,7 @@ def render_run(
     out.parent.mkdir(parents=True, exist_ok=True)
 
     marks = sorted(task_marks, key=lambda m: m.time)  # stable: ties keep their given order
-    xmin, ymin, xmax, ymax = _extent(world, path, marks, obstacles)
-    dx, dy = xmax - xmin, ymax - ymin
-    scale = min(_MAX_MAP_W / dx, _MAX_MAP_H / dy)  # inches per metre
-    map_w = max(dx * scale, _MIN_MAP_SIDE)
-    map_h = max(dy * scale, _MIN_MAP_SIDE)
-    if map_w / map_h > dx / dy:  # a clamp widened the map: widen the data range to keep 1:1
-        extra = (map_w / map_h * dy - dx) / 2
-        xmin, xmax = xmin - extra, xmax + extra
-    else:
-        extra = (map_h / map_w * dx - dy) / 2
-        ymin, ymax = ymin - extra, ymax + extra
+    (xmin, xmax, ymin, ymax), map_w, map_h = map_layout(*_extent(world, path, marks, obstacles))
 
     left, bottom, top, right = 0.75, 1.05 if path else 0.6, 0.55, 0.25
     fig_w, fig_h = left + map_w + right, bottom + map_h + top
