@@ -58,11 +58,9 @@ def drive(with_sonar: bool) -> tuple[float, float, int]:
 def run_stack() -> tuple[float, float, bool]:
     """Run deliver.rap in-process with the whole stack; (wall seconds, simulated seconds, ok)."""
     from atlas_rap.layers.setup import WorldSetup
-    from atlas_rap.sequencer import load_mission
 
     setup = WorldSetup(WORLD, seed=0)
-    mission = load_mission(MISSION, skills=setup.skills_for)
-    setup.start(mission)
+    mission = setup.load_mission(MISSION)
     start = time.perf_counter()
     result = mission.run(until=600, driver=setup.executive)
     return time.perf_counter() - start, result.time, result.ok

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from atlas_rap.layers.setup import WorldSetup
-from atlas_rap.sequencer import Mission, RunResult, Trace, agenda_tree, load_mission, tree_text
+from atlas_rap.sequencer import Mission, RunResult, Trace, agenda_tree, tree_text
 
 REPO = Path(__file__).resolve().parent.parent
 NAVIGATION = REPO / "rap_library" / "navigation.rap"
@@ -35,8 +35,7 @@ class WorldRun:
 def run_in_world(mission_file: str | Path, world: str | None = None, seed: int = 0, until: float = 600.0) -> WorldRun:
     """Load and run a mission in its world (or ``world``), keeping the whole trace."""
     setup = WorldSetup(world, seed)
-    mission = load_mission(mission_file, skills=setup.skills_for, trace=Trace(keep=True))
-    setup.start(mission)
+    mission = setup.load_mission(mission_file, trace=Trace(keep=True))
     result = mission.run(until=until, driver=setup.executive)
     return WorldRun(mission, result, setup)
 

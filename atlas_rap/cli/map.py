@@ -32,15 +32,13 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
     from atlas_rap.layers.setup import WorldSetup
     from atlas_rap.maps.inference import InferenceGrid
     from atlas_rap.maps.levels import abstract_map, write_levels
-    from atlas_rap.sequencer import load_mission
     from atlas_rap.shipped import resolve_user_path
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     setup = WorldSetup(world, seed, mapping=True)
     path = resolve_user_path(mission_file) if mission_file else _tour_mission(world, out)
-    mission = load_mission(path, skills=setup.skills_for)
-    setup.start(mission)
+    mission = setup.load_mission(path)
     ended = "done"
     try:
         with Progress(transient=True) as progress:

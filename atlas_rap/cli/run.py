@@ -42,19 +42,18 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     from atlas_rap.cli.views import LiveTrace, memory_table, summary, task_tree
     from atlas_rap.errors import AtlasError
     from atlas_rap.layers.setup import WorldSetup
-    from atlas_rap.sequencer import JsonlSink, Trace, agenda_tree, load_mission
+    from atlas_rap.sequencer import JsonlSink, Trace, agenda_tree
     from atlas_rap.sequencer.mission import RunResult, wall_clock_pacer
     from atlas_rap.shipped import resolve_user_path
 
     out = Console(highlight=False, soft_wrap=True)
     err = Console(stderr=True, highlight=False, soft_wrap=True)
     setup = WorldSetup(world, seed, topology=topology_file)
-    mission = load_mission(resolve_user_path(mission_file), skills=setup.skills_for, trace=Trace())
+    mission = setup.load_mission(resolve_user_path(mission_file), trace=Trace())
     for warning in mission.warnings:
         err.print(warning.render(), style="yellow", markup=False)
     if render and setup.world is None:
         raise AtlasError("--render needs a world; this run has none (--world none)")
-    setup.start(mission)
     if render:
         mission.trace.add_sink(setup.task_events)
     sink = JsonlSink(trace_file) if trace_file else None

@@ -8,8 +8,7 @@ the stock skills' manager beside the file's virtual skills, the prior map
 in memory, the multirate executive, and the picture of the run.
 
     setup = WorldSetup(world_flag, seed)
-    mission = load_mission(path, skills=setup.skills_for, trace=trace)
-    setup.start(mission)
+    mission = setup.load_mission(path, trace=trace)
     result = mission.run(until, driver=setup.executive)
 
 A world given as a path in a mission file is found relative to that file.
@@ -75,6 +74,14 @@ class WorldSetup:
 
             self.manager.context.beliefs[TOPOLOGY] = Topology.from_json(self.topology)
         return CombinedSkills(self.manager, virtual)
+
+    def load_mission(self, path, trace=None):
+        """Load and check a mission with this setup's skills, then start its world (:meth:`start`)."""
+        from atlas_rap.sequencer import load_mission
+
+        mission = load_mission(path, skills=self.skills_for, trace=trace)
+        self.start(mission)
+        return mission
 
     def start(self, mission) -> None:
         """Put the world's prior map in memory and build the executive."""

@@ -229,7 +229,6 @@ class Sequencer:
         self.settle()
 
     def _select(self, task: Task) -> None:
-        task.selected += 1
         trace = self.trace
         if trace.active:
             fields = {"repeat": task.repeats} if task.repeats else {}
@@ -298,7 +297,7 @@ class Sequencer:
         task.last_method = method_label(method, number)
         self.trace.emit("method-selected", id=task.id, task=task.text, method=task.last_method,
                         attempt=task.attempts)
-        run = task.run = MethodRun(self, task, method, number, task.attempts, answer)
+        run = task.run = MethodRun(self, task, method, number, answer)
         run.start()
 
     def method_ended(self, run: MethodRun, failure: Failure | None) -> None:

@@ -54,13 +54,11 @@ def method_label(method: ast.Method, number: int) -> str:
 class MethodRun:
     """One attempt of one method of a task: its live net, bindings and enabled skills."""
 
-    def __init__(self, seq: Sequencer, task: Task, method: ast.Method, number: int,
-                 attempt: int, subst: Subst) -> None:
+    def __init__(self, seq: Sequencer, task: Task, method: ast.Method, number: int, subst: Subst) -> None:
         self.seq = seq
         self.task = task
         self.method = method
         self.number = number
-        self.attempt = attempt
         self.subst = subst
         self.live = True
         self.enabled: dict[Compound, None] = {}

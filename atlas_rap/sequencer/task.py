@@ -79,7 +79,7 @@ class Task:
     __slots__ = (
         "id", "call", "text", "parent", "step", "depth", "priority", "deadline", "status",
         "attempts", "tries", "run", "children", "failure", "last_failure", "timers",
-        "queued", "method_ended_ok", "repeats", "repeat_time", "repeats_now", "selected",
+        "queued", "method_ended_ok", "repeats", "repeat_time", "repeats_now",
         "started", "ended", "bindings", "last_method",
     )
 
@@ -106,7 +106,6 @@ class Task:
         self.repeats = 0
         self.repeat_time = -1.0
         self.repeats_now = 0
-        self.selected = 0
         self.started: float | None = None
         self.ended: float | None = None
         self.bindings: dict = {}

@@ -118,26 +118,6 @@ class WaitIndex:
             return list(found)
         return sorted(found, key=_by_seq)
 
-    def waiters(self) -> list[Waiter]:
-        """Every registered waiter, in registration order (for introspection)."""
-        every: dict[Waiter, None] = {}
-        for bucket in self._on_assert.values():
-            every.update(bucket)
-        for bucket in self._on_retract.values():
-            every.update(bucket)
-        every.update(self._on_everything)
-        return sorted(every, key=_by_seq)
-
-
-def query_predicates(query: Term, relations: Mapping[str, Sequence[Relation]] | None = None) -> list[tuple[str, int]]:
-    """The predicates whose assertion could make ``query`` true (positive patterns), in order.
-
-    The load-time check uses this to warn about a ``wait-for`` nothing can wake.
-    """
-    probe = Waiter(query, None)  # type: ignore[arg-type]
-    _collect_keys(query, True, probe, relations or {})
-    return list(dict.fromkeys((key[0], key[1]) for key in probe.assert_keys))
-
 
 def _by_seq(waiter: Waiter) -> int:
     return waiter.seq

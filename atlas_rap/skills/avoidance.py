@@ -46,3 +46,8 @@ def steer(pose: tuple[float, float, float], goal: tuple[float, float],
 def angle_difference(a: float, b: float) -> float:
     """a − b wrapped to (−π, π]."""
     return math.atan2(math.sin(a - b), math.cos(a - b))
+
+
+def angle_wrap(angles: np.ndarray) -> np.ndarray:
+    """Angles wrapped to (−π, π], elementwise."""
+    return np.arctan2(np.sin(angles), np.cos(angles))

@@ -20,6 +20,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from atlas_rap.logic import Compound
+from atlas_rap.skills.avoidance import angle_wrap
 from atlas_rap.skills.navigation import CLOSED_DOORS
 from atlas_rap.skills.skill import Skill
 
@@ -80,8 +81,7 @@ class DoorMonitor(Skill):
             cx, cy = door.center
             if not self.nearest < math.hypot(cx - x, cy - y) < self.sensing_range:
                 continue
-            beam = int(np.argmin(np.abs(np.arctan2(np.sin(angles + heading - math.atan2(cy - y, cx - x)),
-                                                   np.cos(angles + heading - math.atan2(cy - y, cx - x))))))
+            beam = int(np.argmin(np.abs(angle_wrap(angles + heading - math.atan2(cy - y, cx - x)))))
             along = _through_doorway(door.segment, x, y, heading + float(angles[beam]), half_beam)
             if along is None:
                 continue  # the whole beam would not fit through the doorway: a reading says nothing

@@ -15,7 +15,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from atlas_rap.logic import Compound
-from atlas_rap.skills.avoidance import angle_difference, steer
+from atlas_rap.skills.avoidance import angle_difference, angle_wrap, steer
 from atlas_rap.skills.skill import Skill
 
 ARRIVED = 0.2  # metres from a final goal that count as there
@@ -204,8 +204,3 @@ class WallFollow(Skill):
             turn = -sign * 1.2
         speed = self.context.world.robot.max_speed * 0.5 if self.context.world is not None else 0.25
         return {"command": (speed if ahead_range > 0.3 else 0.0, turn)}
-
-
-def angle_wrap(angles: np.ndarray) -> np.ndarray:
-    """Angles wrapped to (−π, π]."""
-    return np.arctan2(np.sin(angles), np.cos(angles))
