@@ -112,9 +112,8 @@ def render_command(map_file: str, out_png: str) -> None:
 
     if map_file.endswith(".npz"):
         try:
-            data = np.load(map_file)
-            height, width, resolution, *origin = data["frame"]
-            p_occ, frame = data["p_occ"], GridFrame(int(height), int(width), float(resolution), tuple(origin))
+            with np.load(map_file) as data:
+                p_occ, frame = data["p_occ"], GridFrame.from_array(data["frame"])
         except (OSError, KeyError, ValueError) as exc:
             raise AtlasError(f"{map_file}: not a grid written by atlas map ({exc})") from None
     else:
@@ -124,8 +123,7 @@ def render_command(map_file: str, out_png: str) -> None:
 
 
 def _report(result, written) -> None:
-    kinds = result.topology.kinds() if hasattr(result.topology, "kinds") else {}
     click.echo(f"{len(result.sdt.segments)} skeleton segments, {int(result.sdt.places.max())} places, "
-               f"nodes {kinds}")
+               f"nodes {result.topology.kinds()}")
     for path in written:
         click.echo(f"wrote {path}")

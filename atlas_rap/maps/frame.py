@@ -33,6 +33,16 @@ class GridFrame:
         height = max(1, math.ceil((ymax - ymin) / resolution))
         return cls(height, width, resolution, (xmin, ymin, 0.0))
 
+    def to_array(self) -> np.ndarray:
+        """[height, width, resolution, origin x, origin y, origin yaw]: how a frame is stored in ``.npz`` files."""
+        return np.array([self.height, self.width, self.resolution, *self.origin], dtype=np.float64)
+
+    @classmethod
+    def from_array(cls, values: Any) -> GridFrame:
+        """The frame stored by :meth:`to_array`."""
+        height, width, resolution, ox, oy, yaw = (float(v) for v in values)
+        return cls(int(height), int(width), resolution, (ox, oy, yaw))
+
     @property
     def shape(self) -> tuple[int, int]:
         return self.height, self.width

@@ -537,10 +537,9 @@ class OccupancyGrid:
         render`` draws either) and ``model`` (the :class:`SonarModel` as JSON).
         """
         path = Path(path)
-        f = self.frame
         np.savez_compressed(path, log_odds=np.ascontiguousarray(self._log_odds),
                             updated=np.ascontiguousarray(self._updated), p_occ=self.probabilities(),
-                            frame=np.array([f.height, f.width, f.resolution, *f.origin], dtype=np.float64),
+                            frame=self.frame.to_array(),
                             model=np.array(json.dumps(asdict(self.model))))
         return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
 
@@ -548,8 +547,7 @@ class OccupancyGrid:
     def load_npz(cls, path: str | Path) -> OccupancyGrid:
         """A grid saved by :meth:`save_npz`; also any ``.npz`` with ``frame`` and ``p_occ`` (NaN: the prior)."""
         with np.load(Path(path), allow_pickle=False) as data:
-            height, width, resolution, ox, oy, yaw = (float(v) for v in data["frame"])
-            frame = GridFrame(int(height), int(width), resolution, (ox, oy, yaw))
+            frame = GridFrame.from_array(data["frame"])
             model = SonarModel(**json.loads(str(data["model"]))) if "model" in data else None
             grid = cls(frame, model)
             if "log_odds" in data:

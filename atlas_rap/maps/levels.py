@@ -51,7 +51,7 @@ def write_levels(p_occ: np.ndarray, result: Abstraction, out_dir: str | Path, *,
     probability = sdt.probability_grid()
     np.savez_compressed(out / "grid.npz", p_occ=np.asarray(p_occ, dtype=np.float32), dt=sdt.dt,
                         skeleton=sdt.skeleton, places=sdt.places, skeleton_probability=probability,
-                        frame=np.array([frame.height, frame.width, frame.resolution, *frame.origin]))
+                        frame=frame.to_array())
     written = [out / "grid.npz",
                render.render_grid(p_occ, frame, out / "grid.png", title=prefix + "occupancy grid", path_xy=path_xy)]
     if result.geometry is not None:

@@ -33,12 +33,9 @@ def stock_manager(world: Any, robot: Any, rng: Any = None, *, mapping: bool = Fa
 
 def stock_skill_names() -> dict[str, set[int]]:
     """The stock skills RAPs can enable: name → arity (for checking files without a world)."""
-    return {skill.name: {len(skill.params)} for skill in stock_skills() if not skill.always_on}
+    return SkillManager(stock_skills()).skills()
 
 
 def stock_events() -> set[str]:
     """Predicates the stock skills may assert."""
-    found = {"done", "why"}
-    for skill in stock_skills():
-        found.update(skill.events)
-    return found
+    return SkillManager(stock_skills()).produces()
