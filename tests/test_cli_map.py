@@ -85,3 +85,11 @@ def test_navigation_plans_on_the_built_topology_and_reroutes_round_a_closed_door
                  "--map", "built/topology.json", cwd=tmp_path)
     assert done.returncode == 1
     assert "no route on the topological map from" in done.stdout and "to office" in done.stdout
+
+
+def test_a_map_option_that_is_not_a_topology_gets_a_clear_error(tmp_path):
+    (tmp_path / "notes.json").write_text("(not json)", encoding="utf-8")
+    done = atlas("run", str(REPO / "rap_library" / "missions" / "deliver.rap"), "--map", "notes.json", cwd=tmp_path)
+    assert done.returncode == 1
+    assert "notes.json: not a topological map written by atlas map" in done.stderr
+    assert_no_traceback(done)

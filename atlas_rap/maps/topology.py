@@ -50,6 +50,7 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
+from atlas_rap.errors import AtlasError
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.sdt import SkeletonSegment, SkeletonTrace, cell_support, places, segment_costs
 
@@ -631,8 +632,12 @@ class Topology:
 
     @classmethod
     def from_json(cls, path: str | Path) -> Topology:
-        """Read a topology written by :meth:`to_json`."""
-        return cls.from_dict(json.loads(Path(path).read_text(encoding="utf-8")))
+        """Read a topology written by :meth:`to_json`; anything else is an :class:`AtlasError` saying so."""
+        try:
+            return cls.from_dict(json.loads(Path(path).read_text(encoding="utf-8")))
+        except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
+            raise AtlasError(f"{path}: not a topological map written by atlas map ({exc}); make one with "
+                             f"atlas map build --out DIR, then use DIR/topology.json") from None
 
     def to_graphml(self, path: str | Path) -> Path:
         """Write the graph as GraphML (networkx): tuples become scalars (row, col, x, y) or JSON strings."""
