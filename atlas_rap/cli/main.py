@@ -14,6 +14,7 @@ import click
 from atlas_rap import __version__
 from atlas_rap.cli.check import check
 from atlas_rap.cli.map import map_group
+from atlas_rap.cli.plan import plan
 from atlas_rap.cli.run import run
 
 
@@ -24,7 +25,7 @@ def cli() -> None:
 
     Write routine procedures as RAPs (.rap files) and planning operators as
     AP files (.ap); check them with `atlas check`; run a mission with
-    `atlas run`;
+    `atlas run`; make a plan with `atlas plan` (AP goals or PDDL);
     build and abstract maps with `atlas map`.
     """
 
@@ -32,6 +33,7 @@ def cli() -> None:
 cli.add_command(check)
 cli.add_command(run)
 cli.add_command(map_group)
+cli.add_command(plan)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -336,6 +336,11 @@ class Operator:
     """``(operator NAME :purpose ... :effects ...)`` (keyword or clause style).
 
     Parts not written are None or empty. ``duration`` defaults to 1.
+    ``parameters`` is the declared order of the operator's variables (PDDL
+    ``:parameters``); when empty, the order is that of first appearance.
+    ``outcome_of`` names the controlled operator whose bad outcome this
+    uncontrolled operator is (read from a FOND ``oneof``): it can happen only
+    as that operator's step, with the same values of the parameters.
     """
 
     name: str
@@ -349,6 +354,8 @@ class Operator:
     duration: float = 1
     uncontrolled: bool = False
     probability: float | None = None
+    parameters: tuple[Var, ...] = ()
+    outcome_of: str | None = None
     loc: SourceLocation = _loc()
 
 

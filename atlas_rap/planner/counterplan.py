@@ -1,0 +1,218 @@
+"""Counterplanning: protect a plan from what uncontrolled agents may do.
+
+An uncontrolled action (a person closing a door, nature flattening a tyre)
+is never planned, but it may happen. The model, where LANGUAGE.md is silent:
+
+- Uncontrolled agents act *between* our steps: in the state after each of
+  our steps, any uncontrolled action whose preconditions hold there may
+  happen. (The state the plan starts in has been observed, so nothing
+  happens before the first step.) A FOND bad outcome (``outcome_of``) is
+  tied to its step: it can happen only as that step's outcome.
+- It **threatens** a causal link ``i --p--> j`` when it deletes ``p`` in one
+  of the states from the producer ``i`` up to just before the consumer ``j``.
+- The **risk** of a plan is the probability that at least one threatening
+  action happens: ``1 - prod(1 - probability)`` over distinct (action,
+  state) pairs; 0 when nothing can defeat the plan.
+
+:func:`counterplan` first plans without regard to them; if that plan is
+threatened it searches again under the *worst case*: after each step, every
+uncontrolled action that can happen deletes what it deletes (its additions
+are not relied on). A plan found so cannot be defeated: it prevents the
+threat (achieves a fact that disables the action), re-achieves the fact
+after the threat and before it is needed (the safe tireworld route changes
+a tyre wherever it may go flat), orders the need before the danger, or takes
+another way. When no such plan exists for every threat, it protects against
+as many threatening actions as it can, one kind at a time, and reports the
+risk that remains.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Iterable
+
+from atlas_rap.planner.ground import GroundAction, GroundTask
+from atlas_rap.planner.search import Settle
+
+
+@dataclass(frozen=True)
+class Threat:
+    """``action`` (uncontrolled) may delete ``fact`` in the state after step ``after``
+    (1-based position in the sequential plan), while step ``consumer`` (0-based;
+    the plan's length for the goals) still needs it."""
+
+    action: GroundAction
+    fact: int
+    after: int
+    consumer: int
+
+
+@dataclass(frozen=True)
+class Counter:
+    """Step ``step`` (0-based) is there to answer ``threat`` by protecting ``fact``."""
+
+    step: int
+    threat: GroundAction
+    fact: int
+
+
+@dataclass
+class Assessment:
+    """The threats to a plan."""
+
+    threats: list[Threat] = field(default_factory=list)
+
+    @property
+    def risk(self) -> float:
+        """1 - prod(1 - p) over distinct (action, state) pairs that threaten the plan."""
+        survive = 1.0
+        for _, action in {(t.action.index, t.after): t.action for t in self.threats}.items():
+            survive *= 1.0 - action.probability
+        return round(max(0.0, 1.0 - survive), 12)
+
+    def actions(self) -> list[GroundAction]:
+        """The uncontrolled actions that threaten the plan, first seen first."""
+        return list({t.action.index: t.action for t in self.threats}.values())
+
+
+class Adversary:
+    """The uncontrolled actions of a task, and what they can do to a state."""
+
+    def __init__(self, task: GroundTask, allowed: Iterable[GroundAction] | None = None) -> None:
+        self.task = task
+        chosen = list(task.nature if allowed is None else allowed)
+        self.anytime = [u for u in chosen if u.operator.outcome_of is None]
+        self.tied: dict[tuple[str, tuple], list[GroundAction]] = {}
+        for u in chosen:
+            if u.operator.outcome_of is not None:
+                self.tied.setdefault((u.operator.outcome_of, u.args), []).append(u)
+
+    def possible_after(self, state: frozenset[int], step: GroundAction | None) -> list[GroundAction]:
+        """Uncontrolled actions that may happen in ``state``, reached by ``step``."""
+        found = [u for u in self.anytime if self.task.applicable(u, state)]
+        if step is not None:
+            found.extend(self.tied.get((step.operator.name, step.args), ()))
+        return found
+
+    def worst_case(self, state: frozenset[int], step: GroundAction) -> frozenset[int]:
+        """``state`` after everything that may happen there has deleted what it deletes
+        (to a fixpoint: a deletion can enable an action with a negative precondition)."""
+        while True:
+            lost: set[int] = set()
+            for u in self.possible_after(state, step):
+                lost.update(u.delete)
+            lost &= state
+            if not lost:
+                return state
+            state = state - lost
+            step = None  # a tied outcome happens once
+
+    @property
+    def settle(self) -> Settle:
+        return self.worst_case
+
+
+def assess(task: GroundTask, plan: list[GroundAction], adversary: Adversary | None = None) -> Assessment:
+    """The threats to ``plan`` (see the module docstring) and so its risk."""
+    adversary = adversary or Adversary(task)
+    assessment = Assessment()
+    if not task.nature:
+        return assessment
+    states = [task.init]
+    for action in plan:
+        states.append(task.apply(action, states[-1]))
+    possible = [adversary.possible_after(states[k], plan[k - 1]) if k > 0 else [] for k in range(len(states))]
+    last_added: dict[int, int] = {}
+    n = len(plan)
+    for j in range(n + 1):
+        needed = task.goal if j == n else plan[j].pre
+        for fact in needed:
+            producer = last_added.get(fact, 0)  # state index: after step `producer`
+            for k in range(max(producer, 1), j + 1):
+                for u in possible[k]:
+                    if fact in u.delete:
+                        assessment.threats.append(Threat(u, fact, k, j))
+        if j < n:
+            for fact in plan[j].add:
+                last_added[fact] = j + 1
+    return assessment
+
+
+def counters(task: GroundTask, plan: list[GroundAction], adversary: Adversary) -> list[Counter]:
+    """Which steps of a plan protect it, found by running it in the worst case: a
+    step that re-adds a fact an uncontrolled action took, or that disables an
+    uncontrolled action that could have taken a fact still needed."""
+    found: list[Counter] = []
+    needed_later: list[set[int]] = []
+    later: set[int] = set(task.goal)
+    for action in reversed(plan):
+        needed_later.append(set(later))
+        later |= set(action.pre)
+    needed_later.reverse()
+    state = task.init
+    taken: dict[int, GroundAction] = {}
+    previous: GroundAction | None = None
+    for m, action in enumerate(plan):
+        possible_before = adversary.possible_after(state, previous)
+        after = task.apply(action, state)
+        for fact in action.add:
+            if fact in taken:
+                found.append(Counter(m, taken.pop(fact), fact))
+        disabled = [u for u in possible_before if u.operator.outcome_of is None and not task.applicable(u, after)]
+        for u in disabled:
+            for fact in u.delete:
+                if fact in after and fact in needed_later[m]:
+                    found.append(Counter(m, u, fact))
+                    break
+        settled = adversary.worst_case(after, action)
+        for u in adversary.possible_after(after, action):
+            for fact in u.delete:
+                if fact in after and fact not in settled and fact not in taken:
+                    taken[fact] = u
+        state, previous = settled, action
+    return list(dict.fromkeys(found))
+
+
+@dataclass
+class Protected:
+    """A plan after counterplanning: the steps, which of them are counters, and the
+    threats left (``assessment.risk``). ``first_risk`` is the risk of the plan
+    before counterplanning."""
+
+    plan: list[GroundAction]
+    counters: list[Counter]
+    assessment: Assessment
+    first_risk: float
+
+
+def counterplan(task: GroundTask, plan: list[GroundAction], timeout: float | None = None) -> Protected:
+    """Protect ``plan`` (a valid sequential plan of ``task``) from uncontrolled actions;
+    see the module docstring. ``timeout`` bounds the extra searches (seconds)."""
+    from atlas_rap.planner.search import eliminate_redundant, greedy_best_first
+
+    full = Adversary(task)
+    first = assess(task, plan, full)
+    if not first.threats:
+        return Protected(plan, [], first, 0.0)
+
+    def robust(adversary: Adversary) -> list[GroundAction] | None:
+        found = greedy_best_first(task, timeout=timeout, settle=adversary.settle)
+        if found.status != "solved":
+            return None
+        return eliminate_redundant(task, found.plan, settle=adversary.settle)
+
+    best, best_adversary = robust(full), full
+    if best is None:
+        allowed: list[GroundAction] = []
+        for u in first.actions():
+            trial_adversary = Adversary(task, allowed + [u])
+            trial = robust(trial_adversary)
+            if trial is not None:
+                allowed.append(u)
+                best, best_adversary = trial, trial_adversary
+    if best is None:
+        return Protected(plan, [], first, first.risk)
+    final = assess(task, best, full)
+    if final.risk >= first.risk:
+        return Protected(plan, [], first, first.risk)
+    return Protected(best, counters(task, best, best_adversary), final, first.risk)

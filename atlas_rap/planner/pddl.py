@@ -1,0 +1,583 @@
+"""Read a PDDL domain and problem into a :class:`PlanningProblem`.
+
+Use :func:`load_pddl` (files) or :func:`parse_pddl` (text) when the planner
+should work on a PDDL benchmark instead of ``.ap`` files. The s-expressions
+come from the RAP reader (:func:`atlas_rap.lang.reader.read_file`): PDDL's
+``-``, ``:keywords`` and ``?variables`` are plain atoms to it, it folds case
+(PDDL is case-insensitive) and it keeps positions, so every error below is a
+:class:`~atlas_rap.errors.SourceError` with ``file:line:column``, the line,
+a caret and a hint.
+
+Supported: STRIPS with ``:typing`` (hierarchy and ``either``),
+``:negative-preconditions``, ``:equality``, ``:constants`` and FOND
+``:non-deterministic`` effects (``oneof``); ``:adl`` is accepted as long as
+only those features are used. Everything else (``or``, ``imply``,
+``exists``, ``forall``, ``when``, numeric fluents, durative actions, derived
+predicates, constraints, preferences, timed initial literals) is an error at
+the form that uses it.
+
+Choices where PDDL leaves room:
+
+- Types are facts. ``?x - T`` becomes the precondition ``(type:T ?x)``,
+  placed before the action's own preconditions, in parameter order; an object
+  or constant of type T gets ``(type:S o)`` for T and every supertype S
+  (never for ``object``, so an untyped parameter or one of type ``object``
+  has no type precondition). ``type:...`` cannot be written in a source file,
+  so it never collides with a predicate.
+- ``(either A B)`` is the derived type ``either:a:b`` (members sorted, so
+  ``(either b a)`` is the same type): an object gets ``(type:either:a:b o)``
+  when it is of type A or B or one of their subtypes. An ``either``
+  containing ``object`` is ``object``. Types in ``:types`` and objects must
+  have plain types, not ``either``.
+- A supertype named only after ``-`` in ``:types`` is declared by that
+  mention (IPC domains do this); an object listed twice with two types has
+  both. Predicate argument types are checked to exist, not checked against
+  the facts that use the predicate.
+- Requirements are checked only for what we cannot honour; a feature used
+  without its requirement (``oneof`` without ``:non-deterministic``, ``=``
+  without ``:equality``) is accepted, as most planners do.
+- Preconditions and goals: an atom, ``(not ATOM)`` (kept as
+  ``Compound('not', (atom,))``), ``(= A B)`` and ``(not (= A B))`` (kept as
+  those terms, also in goals), flattened out of ``and``.
+- Effects are kept as written, :class:`ast.Effect` ``(fact, positive)``;
+  whoever applies them must use PDDL semantics (delete first, then add), so
+  an action that deletes and adds the same fact leaves it true.
+- FOND: at most one ``oneof`` per action. The controlled operator has the
+  common effects plus the first outcome (the nominal one); outcome k >= 2
+  is the uncontrolled operator ``ACTION~k`` (same parameters and
+  preconditions, ``probability`` 1/n, ``outcome_of`` ACTION), listed right
+  after its controlled operator.
+- Action arguments that are names must be domain constants; ``:init`` and
+  ``:goal`` arguments must be objects or constants; goals must be ground.
+"""
+
+from __future__ import annotations
+
+import difflib
+from pathlib import Path
+
+from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.lang import ast
+from atlas_rap.lang.reader import SList, read_file, read_text
+from atlas_rap.logic.terms import Compound, Term, Var
+from atlas_rap.planner.problem import PlanningProblem
+
+SUPPORTED_REQUIREMENTS = (":strips", ":typing", ":negative-preconditions", ":equality",
+                          ":non-deterministic", ":adl")
+TYPE_PREFIX = "type:"
+
+_CONDITION_HINT = ("a precondition or goal is an atom, (not ATOM), (= A B), (not (= A B)), "
+                   "or an (and ...) of these")
+_EFFECT_HINT = ("an effect is an atom, (not ATOM), an (and ...) of these, "
+                "or one (oneof OUTCOME ...) whose outcomes are such effects")
+_SUPPORTED = ("supported: STRIPS with typing, negative preconditions, equality and FOND "
+              "'oneof' effects")
+
+# Heads of formulas and effects, and section keywords, that we know and refuse.
+_NUMERIC_HEADS = ("increase", "decrease", "assign", "scale-up", "scale-down", "<", ">", "<=", ">=")
+_UNSUPPORTED_HEADS = {
+    "or": "disjunctive preconditions ('or')",
+    "imply": "implications ('imply')",
+    "exists": "existential quantifiers ('exists')",
+    "forall": "universal quantifiers ('forall')",
+    "when": "conditional effects ('when')",
+    "preference": "preferences ('preference')",
+    "probabilistic": "probabilistic effects ('probabilistic')",
+    **{head: f"numeric fluents ('{head}')" for head in _NUMERIC_HEADS},
+}
+_UNSUPPORTED_SECTIONS = {
+    ":functions": "numeric fluents (':functions')",
+    ":durative-action": "durative actions (':durative-action')",
+    ":derived": "derived predicates (':derived')",
+    ":constraints": "constraints (':constraints')",
+    ":metric": "plan metrics (':metric')",
+}
+_DOMAIN_SECTIONS = (":requirements", ":types", ":constants", ":predicates", ":action")
+_PROBLEM_SECTIONS = (":domain", ":requirements", ":objects", ":init", ":goal")
+
+Where = tuple[int, int]  # (line, column)
+
+
+def load_pddl(domain_path: str | Path, problem_path: str | Path) -> PlanningProblem:
+    """The planning problem of a PDDL domain file and problem file.
+
+    Raises :class:`~atlas_rap.errors.SourceError` for anything it cannot
+    read or does not support (a missing file included), located in the file.
+    """
+    domain = _Source.from_file(domain_path)
+    problem = _Source.from_file(problem_path)
+    return _Loader(domain, problem).load()
+
+
+def parse_pddl(domain_text: str, problem_text: str, domain_file: str = "domain.pddl",
+               problem_file: str = "problem.pddl") -> PlanningProblem:
+    """:func:`load_pddl` for texts; the file names are for messages."""
+    return _Loader(_Source(domain_file, read_text(domain_text, domain_file), domain_text),
+                   _Source(problem_file, read_text(problem_text, problem_file), problem_text)).load()
+
+
+class _Source:
+    """One PDDL file: name, top-level forms and lines (for carets)."""
+
+    def __init__(self, name: str, forms: list, text: str) -> None:
+        self.name = name
+        self.forms = forms
+        self.lines = source_lines(text)
+
+    @classmethod
+    def from_file(cls, path: str | Path) -> _Source:
+        forms, text = read_file(path)
+        return cls(str(path), forms, text)
+
+    def loc(self, where: Where) -> SourceLocation:
+        return SourceLocation(self.name, where[0], where[1])
+
+    def error(self, message: str, where: Where, hint: str | None = None) -> SourceError:
+        return SourceError(Problem(message, self.loc(where), line_of(self.lines, where[0]), hint))
+
+
+def _at(form: SList) -> Where:
+    return form.line, form.column
+
+
+def _head(form: SList):
+    return form.items[0] if form.items else None
+
+
+def _suggest(name: str, known, what: str) -> str:
+    close = difflib.get_close_matches(name, list(known), n=1)
+    if close:
+        return f"did you mean '{close[0]}'?"
+    return f"declared {what}: {', '.join(sorted(known)) or 'none'}"
+
+
+class _Loader:
+    """Reads a domain and a problem; holds what the domain declares."""
+
+    def __init__(self, domain: _Source, problem: _Source) -> None:
+        self.domain = domain
+        self.problem = problem
+        self.src = domain                      # the file being read, for errors
+        self.parents: dict[str, list[str]] = {}
+        self.type_at: dict[str, Where] = {}
+        self.closure: dict[str, frozenset[str]] = {"object": frozenset({"object"})}
+        self.either: dict[str, frozenset[str]] = {}
+        self.predicates: dict[str, tuple[int, Where]] = {}
+        self.constants: dict[str, set[str]] = {}
+        self.objects: dict[str, set[str]] = {}
+
+    # ------------------------------------------------------------- files and sections
+
+    def _define(self, kind: str) -> tuple[str, list[SList], Where]:
+        """The name, sections and place of ``(define (KIND NAME) SECTION ...)``."""
+        src = self.src
+        for form in src.forms:
+            if type(form) is SList and _head(form) == "define":
+                break
+        else:
+            where = src.forms.locs[0] if src.forms.locs else (1, 1)
+            raise src.error(f"expected (define ({kind} NAME) ...)", where,
+                            f"a PDDL {kind} file is one define form")
+        header = form.items[1] if len(form.items) > 1 else None
+        if (type(header) is not SList or len(header.items) != 2 or header.items[0] != kind
+                or type(header.items[1]) is not str):
+            where = _at(header) if type(header) is SList else _at(form)
+            raise src.error(f"expected ({kind} NAME) after define", where,
+                            f"the file should start (define ({kind} NAME) ...)")
+        sections = []
+        for i, section in enumerate(form.items[2:], 2):
+            if type(section) is not SList or type(_head(section)) is not str:
+                raise src.error("expected a section such as (:keyword ...)", form.locs[i])
+            sections.append(section)
+        return header.items[1], sections, _at(form)
+
+    def _check_sections(self, sections: list[SList], allowed: tuple[str, ...], kind: str) -> None:
+        for section in sections:
+            key = section.items[0]
+            if key in _UNSUPPORTED_SECTIONS:
+                raise self.src.error(f"{_UNSUPPORTED_SECTIONS[key]} are not supported", _at(section),
+                                     _SUPPORTED)
+            if key not in allowed:
+                raise self.src.error(f"unknown {kind} section '{key}'", _at(section),
+                                     f"a {kind} has the sections {', '.join(allowed)}")
+
+    def load(self) -> PlanningProblem:
+        self.src = self.domain
+        domain_name, sections, _ = self._define("domain")
+        self._check_sections(sections, _DOMAIN_SECTIONS, "domain")
+        by_key: dict[str, list[SList]] = {}
+        for section in sections:
+            by_key.setdefault(section.items[0], []).append(section)
+        for section in by_key.get(":requirements", ()):
+            self._requirements(section)
+        for section in by_key.get(":types", ()):
+            self._types(section)
+        self._close_types()
+        for section in by_key.get(":constants", ()):
+            self._declare_objects(section, self.constants)
+        for section in by_key.get(":predicates", ()):
+            self._predicates(section)
+        operators: list[ast.Operator] = []
+        names: set[str] = set()
+        for section in by_key.get(":action", ()):
+            for op in self._action(section):
+                if op.name in names:
+                    raise self.src.error(f"action '{op.name}' is defined twice", _at(section))
+                names.add(op.name)
+                operators.append(op)
+
+        self.src = self.problem
+        problem_name, sections, define_at = self._define("problem")
+        self._check_sections(sections, _PROBLEM_SECTIONS, "problem")
+        init: list[SList] = []
+        goal: SList | None = None
+        for section in sections:
+            key = section.items[0]
+            if key == ":domain":
+                self._check_domain(section, domain_name)
+            elif key == ":requirements":
+                self._requirements(section)
+            elif key == ":objects":
+                self._declare_objects(section, self.objects)
+            elif key == ":init":
+                init.append(section)
+            else:
+                goal = section
+        for name, types in self.constants.items():
+            self.objects.setdefault(name, set()).update(types)
+        facts: dict[Compound, None] = dict.fromkeys(self._type_facts())
+        for section in init:
+            for fact in self._init(section):
+                facts[fact] = None
+        if goal is None:
+            raise self.src.error("the problem has no (:goal ...)", define_at, "add (:goal (and FACT ...))")
+        goals: list[tuple[Term, Where]] = []
+        if len(goal.items) != 2 or type(goal.items[1]) is not SList:
+            raise self.src.error("expected one formula in (:goal ...)", _at(goal), _CONDITION_HINT)
+        self._condition(goal.items[1], None, goals)
+        return PlanningProblem(
+            operators=tuple(operators),
+            initial=tuple(facts),
+            goals=tuple(g for g, _ in goals),
+            objects=tuple(self.objects),
+            name=problem_name,
+            goal_locations=tuple(self.problem.loc(w) for _, w in goals),
+            source_lines={self.domain.name: self.domain.lines, self.problem.name: self.problem.lines},
+        )
+
+    def _requirements(self, section: SList) -> None:
+        for i, req in enumerate(section.items[1:], 1):
+            if req not in SUPPORTED_REQUIREMENTS:
+                raise self.src.error(f"requirement {req} is not supported", section.locs[i],
+                                     f"supported requirements: {' '.join(SUPPORTED_REQUIREMENTS)}")
+
+    def _check_domain(self, section: SList, domain_name: str) -> None:
+        if len(section.items) != 2:
+            raise self.src.error("expected (:domain NAME)", _at(section), f"write (:domain {domain_name})")
+        if section.items[1] != domain_name:
+            where = section.locs[1]
+            raise self.src.error(f"the problem is for domain '{section.items[1]}', "
+                                 f"not '{domain_name}'", where,
+                                 f"the domain file defines '{domain_name}': write (:domain {domain_name})")
+
+    # ------------------------------------------------------------------------- types
+
+    def _typed_list(self, form: SList, start: int, variables: bool) -> list[tuple[Term, object, Where, Where]]:
+        """``a b - T c - (either U V) d`` as (item, type spec, where the item is, where the type is);
+        untyped items get 'object'."""
+        out: list[tuple[Term, object, Where, Where]] = []
+        pending: list[tuple[Term, Where]] = []
+        items, locs = form.items, form.locs
+        i = start
+        while i < len(items):
+            item = items[i]
+            if item == "-":
+                if i + 1 >= len(items):
+                    raise self.src.error("'-' must be followed by a type", locs[i])
+                spec = self._type_spec(items[i + 1], locs[i + 1])
+                out.extend((name, spec, where, locs[i + 1]) for name, where in pending)
+                pending = []
+                i += 2
+                continue
+            if variables and type(item) is not Var:
+                raise self.src.error("expected a ?variable", locs[i], "write parameters as (?x ?y - type)")
+            if not variables and type(item) is not str:
+                raise self.src.error("expected a name", locs[i], "write names as (a b - type)")
+            pending.append((item, locs[i]))
+            i += 1
+        out.extend((name, "object", where, where) for name, where in pending)
+        return out
+
+    def _type_spec(self, spec, where: Where) -> object:
+        """A type name (str), or an ``either`` list (SList) checked later."""
+        if type(spec) is str or (type(spec) is SList and _head(spec) == "either"):
+            return spec
+        raise self.src.error("expected a type name or (either TYPE ...)", where)
+
+    def _types(self, section: SList) -> None:
+        for name, spec, where, _ in self._typed_list(section, 1, variables=False):
+            if type(spec) is not str:
+                raise self.src.error("a type's supertype must be one type, not (either ...)", _at(spec))
+            if name == "object":
+                continue
+            self.type_at.setdefault(name, where)
+            self.parents.setdefault(name, [])
+            if spec not in self.parents[name]:
+                self.parents[name].append(spec)
+            if spec != "object" and spec not in self.parents:
+                self.parents[spec] = ["object"]
+                self.type_at.setdefault(spec, where)
+
+    def _close_types(self) -> None:
+        """Every declared type's set of itself and its supertypes; a cycle is an error."""
+        def close(name: str, visiting: tuple[str, ...]) -> frozenset[str]:
+            done = self.closure.get(name)
+            if done is not None:
+                return done
+            if name in visiting:
+                raise self.src.error(f"type '{name}' is its own supertype", self.type_at[name],
+                                     "the :types hierarchy must not have cycles")
+            result = {name}
+            for parent in self.parents[name]:
+                result |= close(parent, visiting + (name,))
+            self.closure[name] = frozenset(result)
+            return self.closure[name]
+        for name in self.parents:
+            close(name, ())
+
+    def _type_name(self, spec, where: Where) -> str:
+        """The type a parameter, predicate argument, object or constant is declared with."""
+        if type(spec) is str:
+            if spec not in self.closure:
+                raise self.src.error(f"unknown type '{spec}'", where, _suggest(spec, self.closure, "types"))
+            return spec
+        members = set()
+        for i, member in enumerate(spec.items[1:], 1):
+            if type(member) is not str:
+                raise self.src.error("expected a type name", spec.locs[i])
+            members.add(self._type_name(member, spec.locs[i]))
+        if not members:
+            raise self.src.error("(either) needs at least one type", _at(spec))
+        if "object" in members:
+            return "object"
+        if len(members) == 1:
+            return members.pop()
+        name = "either:" + ":".join(sorted(members))
+        self.either[name] = frozenset(members)
+        return name
+
+    def _declare_objects(self, section: SList, table: dict[str, set[str]]) -> None:
+        for name, spec, _, spec_at in self._typed_list(section, 1, variables=False):
+            if type(spec) is not str:
+                raise self.src.error("an object has one type, not (either ...)", spec_at,
+                                     "list the object once per type if it has several")
+            table.setdefault(name, set()).add(self._type_name(spec, spec_at))
+
+    def _type_facts(self):
+        for name, types in self.objects.items():
+            kinds = set().union(*(self.closure[t] for t in types))
+            kinds.discard("object")
+            for either, members in self.either.items():
+                if kinds & members:
+                    kinds.add(either)
+            for kind in sorted(kinds):
+                yield Compound(TYPE_PREFIX + kind, (name,))
+
+    # ----------------------------------------------------------------- predicates, actions
+
+    def _predicates(self, section: SList) -> None:
+        for i, decl in enumerate(section.items[1:], 1):
+            if type(decl) is not SList or type(_head(decl)) is not str:
+                raise self.src.error("expected a predicate declaration (NAME ?arg ...)", section.locs[i])
+            args = self._typed_list(decl, 1, variables=True)
+            for _, spec, _, spec_at in args:
+                self._type_name(spec, spec_at)
+            name = decl.items[0]
+            known = self.predicates.get(name)
+            if known is not None and known[0] != len(args):
+                raise self.src.error(f"predicate '{name}' is declared again with {len(args)} arguments",
+                                     _at(decl), f"it was declared with {known[0]} at "
+                                     f"{self.src.loc(known[1])}")
+            self.predicates[name] = (len(args), _at(decl))
+
+    def _action(self, section: SList) -> list[ast.Operator]:
+        src = self.src
+        items = section.items
+        if len(items) < 2 or type(items[1]) is not str or items[1].startswith(":"):
+            raise src.error("expected (:action NAME :parameters (...) :precondition ... :effect ...)",
+                            _at(section))
+        name = items[1]
+        parts: dict[str, int] = {}
+        i = 2
+        while i < len(items):
+            key = items[i]
+            if key not in (":parameters", ":precondition", ":effect"):
+                what = f"unknown action part '{key}'" if type(key) is str else "expected a keyword"
+                raise src.error(what, section.locs[i], "an action is (:action NAME :parameters (...) "
+                                ":precondition FORMULA :effect EFFECT)")
+            if i + 1 >= len(items):
+                raise src.error(f"{key} needs a value", section.locs[i])
+            parts[key] = i + 1
+            i += 2
+        parameters: list[Var] = []
+        preconditions: list[Term] = []
+        if ":parameters" in parts:
+            form = items[parts[":parameters"]]
+            if type(form) is not SList:
+                raise src.error("expected a list of parameters", section.locs[parts[":parameters"]])
+            for var, spec, where, spec_at in self._typed_list(form, 0, variables=True):
+                if var in parameters:
+                    raise src.error(f"parameter {var} is declared twice", where)
+                parameters.append(var)
+                kind = self._type_name(spec, spec_at)
+                if kind != "object":
+                    preconditions.append(Compound(TYPE_PREFIX + kind, (var,)))
+        params = frozenset(parameters)
+        conditions: list[tuple[Term, Where]] = []
+        if ":precondition" in parts:
+            self._condition(self._list_at(section, parts[":precondition"], _CONDITION_HINT),
+                            params, conditions)
+        preconditions.extend(c for c, _ in conditions)
+        common: list[ast.Effect] = []
+        outcomes: list[list[ast.Effect]] = []
+        if ":effect" in parts:
+            self._effect(self._list_at(section, parts[":effect"], _EFFECT_HINT), params, common, outcomes)
+        loc = src.loc(_at(section))
+        nominal = outcomes[0] if outcomes else []
+        ops = [ast.Operator(name, preconditions=tuple(preconditions), effects=tuple(common + nominal),
+                            parameters=tuple(parameters), loc=loc)]
+        for k, outcome in enumerate(outcomes[1:], 2):
+            ops.append(ast.Operator(f"{name}~{k}", preconditions=tuple(preconditions),
+                                    effects=tuple(common + outcome), uncontrolled=True,
+                                    probability=1 / len(outcomes), parameters=tuple(parameters),
+                                    outcome_of=name, loc=loc))
+        return ops
+
+    def _list_at(self, form: SList, i: int, hint: str) -> SList:
+        item = form.items[i]
+        if type(item) is not SList:
+            raise self.src.error("expected a (list)", form.locs[i], hint)
+        return item
+
+    # ------------------------------------------------------------ formulas and effects
+
+    def _unsupported(self, form: SList) -> SourceError:
+        return self.src.error(f"{_UNSUPPORTED_HEADS[form.items[0]]} are not supported", _at(form), _SUPPORTED)
+
+    def _condition(self, form: SList, params: frozenset | None, out: list[tuple[Term, Where]]) -> None:
+        """Append the conjuncts of a precondition (``params``: the action's) or goal (None)."""
+        head = _head(form)
+        if head is None:
+            return
+        if head == "and":
+            for i in range(1, len(form.items)):
+                self._condition(self._list_at(form, i, _CONDITION_HINT), params, out)
+        elif head == "not":
+            if len(form.items) != 2:
+                raise self.src.error("(not ...) takes one formula", _at(form), _CONDITION_HINT)
+            inner = self._list_at(form, 1, _CONDITION_HINT)
+            if _head(inner) in _UNSUPPORTED_HEADS:
+                raise self._unsupported(inner)
+            out.append((Compound("not", (self._atom(inner, params, _CONDITION_HINT),)), _at(form)))
+        elif head in _UNSUPPORTED_HEADS:
+            raise self._unsupported(form)
+        else:
+            out.append((self._atom(form, params, _CONDITION_HINT), _at(form)))
+
+    def _effect(self, form: SList, params: frozenset, out: list[ast.Effect],
+                outcomes: list[list[ast.Effect]] | None) -> None:
+        """Append the literals of an effect to ``out``; a ``oneof``'s outcomes go to
+        ``outcomes`` (None inside a oneof, where another one is an error)."""
+        head = _head(form)
+        if head is None:
+            return
+        if head == "and":
+            for i in range(1, len(form.items)):
+                self._effect(self._list_at(form, i, _EFFECT_HINT), params, out, outcomes)
+        elif head == "oneof":
+            if outcomes is None or outcomes:
+                raise self.src.error("only one (oneof ...) per action is supported, not nested",
+                                     _at(form), "write the outcomes of every combination in one oneof")
+            if len(form.items) < 2:
+                raise self.src.error("(oneof) needs at least one outcome", _at(form), _EFFECT_HINT)
+            for i in range(1, len(form.items)):
+                outcome: list[ast.Effect] = []
+                self._effect(self._list_at(form, i, _EFFECT_HINT), params, outcome, None)
+                outcomes.append(outcome)
+        elif head == "not":
+            if len(form.items) != 2:
+                raise self.src.error("(not ...) takes one atom", _at(form), _EFFECT_HINT)
+            inner = self._list_at(form, 1, _EFFECT_HINT)
+            if _head(inner) in _UNSUPPORTED_HEADS:
+                raise self._unsupported(inner)
+            out.append(ast.Effect(self._atom(inner, params, _EFFECT_HINT, effect=True), False,
+                                  self.src.loc(_at(form))))
+        elif head in _UNSUPPORTED_HEADS:
+            raise self._unsupported(form)
+        else:
+            out.append(ast.Effect(self._atom(form, params, _EFFECT_HINT, effect=True), True,
+                                  self.src.loc(_at(form))))
+
+    def _atom(self, form: SList, params: frozenset | None, hint: str, effect: bool = False) -> Compound:
+        """``(PRED ARG ...)`` checked against the declarations; ``params`` None for ground atoms."""
+        src = self.src
+        items = form.items
+        head = _head(form)
+        if type(head) is not str or head.startswith(":"):
+            raise src.error("expected an atom (PREDICATE ARG ...)", _at(form), hint)
+        if head in ("and", "not", "oneof", "either"):
+            raise src.error(f"({head} ...) is not allowed here", _at(form), hint)
+        if head == "=":
+            if effect:
+                raise src.error("equality cannot be an effect", _at(form), hint)
+            arity, declared_at = 2, "equality is (= A B)"
+        else:
+            declared = self.predicates.get(head)
+            if declared is None:
+                raise src.error(f"unknown predicate '{head}'", _at(form),
+                                _suggest(head, self.predicates, "predicates"))
+            arity, declared_at = declared[0], f"'{head}' is declared at {self.domain.loc(declared[1])}"
+        if len(items) - 1 != arity:
+            raise src.error(f"'{head}' takes {arity} argument{'s' * (arity != 1)}, not {len(items) - 1}",
+                            _at(form), declared_at)
+        for i in range(1, len(items)):
+            arg = items[i]
+            kind = type(arg)
+            if kind is Var:
+                if params is None:
+                    raise src.error(f"variable {arg} in a ground formula", form.locs[i],
+                                    "goals and :init facts name objects; quantifiers are not supported")
+                if arg not in params:
+                    raise src.error(f"variable {arg} is not a parameter of the action", form.locs[i],
+                                    "declare it in :parameters (forall and exists are not supported)")
+            elif kind is str:
+                if params is None:
+                    if arg not in self.objects:
+                        raise src.error(f"unknown object '{arg}'", form.locs[i],
+                                        "declare it in the problem's :objects or the domain's :constants")
+                elif arg not in self.constants:
+                    raise src.error(f"unknown constant '{arg}'", form.locs[i],
+                                    "declare it in the domain's :constants, or make it a ?parameter")
+            elif kind is SList:
+                raise src.error("numeric fluents (function terms such as (fuel ?x)) are not supported",
+                                form.locs[i], _SUPPORTED)
+            else:
+                raise src.error("expected an object name or a ?variable", form.locs[i], hint)
+        return Compound(head, items[1:])
+
+    # ------------------------------------------------------------------------- problem
+
+    def _init(self, section: SList):
+        for i in range(1, len(section.items)):
+            fact = self._list_at(section, i, "an :init entry is a ground atom (PREDICATE OBJECT ...)")
+            items = fact.items
+            head = _head(fact)
+            if head == "at" and len(items) == 3 and type(items[1]) in (int, float) and type(items[2]) is SList:
+                raise self.src.error("timed initial literals ('at' with a time) are not supported",
+                                     _at(fact), _SUPPORTED)
+            if head == "=":
+                raise self.src.error("numeric fluents ('=' in :init) are not supported", _at(fact), _SUPPORTED)
+            if head == "not":
+                raise self.src.error("(not ...) in :init: the initial state lists only true facts",
+                                     _at(fact), "every fact not listed is false; delete this entry")
+            yield self._atom(fact, None, "an :init entry is a ground atom (PREDICATE OBJECT ...)")

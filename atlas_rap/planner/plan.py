@@ -1,0 +1,264 @@
+"""The plan the planner returns (LANGUAGE.md §3.3): steps with agents and times,
+orderings, causal links, simultaneity, counterplan steps and risk; as text,
+JSON and Graphviz DOT.
+
+Each operator of the partial order is expanded by its ``:plot`` into the
+steps RAPs execute, hierarchically: a plot step that is the purpose of
+another operator of the plan's task is expanded by that operator (so a plot
+may name goals as well as actions); an operator without a plot is one step,
+``(OPERATOR-NAME VALUE ...)``. Orderings between operators become orderings
+from the last steps of one to the first steps of the other. Choices where
+the language is silent:
+
+- a plot step's agent is its first argument when that is an agent, else the
+  operator's ``:agent``;
+- an operator's ``:duration`` is shared by its plot: each step lasts the
+  duration divided by the number of steps on the plot's longest sequential
+  chain, so the expansion takes exactly the operator's duration;
+- steps start as soon as everything ordered before them has ended, and the
+  steps of one ``simultaneous`` group start together (at the latest of
+  their earliest starts); the makespan is the latest end.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+from atlas_rap.logic import Compound, Term, substitute, term_to_str
+from atlas_rap.planner.counterplan import Protected
+from atlas_rap.planner.ground import GroundAction, GroundTask
+from atlas_rap.planner.partial_order import INIT, PartialOrder
+
+MAX_PLOT_DEPTH = 16
+
+
+@dataclass
+class PlanStep:
+    """One executable step: ``action`` as written in the plot with bindings (or the
+    operator's name and values), the ``operator`` it belongs to, its agent, its
+    times, and the index of the operator step of the partial order it expands.
+    ``purpose`` is the operator's purpose with bindings when the step is a whole
+    operator that has one (RAPs are matched to it), else the action itself."""
+
+    id: int
+    action: Compound
+    operator: str
+    agent: str | None
+    start: float
+    end: float
+    source: int
+    purpose: Term | None = None
+
+
+@dataclass
+class Plan:
+    """The planner's answer; ``status`` is ``solved``, ``unsolvable`` or ``timeout``."""
+
+    status: str
+    steps: list[PlanStep] = field(default_factory=list)
+    orderings: list[tuple[int, int]] = field(default_factory=list)
+    links: list[tuple[int | str, int | str, str]] = field(default_factory=list)
+    simultaneous: list[list[int]] = field(default_factory=list)
+    counterplan: list[dict[str, object]] = field(default_factory=list)
+    risk: float = 0.0
+    risk_before_counterplanning: float = 0.0
+    makespan: float = 0.0
+    sequence: list[Compound] = field(default_factory=list)
+    stats: dict[str, float | int] = field(default_factory=dict)
+    reason: str = ""
+
+    def to_dict(self) -> dict[str, object]:
+        """The JSON form of LANGUAGE.md §3.3."""
+        return {
+            "status": self.status,
+            "steps": [{"id": s.id, "action": term_to_str(s.action), "operator": s.operator, "agent": s.agent,
+                       "start": _number(s.start), "end": _number(s.end)} for s in self.steps],
+            "orderings": [list(pair) for pair in self.orderings],
+            "links": [{"from": a, "to": b, "fact": fact} for a, b, fact in self.links],
+            "simultaneous": self.simultaneous,
+            "counterplan": self.counterplan,
+            "risk": self.risk,
+            "risk_before_counterplanning": self.risk_before_counterplanning,
+            "makespan": _number(self.makespan),
+            "stats": self.stats,
+            **({"reason": self.reason} if self.reason else {}),
+        }
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=2)
+
+    def to_text(self) -> str:
+        """A readable listing: the steps by start time, then links and counterplan."""
+        if self.status != "solved":
+            return f"{self.status}" + (f": {self.reason}" if self.reason else "")
+        lines = [f"solved: {len(self.steps)} steps, makespan {_number(self.makespan)}, "
+                 f"parallel length {self.stats.get('parallel_length', '?')}, risk {self.risk:g}"]
+        before = {s.id: [] for s in self.steps}
+        for a, b in self.orderings:
+            before[b].append(a)
+        together = {i: group for group in self.simultaneous for i in group}
+        counter_of = {c["step"]: c for c in self.counterplan}
+        for s in sorted(self.steps, key=lambda s: (s.start, s.id)):
+            notes = []
+            if before[s.id]:
+                notes.append("after " + ", ".join(map(str, sorted(before[s.id]))))
+            if s.id in together:
+                notes.append("with " + ", ".join(str(i) for i in together[s.id] if i != s.id))
+            if s.id in counter_of:
+                c = counter_of[s.id]
+                notes.append(f"counters {c['threat']} (protects {c['protects']})")
+            agent = f" [{s.agent}]" if s.agent else ""
+            note = f"  ; {'; '.join(notes)}" if notes else ""
+            lines.append(f"  {s.id:>3}  {_number(s.start):>6}-{_number(s.end):<6} {term_to_str(s.action)}{agent}{note}")
+        if self.risk:
+            lines.append(f"risk left: {self.risk:g} (an uncontrolled action may still defeat the plan)")
+        return "\n".join(lines)
+
+    def to_dot(self) -> str:
+        """The partial order as a Graphviz digraph: steps, orderings, links labelled with
+        their facts, simultaneous steps side by side, counterplan steps shaded."""
+        counter_steps = {c["step"] for c in self.counterplan}
+        out = ["digraph plan {", "  rankdir=LR;", '  node [shape=box, fontname="Helvetica"];',
+               '  init [shape=circle, label="init"];', '  goal [shape=doublecircle, label="goal"];']
+        for s in self.steps:
+            label = _dot_escape(term_to_str(s.action)) + (f"\\n[{_dot_escape(s.agent)}]" if s.agent else "")
+            style = ', style=filled, fillcolor="#ffd8a8"' if s.id in counter_steps else ""
+            out.append(f'  s{s.id} [label="{label}"{style}];')
+        linked = {(a, b) for a, b, _ in self.links}
+        for a, b in self.orderings:
+            if (a, b) not in linked:
+                out.append(f"  s{a} -> s{b} [style=dashed];")
+        for a, b, fact in self.links:
+            src = "init" if a == "init" else f"s{a}"
+            dst = "goal" if b == "goal" else f"s{b}"
+            out.append(f'  {src} -> {dst} [label="{_dot_escape(fact)}", fontsize=9];')
+        for group in self.simultaneous:
+            out.append("  { rank=same; " + " ".join(f"s{i};" for i in group) + " }")
+        out.append("}")
+        return "\n".join(out)
+
+
+def build_plan(task: GroundTask, order: PartialOrder, protected: Protected, stats: dict) -> Plan:
+    """Expand the operators of ``order`` into plot steps, schedule them and collect
+    the links, simultaneous groups and counterplan steps."""
+    expander = _Expander(task)
+    steps: list[PlanStep] = []
+    entries: list[list[int]] = []
+    exits: list[list[int]] = []
+    inner: list[tuple[int, int]] = []
+    groups: list[list[int]] = []
+    for index, action in enumerate(order.steps):
+        tree = expander.expand(action, 0)
+        unit = action.duration / max(1, _chain(tree))
+        first, last = _place(tree, action, index, unit, steps, inner, groups)
+        entries.append(first)
+        exits.append(last)
+    orderings: set[tuple[int, int]] = set(inner)
+    for a, b in order.reduced_orderings():
+        orderings.update((x, y) for x in exits[a] for y in entries[b])
+    _schedule(steps, orderings, groups)
+    links = []
+    for link in order.links:
+        fact = term_to_str(task.facts[link.fact])
+        if not link.positive:
+            fact = f"(not {fact})"
+        src: int | str = "init" if link.producer == INIT else exits[link.producer][0]
+        dst: int | str = "goal" if link.consumer >= len(order.steps) else entries[link.consumer][0]
+        links.append((src, dst, fact))
+    counterplan = [{"step": exits[c.step][0], "threat": term_to_str(c.threat.term),
+                    "protects": term_to_str(task.facts[c.fact])} for c in protected.counters]
+    return Plan(status="solved", steps=steps, orderings=sorted(orderings), links=links,
+                simultaneous=[g for g in groups if len(g) > 1], counterplan=counterplan,
+                risk=protected.assessment.risk, risk_before_counterplanning=protected.first_risk,
+                makespan=max((s.end for s in steps), default=0.0),
+                sequence=[a.term for a in order.steps], stats=stats)
+
+
+class _Expander:
+    """Plot trees of ground actions: ('step', term, agent) leaves under
+    ('sequence' | 'parallel' | 'simultaneous', parts) nodes."""
+
+    def __init__(self, task: GroundTask) -> None:
+        self.task = task
+        self.by_purpose: dict[Term, GroundAction] = {}
+        for action in task.actions:
+            purpose = action.operator.purpose
+            if purpose is not None:
+                self.by_purpose.setdefault(substitute(purpose, action.binding), action)
+
+    def expand(self, action: GroundAction, depth: int) -> tuple:
+        op = action.operator
+        if op.plot is None or depth > MAX_PLOT_DEPTH:
+            return ("step", action.term, action, action.agents[0] if action.agents else None)
+        return self._plot(op.plot, action, depth)
+
+    def _plot(self, plot, action: GroundAction, depth: int) -> tuple:
+        from atlas_rap.lang import ast
+
+        if isinstance(plot, ast.PlotGroup):
+            return (plot.kind, [self._plot(part, action, depth) for part in plot.parts])
+        term = substitute(plot.term, action.binding)
+        sub = self.by_purpose.get(term)
+        if sub is not None and sub.operator is not action.operator:
+            return self.expand(sub, depth + 1)
+        first = term.args[0] if term.args else None
+        agent = first if first in action.agents else (action.agents[0] if action.agents else None)
+        return ("step", term, action, agent)
+
+
+def _chain(tree: tuple) -> int:
+    kind = tree[0]
+    if kind == "step":
+        return 1
+    lengths = [_chain(part) for part in tree[1]]
+    return sum(lengths) if kind == "sequence" else max(lengths, default=0)
+
+
+def _place(tree: tuple, top: GroundAction, index: int, unit: float, steps: list[PlanStep],
+           inner: list[tuple[int, int]], groups: list[list[int]]) -> tuple[list[int], list[int]]:
+    """Add the tree's steps; return the ids of its first and last steps."""
+    kind = tree[0]
+    if kind == "step":
+        _, term, action, agent = tree
+        purpose = action.operator.purpose if term == action.term else None
+        step = PlanStep(id=len(steps) + 1, action=term, operator=action.operator.name,
+                        agent=None if agent is None else str(agent), start=0.0, end=unit, source=index,
+                        purpose=term if purpose is None else substitute(purpose, action.binding))
+        steps.append(step)
+        return [step.id], [step.id]
+    parts = [_place(part, top, index, unit, steps, inner, groups) for part in tree[1]]
+    if kind == "sequence":
+        for (_, last), (first, _) in zip(parts, parts[1:]):
+            inner.extend((a, b) for a in last for b in first)
+        return parts[0][0] if parts else [], parts[-1][1] if parts else []
+    if kind == "simultaneous":
+        groups.append([i for first, _ in parts for i in first])
+    return [i for first, _ in parts for i in first], [i for _, last in parts for i in last]
+
+
+def _schedule(steps: list[PlanStep], orderings: set[tuple[int, int]], groups: list[list[int]]) -> None:
+    before: dict[int, list[int]] = {s.id: [] for s in steps}
+    for a, b in orderings:
+        before[b].append(a)
+    by_id = {s.id: s for s in steps}
+    group_of = {i: group for group in groups if len(group) > 1 for i in group}
+    done: set[int] = set()
+    for step in steps:  # ids are a topological order
+        if step.id in done:
+            continue
+        members = group_of.get(step.id, [step.id])
+        start = max((by_id[p].end for m in members for p in before[m] if p not in members), default=0.0)
+        for m in members:
+            s = by_id[m]
+            length = s.end - s.start
+            s.start, s.end = start, start + length
+            done.add(m)
+
+
+def _number(x: float) -> float | int:
+    return int(x) if float(x).is_integer() else round(x, 6)
+
+
+def _dot_escape(text: str) -> str:
+    return text.replace("\\", "\\\\").replace('"', '\\"')

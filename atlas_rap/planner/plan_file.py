@@ -1,0 +1,165 @@
+"""Plan files in the IPC format, and a plan validator that does not trust the planner.
+
+Use :func:`write_plan_file` / :func:`read_plan_file` to save and load a
+sequential plan (one ``(action arg ...)`` a line, ``;`` comments), and
+:func:`validate_plan` (or :func:`validate_plan_file`) to check a plan
+against a :class:`PlanningProblem`, as VAL does for PDDL.
+
+The validator is deliberately independent of the planner's grounding: it
+binds the action's arguments to the lifted operator's ``parameters`` in
+order, evaluates each precondition in the current state (type facts,
+atoms, ``(not ATOM)``, ``(= A B)``, ``(not (= A B))``), applies the effects
+with PDDL semantics (all deletions, then all additions) and checks the
+goals at the end. Only preconditions and effects are checked: AP
+constraints, derived arguments and plots are not (PDDL operators have none).
+
+Choices:
+
+- Uncontrolled operators (FOND outcomes such as ``move-car~2``) are never
+  valid plan actions.
+- ``adversarial=True`` is the worst case for a FOND plan: after each step it
+  also applies the deletions of every uncontrolled outcome of that step's
+  operator (same arguments), so a plan passes only if no bad outcome can
+  defeat it. Additions of bad outcomes are ignored: this is exact for
+  domains whose preconditions and goals are positive (deleting a fact never
+  helps them), and conservative otherwise.
+- A plan file's last line is ``; cost = N (unit cost)``; reading skips
+  every comment, so the cost line is informational.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, Sequence
+
+from atlas_rap.errors import Problem, SourceError, SourceLocation
+from atlas_rap.lang import ast
+from atlas_rap.logic.terms import Compound, Term, substitute, term_to_str
+from atlas_rap.planner.ground import variable_order
+from atlas_rap.planner.pddl import TYPE_PREFIX, load_pddl
+from atlas_rap.planner.problem import PlanningProblem
+
+_PLAN_LINE = re.compile(r"\(\s*([^\s();]+)((?:\s+[^\s();]+)*)\s*\)\s*(?:;.*)?")
+_PLAN_HINT = "a plan line is one action such as (pick ball1 rooma left); ';' starts a comment"
+
+
+@dataclass(frozen=True)
+class PlanCheck:
+    """The verdict on a plan: ``failed_step`` is the 1-based step whose action
+    is not applicable, or None (the plan is valid, or it runs but misses a goal)."""
+
+    ok: bool
+    message: str
+    failed_step: int | None = None
+
+
+def format_action(action: Compound) -> str:
+    """``(name arg ...)`` in lower case, as an IPC plan line."""
+    return "(" + " ".join([action.functor, *map(term_to_str, action.args)]).lower() + ")"
+
+
+def write_plan_file(path: str | Path, actions: Iterable[Compound]) -> None:
+    """Write a plan, one action a line, and a final ``; cost = N (unit cost)`` line."""
+    lines = [format_action(action) for action in actions]
+    lines.append(f"; cost = {len(lines)} (unit cost)")
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def read_plan_file(path: str | Path) -> list[Compound]:
+    """The actions of a plan file; blank lines and ``;`` comments are skipped.
+
+    Raises :class:`~atlas_rap.errors.SourceError` for a missing or unreadable
+    file and, located with a caret, for a line that is not one action.
+    """
+    name = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SourceError(Problem("no such file", SourceLocation(name, 1, 1), None, "check the path")) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) else "not UTF-8 text"
+        raise SourceError(Problem(f"cannot read plan file: {reason}", SourceLocation(name, 1, 1))) from None
+    actions = []
+    for number, line in enumerate(text.split("\n"), 1):
+        stripped = line.strip()
+        if not stripped or stripped.startswith(";"):
+            continue
+        match = _PLAN_LINE.fullmatch(stripped)
+        if match is None:
+            column = len(line) - len(line.lstrip()) + 1
+            raise SourceError(Problem("not a plan action", SourceLocation(name, number, column), line, _PLAN_HINT))
+        actions.append(Compound(match.group(1).lower(), tuple(match.group(2).lower().split())))
+    return actions
+
+
+def validate_plan(problem: PlanningProblem, actions: Sequence[Compound],
+                  adversarial: bool = False) -> PlanCheck:
+    """Run ``actions`` from the initial state; see the module docstring."""
+    state = set(problem.initial)
+    by_name = {op.name: op for op in problem.operators}
+    outcomes: dict[str, list[ast.Operator]] = {}
+    for op in problem.operators:
+        if op.uncontrolled and op.outcome_of is not None:
+            outcomes.setdefault(op.outcome_of, []).append(op)
+    for step, action in enumerate(actions, 1):
+        shown = format_action(action)
+        op = by_name.get(action.functor)
+        if op is None:
+            return PlanCheck(False, f"step {step}: {shown}: no action named '{action.functor}'", step)
+        if op.uncontrolled:
+            return PlanCheck(False, f"step {step}: {shown}: '{op.name}' is an uncontrolled outcome, "
+                                    f"not an action a plan can choose", step)
+        parameters = variable_order(op)
+        if len(parameters) != len(action.args):
+            return PlanCheck(False, f"step {step}: {shown}: '{op.name}' takes {len(parameters)} "
+                                    f"arguments, not {len(action.args)}", step)
+        binding = dict(zip(parameters, action.args))
+        for condition in op.preconditions:
+            ground = substitute(condition, binding)
+            if not _holds(ground, state):
+                return PlanCheck(False, f"step {step}: {shown}: precondition {_describe(ground)} "
+                                        f"does not hold", step)
+        _apply(state, op.effects, binding, deletions_only=False)
+        if adversarial:
+            for outcome in outcomes.get(op.name, ()):
+                _apply(state, outcome.effects, binding, deletions_only=True)
+    unmet = [goal for goal in problem.goals if not _holds(goal, state)]
+    if unmet:
+        return PlanCheck(False, f"goal {term_to_str(unmet[0])} is not met after {len(actions)} steps"
+                                + (f" ({len(unmet)} goals unmet)" if len(unmet) > 1 else ""))
+    worst = " even when every bad outcome happens" if adversarial else ""
+    return PlanCheck(True, f"plan valid: {len(actions)} steps reach the goals{worst}")
+
+
+def validate_plan_file(domain_path: str | Path, problem_path: str | Path, plan_path: str | Path,
+                       adversarial: bool = False) -> PlanCheck:
+    """:func:`validate_plan` on PDDL files and a plan file."""
+    return validate_plan(load_pddl(domain_path, problem_path), read_plan_file(plan_path), adversarial)
+
+
+def _holds(condition: Term, state: set) -> bool:
+    if type(condition) is not Compound:
+        return False
+    if condition.functor == "not" and len(condition.args) == 1:
+        return not _holds(condition.args[0], state)
+    if condition.functor == "=" and len(condition.args) == 2:
+        return condition.args[0] == condition.args[1]
+    return condition in state
+
+
+def _describe(condition: Compound) -> str:
+    """A failed precondition in words: type facts read as types."""
+    if condition.functor.startswith(TYPE_PREFIX) and len(condition.args) == 1:
+        kind = condition.functor[len(TYPE_PREFIX):]
+        return f"{term_to_str(condition)} ('{condition.args[0]}' is not of type {kind})"
+    return term_to_str(condition)
+
+
+def _apply(state: set, effects: Sequence[ast.Effect], binding: dict, deletions_only: bool) -> None:
+    """PDDL semantics: every deletion first, then every addition."""
+    ground = [(substitute(e.fact, binding), e.positive) for e in effects]
+    state.difference_update(fact for fact, positive in ground if not positive)
+    if not deletions_only:
+        state.update(fact for fact, positive in ground if positive)

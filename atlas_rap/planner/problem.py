@@ -1,0 +1,88 @@
+"""A planning problem: the operators, agents, relations, initial state and goals
+that the planner works on, whether they came from AP files or from PDDL.
+
+Use :func:`problem_from_program` for a loaded ``.ap`` program and
+:func:`atlas_rap.planner.pddl.load_pddl` for a PDDL domain and problem; both
+give a :class:`PlanningProblem`, so everything after reading (grounding,
+search, partial order, counterplanning) is written once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from atlas_rap.errors import SourceLocation
+from atlas_rap.lang import ast
+from atlas_rap.logic import Compound, Relation, Term
+
+
+@dataclass(frozen=True)
+class PlanningProblem:
+    """Everything a plan is made from.
+
+    - ``operators``: controlled and uncontrolled operators (:class:`ast.Operator`).
+      A PDDL action is an operator with ``parameters`` in declared order, its
+      typed parameters written as unary preconditions ``(TYPE ?x)``.
+    - ``controlled`` / ``uncontrolled``: agent names (empty for PDDL).
+    - ``relations``: defined relations by name, for constraints.
+    - ``objects``: names the grounder may bind a variable to that no fact
+      binds (PDDL objects and constants); more are taken from facts and goals.
+    - ``initial``: ground facts; ``goals``: facts, or ``(not FACT)``.
+    - ``name``: for messages; ``goal_locations``: where each goal was written.
+    - ``source_lines``: source text by file name, so later errors can show a caret.
+    """
+
+    operators: tuple[ast.Operator, ...]
+    initial: tuple[Compound, ...]
+    goals: tuple[Term, ...]
+    controlled: tuple[str, ...] = ()
+    uncontrolled: tuple[str, ...] = ()
+    relations: dict[str, list[Relation]] = field(default_factory=dict)
+    objects: tuple[str, ...] = ()
+    name: str = "problem"
+    goal_locations: tuple[SourceLocation | None, ...] = ()
+    agents_location: SourceLocation | None = None
+    source_lines: dict[str, list[str]] = field(default_factory=dict)
+
+    def operator(self, name: str) -> ast.Operator:
+        """The operator called ``name``."""
+        for op in self.operators:
+            if op.name == name:
+                return op
+        raise KeyError(name)
+
+    def line(self, loc: SourceLocation | None) -> str | None:
+        """The source line at ``loc``, for a caret under a problem."""
+        if loc is None:
+            return None
+        lines = self.source_lines.get(loc.file)
+        if lines is None or not 0 < loc.line <= len(lines):
+            return None
+        return lines[loc.line - 1]
+
+
+def problem_from_program(program, name: str = "problem") -> PlanningProblem:
+    """The planning problem of a loaded ``.ap`` program (:func:`atlas_rap.lang.load`):
+    its operators, ``agents``, ``define-relation``s, ``initial`` and ``goals``
+    (every ``initial`` and ``goals`` form, in order)."""
+    relations: dict[str, list[Relation]] = {}
+    for rel in program.of_type(ast.RelationDef):
+        relations.setdefault(rel.name, []).append(Relation(rel.head, rel.body))
+    agents = program.of_type(ast.Agents)
+    controlled = tuple(a for form in agents for a in form.controlled)
+    uncontrolled = tuple(a for form in agents for a in form.uncontrolled)
+    goals_forms = program.of_type(ast.Goals)
+    goals = tuple(g for form in goals_forms for g in form.goals)
+    goal_locations = tuple(form.loc for form in goals_forms for _ in form.goals)
+    return PlanningProblem(
+        operators=tuple(program.of_type(ast.Operator)),
+        initial=tuple(f for form in program.of_type(ast.Initial) for f in form.facts),
+        goals=goals,
+        controlled=controlled,
+        uncontrolled=uncontrolled,
+        relations=relations,
+        name=name,
+        goal_locations=goal_locations,
+        agents_location=agents[0].loc if agents else None,
+        source_lines=dict(program.lines),
+    )

@@ -1,0 +1,71 @@
+"""The planner from end to end: ground, search, shorten, protect, deorder, expand.
+
+Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
+:func:`problem_from_program`, or from PDDL with ``load_pddl``); it returns a
+:class:`~atlas_rap.planner.plan.Plan`. The steps:
+
+1. :func:`~atlas_rap.planner.ground.ground` the operators;
+2. greedy best-first search with hFF and helpful actions
+   (:mod:`~atlas_rap.planner.search`), then drop redundant actions;
+3. :func:`~atlas_rap.planner.counterplan.counterplan` against uncontrolled agents;
+4. :func:`~atlas_rap.planner.partial_order.deorder` into a partial order,
+   checked valid in every linearisation;
+5. :func:`~atlas_rap.planner.plan.build_plan`: plots, agents, schedule.
+"""
+
+from __future__ import annotations
+
+import time
+
+from atlas_rap.logic import term_to_str
+from atlas_rap.planner.counterplan import counterplan
+from atlas_rap.planner.ground import ground
+from atlas_rap.planner.partial_order import check_every_linearisation, deorder
+from atlas_rap.planner.plan import Plan, build_plan
+from atlas_rap.planner.problem import PlanningProblem
+from atlas_rap.planner.search import eliminate_redundant, greedy_best_first
+
+DEFAULT_TIMEOUT = 60.0
+
+
+class PlannerBug(AssertionError):
+    """The planner produced a plan its own validator rejects: a bug, never bad input."""
+
+
+def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, protect: bool = True) -> Plan:
+    """Plan for ``problem`` within ``timeout`` CPU seconds (None: no limit).
+
+    ``protect`` False skips counterplanning (the risk is still reported).
+    """
+    started = time.process_time()
+    task = ground(problem)
+    grounded = time.process_time()
+    stats: dict[str, float | int] = {"facts": len(task.facts), "actions": len(task.actions),
+                                     "uncontrolled_actions": len(task.nature),
+                                     "ground_seconds": round(grounded - started, 4)}
+    if task.unreachable_goals:
+        goals = ", ".join(term_to_str(g) for g in task.unreachable_goals)
+        return Plan(status="unsolvable", stats=stats,
+                    reason=f"no sequence of actions can make {goals} true")
+    left = None if timeout is None else max(0.0, timeout - (grounded - started))
+    found = greedy_best_first(task, timeout=left)
+    stats.update(expanded=found.expanded, evaluated=found.evaluated, search_seconds=round(found.seconds, 4))
+    if found.status != "solved":
+        reason = ("the reachable states were searched and none meets the goals" if found.status == "unsolvable"
+                  else f"no plan found within {timeout:g} s")
+        return Plan(status=found.status, stats=stats, reason=reason)
+    sequence = eliminate_redundant(task, found.plan)
+    left = None if timeout is None else max(1.0, timeout - (time.process_time() - started))
+    if protect:
+        protected = counterplan(task, sequence, timeout=left)
+    else:
+        from atlas_rap.planner.counterplan import Protected, assess
+        first = assess(task, sequence)
+        protected = Protected(sequence, [], first, first.risk)
+    order = deorder(task, protected.plan)
+    problems = check_every_linearisation(task, order)
+    if problems:
+        raise PlannerBug("the partial order is not valid in every linearisation: " + "; ".join(problems))
+    stats.update(length=len(order.steps), parallel_length=order.parallel_length(),
+                 seconds=round(time.process_time() - started, 4))
+    return build_plan(task, order, protected, stats)
