@@ -39,11 +39,12 @@ def test_a_file_with_problems_prints_each_with_a_caret_and_exits_1(tmp_path):
 
 
 def test_clean_and_bad_files_together_exit_1_and_report_both(tmp_path):
-    (tmp_path / "good.ap").write_text("(goals (at robot office))\n", encoding="utf-8")
+    (tmp_path / "good.ap").write_text("(operator go :purpose (at robot ?place) :effects ((at robot ?place)))\n"
+                                      "(goals (at robot office))\n", encoding="utf-8")
     (tmp_path / "bad.ap").write_text("(goals (at robot office)\n", encoding="utf-8")
     done = atlas("check", "good.ap", "bad.ap", cwd=tmp_path)
     assert done.returncode == 1
-    assert "ok: good.ap: 1 goals" in done.stdout
+    assert "ok: good.ap: 1 goals, 1 operator" in done.stdout
     assert "bad.ap:1:1: error: unbalanced '(': this list is never closed" in done.stderr
 
 

@@ -33,7 +33,7 @@ def check(files: tuple[str, ...], tree: bool, format_: bool) -> None:
                 _echo_problem(problem.render())
             click.secho(f"{path}: {_plural(len(exc.problems), 'problem')}", fg="red", err=True)
             continue
-        problems = _sequencer_problems(program)
+        problems = _sequencer_problems(program) + _planner_problems(program, path)
         for problem in problems:
             _echo_problem(problem.render())
         if any(problem.severity == "error" for problem in problems):
@@ -72,6 +72,18 @@ def _sequencer_problems(program) -> list:
         names = {**STOCK_SKILLS, **names}
         events |= STOCK_EVENTS
     return check_program(program, names, events)
+
+
+def _planner_problems(program, path: str) -> list:
+    """Load-time checks of a planning problem (operators against goals and agents),
+    for a file that states goals."""
+    from atlas_rap.lang import ast
+    from atlas_rap.planner.checks import check_problem
+    from atlas_rap.planner.problem import problem_from_program
+
+    if not program.of_type(ast.Goals):
+        return []
+    return check_problem(problem_from_program(program, name=path))
 
 
 _KINDS = {"RapDef": "RAP", "MemoryRuleDef": "memory rule", "VirtualSkillDef": "virtual skill",

@@ -391,10 +391,12 @@ class Initial:
 
 @dataclass(frozen=True, slots=True)
 class Goals:
-    """``(goals GOAL ...)``: what the plan must achieve."""
+    """``(goals GOAL ...)``: what the plan must achieve; ``goal_locs`` says where
+    each goal is written."""
 
     goals: tuple[Term, ...]
     loc: SourceLocation = _loc()
+    goal_locs: tuple[SourceLocation, ...] = field(default=(), compare=False, repr=False)
 
 
 TopLevel = Union[RapDef, MemoryRuleDef, VirtualSkillDef, AtTime, Include, WorldDecl,

@@ -712,7 +712,8 @@ class Validator:
     def goals(self, form: SList) -> ast.Goals:
         if len(form.items) < 2:
             self.fail("goals needs at least one goal", self.at(form))
-        return ast.Goals(goals=self.each(form, 1, self.query), loc=self.loc(self.at(form)))
+        return ast.Goals(goals=self.each(form, 1, self.query), loc=self.loc(self.at(form)),
+                         goal_locs=tuple(self.loc(where) for where in form.locs[1:]))
 
 
 class _Items:

@@ -20,7 +20,7 @@ from __future__ import annotations
 from atlas_rap.errors import Problem, SourceError, SourceLocation
 from atlas_rap.lang import ast
 from atlas_rap.logic import Compound, Term, term_to_str, unify, variables
-from atlas_rap.planner.ground import agent_variables, plot_steps
+from atlas_rap.planner.ground import agent_variables, operator_purposes, plot_steps
 from atlas_rap.planner.problem import PlanningProblem
 
 _NOT_FACTS = frozenset({"not", "and", "or", "=", "/=", "<", "<=", ">", ">="})
@@ -140,7 +140,7 @@ def _agent_problems(problem: PlanningProblem) -> list[Problem]:
                                  f"which is not the operator's :agent, a plot step's agent or any other "
                                  f"variable of the operator", op.loc,
                         f"declare it with :agent {var}, use it in the plot, or fix its spelling"))
-        agent_vars = agent_variables(op)
+        agent_vars = agent_variables(op, operator_purposes(problem))
         pool = problem.uncontrolled if op.uncontrolled else problem.controlled
         if agent_vars and not pool:
             kind = "uncontrolled" if op.uncontrolled else "controlled"

@@ -30,10 +30,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from itertools import product
-from typing import Iterator
+from typing import Iterator, Sequence
 
 from atlas_rap.lang import ast
-from atlas_rap.logic import Compound, Memory, String, Subst, Term, Var, evaluate, substitute, variables
+from atlas_rap.logic import Compound, Memory, String, Subst, Term, Var, evaluate, substitute, unify, variables
 from atlas_rap.planner.agents import AgentProblem, assign_agents
 from atlas_rap.planner.problem import PlanningProblem
 
@@ -143,15 +143,24 @@ def plot_steps(plot: ast.Plot | None) -> list[ast.PlotStep]:
     return [step for part in plot.parts for step in plot_steps(part)]
 
 
-def agent_variables(op: ast.Operator) -> tuple[Var, ...]:
-    """The ``:agent`` variable and the first argument of each plot action, when a variable."""
+def agent_variables(op: ast.Operator, purposes: Sequence[Term] = ()) -> tuple[Var, ...]:
+    """The ``:agent`` variable and the first argument of each plot *action*, when a
+    variable. A plot step that unifies with one of ``purposes`` (other operators'
+    purposes) is a goal, not an action, so it names no agent."""
     found: dict[Var, None] = {}
     if op.agent is not None:
         found[op.agent] = None
     for step in plot_steps(op.plot):
+        if any(unify(step.term, purpose) is not None for purpose in purposes):
+            continue
         if step.term.args and type(step.term.args[0]) is Var:
             found[step.term.args[0]] = None
     return tuple(found)
+
+
+def operator_purposes(problem: PlanningProblem) -> list[Term]:
+    """The purposes of our operators: what a plot step may name as a goal."""
+    return [op.purpose for op in problem.operators if op.purpose is not None and not op.uncontrolled]
 
 
 def simultaneous_pairs(plot: ast.Plot | None) -> list[tuple[Var, Var]]:
@@ -199,7 +208,8 @@ class _OperatorGrounder:
         self.reads = {(a.functor, len(a.args)) for a in self.fluent_atoms}
         self.join_order = _join_order(self.static_atoms, self.fluent_atoms)
         candidates = problem.uncontrolled if op.uncontrolled else problem.controlled
-        self.agents = AgentProblem(variables=agent_variables(op), candidates=tuple(candidates),
+        self.agents = AgentProblem(variables=agent_variables(op, operator_purposes(problem)),
+                                   candidates=tuple(candidates),
                                    tests=tuple(op.constraints), distinct=tuple(simultaneous_pairs(op.plot)))
         self.seen: dict[tuple[Term, ...], Subst] = {}
 
@@ -314,7 +324,10 @@ def ground(problem: PlanningProblem) -> GroundTask:
     nature = build.all(nature_found)
     goal, goal_neg, unreachable = [], [], []
     for g in problem.goals:
-        if type(g) is Compound and g.functor == "not" and len(g.args) == 1:
+        if _is_test(g):  # (= a b), (not (= a b)): true or false whatever the plan does
+            if next(evaluate(g, init, {}, problem.relations), None) is None:
+                unreachable.append(g)
+        elif type(g) is Compound and g.functor == "not" and len(g.args) == 1:
             if g.args[0] in fact_ids:
                 goal_neg.append(fact_ids[g.args[0]])
         elif g in fact_ids:
@@ -325,6 +338,12 @@ def ground(problem: PlanningProblem) -> GroundTask:
                       init=frozenset(fact_ids[f] for f in problem.initial if f in fact_ids),
                       goal=tuple(dict.fromkeys(goal)), goal_neg=tuple(dict.fromkeys(goal_neg)),
                       actions=actions, nature=nature, unreachable_goals=tuple(unreachable))
+
+
+def _is_test(goal: Term) -> bool:
+    if type(goal) is Compound and goal.functor == "not" and len(goal.args) == 1:
+        goal = goal.args[0]
+    return type(goal) is Compound and goal.functor in _TESTS
 
 
 class _ActionBuilder:

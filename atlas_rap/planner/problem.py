@@ -73,7 +73,8 @@ def problem_from_program(program, name: str = "problem") -> PlanningProblem:
     uncontrolled = tuple(a for form in agents for a in form.uncontrolled)
     goals_forms = program.of_type(ast.Goals)
     goals = tuple(g for form in goals_forms for g in form.goals)
-    goal_locations = tuple(form.loc for form in goals_forms for _ in form.goals)
+    goal_locations = tuple(loc for form in goals_forms
+                           for loc in (form.goal_locs or (form.loc,) * len(form.goals)))
     return PlanningProblem(
         operators=tuple(program.of_type(ast.Operator)),
         initial=tuple(f for form in program.of_type(ast.Initial) for f in form.facts),

@@ -18,7 +18,7 @@ from __future__ import annotations
 import time
 
 from atlas_rap.logic import term_to_str
-from atlas_rap.planner.counterplan import counterplan
+from atlas_rap.planner.counterplan import Counter, Protected, assess, counterplan, shorten_exposure
 from atlas_rap.planner.ground import ground
 from atlas_rap.planner.partial_order import check_every_linearisation, deorder
 from atlas_rap.planner.plan import Plan, build_plan
@@ -59,13 +59,32 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     if protect:
         protected = counterplan(task, sequence, timeout=left)
     else:
-        from atlas_rap.planner.counterplan import Protected, assess
         first = assess(task, sequence)
         protected = Protected(sequence, [], first, first.risk)
     order = deorder(task, protected.plan)
+    if protected.assessment.risk > 0:
+        reordered = shorten_exposure(task, order.steps, order.closure())
+        if reordered != order.steps:
+            moved = [Counter(_new_position(order.steps, reordered, c.step), c.threat, c.fact)
+                     for c in protected.counters]
+            protected = Protected(reordered, moved, assess(task, reordered), protected.first_risk)
+            order = deorder(task, reordered)
     problems = check_every_linearisation(task, order)
     if problems:
         raise PlannerBug("the partial order is not valid in every linearisation: " + "; ".join(problems))
     stats.update(length=len(order.steps), parallel_length=order.parallel_length(),
                  seconds=round(time.process_time() - started, 4))
     return build_plan(task, order, protected, stats)
+
+
+def _new_position(old: list, new: list, index: int) -> int:
+    """Where step ``index`` of ``old`` is in ``new`` (a permutation of the same objects)."""
+    target = old[index]
+    occurrence = sum(1 for a in old[:index] if a is target)
+    seen = 0
+    for j, action in enumerate(new):
+        if action is target:
+            if seen == occurrence:
+                return j
+            seen += 1
+    raise ValueError("not a permutation")
