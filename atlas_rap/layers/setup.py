@@ -76,10 +76,12 @@ class WorldSetup:
         return CombinedSkills(self.manager, virtual)
 
     def load_mission(self, path, trace=None):
-        """Load and check a mission with this setup's skills, then start its world (:meth:`start`)."""
+        """Load and check a mission with this setup's skills, then start its world (:meth:`start`).
+        Each ``(plan GOAL ...)`` is planned now and carried out by RAPs (``planner.execute``)."""
+        from atlas_rap.planner.execute import expand_plan_requests
         from atlas_rap.sequencer import load_mission
 
-        mission = load_mission(path, skills=self.skills_for, trace=trace)
+        mission = load_mission(path, skills=self.skills_for, trace=trace, planner=expand_plan_requests)
         self.start(mission)
         return mission
 

@@ -1,8 +1,9 @@
 """Dispatch: which RAP executes each plan step (LANGUAGE.md §3.3).
 
 A step is executed by the RAP whose ``succeed`` clause unifies with the
-step's purpose; failing that, by a RAP of the step's name and number of
-arguments. The purpose of a step that is a whole operator is the
+step's purpose (a RAP parameter that match leaves unbound takes the value
+of the operator's variable of the same name); failing that, by a RAP of
+the step's name and number of arguments. The purpose of a step that is a whole operator is the
 operator's ``:purpose`` with its bindings; a plot step's purpose is the
 step itself. Use :func:`load_raps` to gather the RAPs of a folder and
 :func:`match_steps` before a plan is executed: a step no RAP can execute is
@@ -15,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from atlas_rap.lang import ast
-from atlas_rap.logic import Compound, Term, substitute, unify
+from atlas_rap.logic import Compound, Term, is_ground, substitute, term_to_str, unify, variables
 from atlas_rap.planner.plan import Plan, PlanStep
 
 
@@ -52,7 +53,9 @@ def _match(step: PlanStep, purpose: Term, raps: list[ast.RapDef]) -> Dispatch:
             continue
         s = unify(rap.succeed, purpose)
         if s is not None:
-            return Dispatch(step, rap, substitute(rap.head, s), f"succeed {rap.succeed} unifies with the purpose")
+            task = _fill(substitute(rap.head, s), step)
+            if is_ground(task):
+                return Dispatch(step, rap, task, f"succeed {term_to_str(rap.succeed)} unifies with the purpose")
     action = step.action
     for rap in raps:
         if rap.name == action.functor and len(rap.params) == len(action.args):
@@ -60,3 +63,9 @@ def _match(step: PlanStep, purpose: Term, raps: list[ast.RapDef]) -> Dispatch:
             if s is not None:
                 return Dispatch(step, rap, substitute(rap.head, s), "same name")
     return Dispatch(step, None, None, "no RAP's succeed unifies with the purpose and no RAP has the step's name")
+
+
+def _fill(task: Compound, step: PlanStep) -> Compound:
+    """RAP parameters the succeed match left unbound take the value of the step's
+    operator variable of the same name (``?cam`` in both)."""
+    return substitute(task, {v: step.binding[v] for v in variables(task) if v in step.binding})  # type: ignore[return-value]

@@ -49,6 +49,7 @@ class PlanStep:
     end: float
     source: int
     purpose: Term | None = None
+    binding: dict = field(default_factory=dict, repr=False)
 
 
 @dataclass
@@ -224,7 +225,8 @@ def _place(tree: tuple, top: GroundAction, index: int, unit: float, steps: list[
         purpose = action.operator.purpose if term == action.term else None
         step = PlanStep(id=len(steps) + 1, action=term, operator=action.operator.name,
                         agent=None if agent is None else str(agent), start=0.0, end=unit, source=index,
-                        purpose=term if purpose is None else substitute(purpose, action.binding))
+                        purpose=term if purpose is None else substitute(purpose, action.binding),
+                        binding=action.binding)
         steps.append(step)
         return [step.id], [step.id]
     parts = [_place(part, top, index, unit, steps, inner, groups) for part in tree[1]]

@@ -158,15 +158,26 @@ class Driver(Protocol):
 
 
 def load_mission(path: str | Path, skills: SkillLink | Callable[[Any], SkillLink] | None = None, *,
-                 trace: Trace | None = None, require_post: bool = True) -> Mission:
+                 trace: Trace | None = None, require_post: bool = True,
+                 planner: Callable[[Any], Any] | None = None) -> Mission:
     """Load and check a mission; raises :class:`SourceError` listing every error.
 
     ``skills`` is the skill link, or a function that makes one from the
     loaded program (to combine a world's skills with the file's virtual
     ones); by default the program's virtual skills. Warnings (a wait-for
-    nothing can wake) are kept on ``mission.warnings``.
+    nothing can wake) are kept on ``mission.warnings``. ``planner`` turns
+    each ``(plan GOAL ...)`` of the program into RAPs and posts
+    (``atlas_rap.planner.execute.expand_plan_requests``; the sequencer does
+    not import the planner); without it, a ``(plan ...)`` is an error.
     """
     program = load(path)
+    requests = program.of_type(ast.PlanRequest)
+    if requests and planner is None:
+        raise SourceError([Problem("(plan ...) needs the planner, and none was given to this mission loader",
+                                   r.loc, program.source_line(r.loc), "run the mission with `atlas run`")
+                           for r in requests])
+    if requests:
+        program = planner(program)
     if skills is None:
         link: SkillLink = VirtualSkills.from_program(program)
     elif callable(skills) and not hasattr(skills, "enable"):
