@@ -21,10 +21,11 @@ import click
               help="Report the plan steps that no RAP in DIR (its .rap files) can execute; exit 1 if any.")
 @click.option("--timeout", type=float, default=60.0, show_default=True, metavar="SECONDS",
               help="CPU time for the whole planner; the status is 'timeout' past it.")
+@click.option("--timing", is_flag=True, help="Add CPU times (grounding, search, total) to --json.")
 @click.option("--no-counterplan", is_flag=True, help="Do not protect the plan from uncontrolled agents "
                                                      "(the risk is still reported).")
 def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_file: str | None,
-         render: str | None, check_raps: str | None, timeout: float, no_counterplan: bool) -> None:
+         render: str | None, check_raps: str | None, timeout: float, timing: bool, no_counterplan: bool) -> None:
     """Plan for the goals of GOALS.ap (with the operators it includes), or for a
     PDDL problem with --pddl.
 
@@ -41,7 +42,7 @@ def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_f
     problem = _read_problem(files, pddl)
     result = solve(problem, timeout=timeout, protect=not no_counterplan)
     if as_json:
-        click.echo(result.to_json())
+        click.echo(result.to_json(timing))
     elif as_dot:
         click.echo(result.to_dot())
     else:

@@ -9,8 +9,9 @@ any search starts (also run by ``atlas check`` on ``.ap`` files with goals).
 - a variable in ``:constraints`` that no other part of the operator uses
   (an agent named only in constraints is never declared as the operator's
   ``:agent`` or a plot step's agent, so nothing could bind it sensibly);
-- an operator that needs agents when the problem declares none, and an
-  agent declared both controlled and uncontrolled;
+- an operator of ours that needs agents when the problem declares no
+  controlled agents (an uncontrolled operator with nobody to do it simply
+  never happens), and an agent declared both controlled and uncontrolled;
 - a plot cycle: an operator whose plot, through the purposes of other
   operators, comes back to itself.
 """
@@ -141,13 +142,11 @@ def _agent_problems(problem: PlanningProblem) -> list[Problem]:
                                  f"variable of the operator", op.loc,
                         f"declare it with :agent {var}, use it in the plot, or fix its spelling"))
         agent_vars = agent_variables(op, operator_purposes(problem))
-        pool = problem.uncontrolled if op.uncontrolled else problem.controlled
-        if agent_vars and not pool:
-            kind = "uncontrolled" if op.uncontrolled else "controlled"
+        if agent_vars and not op.uncontrolled and not problem.controlled:
             found.append(_problem(
                 problem, f"operator {op.name} needs an agent for {', '.join(map(str, agent_vars))}, "
-                         f"but the problem declares no {kind} agents", op.loc,
-                f"add (agents ({kind} NAME ...)) to the problem"))
+                         f"but the problem declares no controlled agents", op.loc,
+                "add (agents (controlled NAME ...)) to the problem"))
     return found
 
 

@@ -28,9 +28,11 @@ risk that remains.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Iterable
 
+from atlas_rap.logic import Compound
 from atlas_rap.planner.ground import GroundAction, GroundTask
 from atlas_rap.planner.search import Settle
 
@@ -107,9 +109,36 @@ class Adversary:
             state = state - lost
             step = None  # a tied outcome happens once
 
-    @property
-    def settle(self) -> Settle:
-        return self.worst_case
+    def robust_task(self) -> tuple[GroundTask, Settle]:
+        """A copy of the task to search under the worst case, and its ``settle``.
+
+        An uncontrolled deletion only *may* happen: a fact it takes is not
+        there for a positive need, but may still be there for a negative one
+        (``(not F)`` in a precondition or goal). Such a fact therefore leaves a
+        *shadow* ("F may still hold") that negative needs also require to be
+        absent, and that only our own deletion of F removes.
+        """
+        task = self.task
+        deletable = {f for u in self.task.nature for f in u.delete}
+        negative = {f for a in task.actions for f in a.neg} | set(task.goal_neg)
+        shadow = {f: len(task.facts) + i for i, f in enumerate(sorted(deletable & negative))}
+        if not shadow:
+            return task, self.worst_case
+
+        def with_shadows(ids: tuple[int, ...]) -> tuple[int, ...]:
+            return ids + tuple(shadow[f] for f in ids if f in shadow)
+
+        actions = [dataclasses.replace(a, neg=with_shadows(a.neg), delete=with_shadows(a.delete))
+                   for a in task.actions]
+        facts = task.facts + [Compound("may-still-hold", (task.facts[f],)) for f in shadow]
+        robust = dataclasses.replace(task, facts=facts, actions=actions, goal_neg=with_shadows(task.goal_neg))
+
+        def settle(state: frozenset[int], step: GroundAction) -> frozenset[int]:
+            after = self.worst_case(state, step)
+            taken = state - after
+            return after | {shadow[f] for f in taken if f in shadow}
+
+        return robust, settle
 
 
 def assess(task: GroundTask, plan: list[GroundAction], adversary: Adversary | None = None) -> Assessment:
@@ -196,10 +225,12 @@ def counterplan(task: GroundTask, plan: list[GroundAction], timeout: float | Non
         return Protected(plan, [], first, 0.0)
 
     def robust(adversary: Adversary) -> list[GroundAction] | None:
-        found = greedy_best_first(task, timeout=timeout, settle=adversary.settle)
+        worst, settle = adversary.robust_task()
+        found = greedy_best_first(worst, timeout=timeout, settle=settle)
         if found.status != "solved":
             return None
-        return eliminate_redundant(task, found.plan, settle=adversary.settle)
+        shortened = eliminate_redundant(worst, found.plan, settle=settle)
+        return [task.actions[a.index] for a in shortened]
 
     best, best_adversary = robust(full), full
     if best is None:

@@ -23,6 +23,7 @@ before ``j`` in all of them exactly when every step that may come before
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Iterable
 
 from atlas_rap.planner.ground import GroundAction, GroundTask
 
@@ -95,8 +96,13 @@ class PartialOrder:
         return max(depth, default=0)
 
 
-def deorder(task: GroundTask, plan: list[GroundAction]) -> PartialOrder:
-    """The partial order that ``plan`` (valid, in sequence) needs; see the module docstring."""
+def deorder(task: GroundTask, plan: list[GroundAction], fixed: Iterable[int] = ()) -> PartialOrder:
+    """The partial order that ``plan`` (valid, in sequence) needs; see the module docstring.
+
+    Steps in ``fixed`` keep their place in the sequence relative to every other
+    step: counterplanning fixes its counter steps, since what they protect
+    against depends on the states around them, not only on causal links.
+    """
     n = len(plan)
     adders: dict[int, list[int]] = {}
     deleters: dict[int, list[int]] = {}
@@ -134,6 +140,9 @@ def deorder(task: GroundTask, plan: list[GroundAction]) -> PartialOrder:
         needs(n, f, True)
     for f in task.goal_neg:
         needs(n, f, False)
+    for f in fixed:
+        orderings.update((i, f) for i in range(f))
+        orderings.update((f, j) for j in range(f + 1, n))
     return PartialOrder(list(plan), orderings, links)
 
 

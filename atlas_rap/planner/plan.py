@@ -15,9 +15,11 @@ the language is silent:
 - an operator's ``:duration`` is shared by its plot: each step lasts the
   duration divided by the number of steps on the plot's longest sequential
   chain, so the expansion takes exactly the operator's duration;
-- steps start as soon as everything ordered before them has ended, and the
-  steps of one ``simultaneous`` group start together (at the latest of
-  their earliest starts); the makespan is the latest end.
+- steps start as soon as everything ordered before them has ended and
+  their agent is free (an agent does one step at a time, in the order of
+  the plan's linearisation); the steps of one ``simultaneous`` group start
+  together (at the latest of their earliest starts); the makespan is the
+  latest end.
 """
 
 from __future__ import annotations
@@ -67,10 +69,12 @@ class Plan:
     makespan: float = 0.0
     sequence: list[Compound] = field(default_factory=list)
     stats: dict[str, float | int] = field(default_factory=dict)
+    timing: dict[str, float] = field(default_factory=dict)
     reason: str = ""
 
-    def to_dict(self) -> dict[str, object]:
-        """The JSON form of LANGUAGE.md §3.3."""
+    def to_dict(self, timing: bool = False) -> dict[str, object]:
+        """The JSON form of LANGUAGE.md §3.3. ``stats`` holds counts only, so the same
+        input gives the same JSON; ``timing`` (CPU seconds) only when asked for."""
         return {
             "status": self.status,
             "steps": [{"id": s.id, "action": term_to_str(s.action), "operator": s.operator, "agent": s.agent,
@@ -83,11 +87,12 @@ class Plan:
             "risk_before_counterplanning": self.risk_before_counterplanning,
             "makespan": _number(self.makespan),
             "stats": self.stats,
+            **({"timing": self.timing} if timing else {}),
             **({"reason": self.reason} if self.reason else {}),
         }
 
-    def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2)
+    def to_json(self, timing: bool = False) -> str:
+        return json.dumps(self.to_dict(timing), indent=2)
 
     def to_text(self) -> str:
         """A readable listing: the steps by start time, then links and counterplan."""
@@ -99,15 +104,16 @@ class Plan:
         for a, b in self.orderings:
             before[b].append(a)
         together = {i: group for group in self.simultaneous for i in group}
-        counter_of = {c["step"]: c for c in self.counterplan}
+        counters_of: dict[object, list[dict]] = {}
+        for c in self.counterplan:
+            counters_of.setdefault(c["step"], []).append(c)
         for s in sorted(self.steps, key=lambda s: (s.start, s.id)):
             notes = []
             if before[s.id]:
                 notes.append("after " + ", ".join(map(str, sorted(before[s.id]))))
             if s.id in together:
                 notes.append("with " + ", ".join(str(i) for i in together[s.id] if i != s.id))
-            if s.id in counter_of:
-                c = counter_of[s.id]
+            for c in counters_of.get(s.id, ()):
                 notes.append(f"counters {c['threat']} (protects {c['protects']})")
             agent = f" [{s.agent}]" if s.agent else ""
             note = f"  ; {'; '.join(notes)}" if notes else ""
@@ -240,21 +246,28 @@ def _place(tree: tuple, top: GroundAction, index: int, unit: float, steps: list[
 
 
 def _schedule(steps: list[PlanStep], orderings: set[tuple[int, int]], groups: list[list[int]]) -> None:
+    """Start each step when its predecessors have ended and its agent is free (an
+    agent does one step at a time, in step order); a simultaneous group starts
+    together."""
     before: dict[int, list[int]] = {s.id: [] for s in steps}
     for a, b in orderings:
         before[b].append(a)
     by_id = {s.id: s for s in steps}
     group_of = {i: group for group in groups if len(group) > 1 for i in group}
+    free: dict[str, float] = {}
     done: set[int] = set()
     for step in steps:  # ids are a topological order
         if step.id in done:
             continue
         members = group_of.get(step.id, [step.id])
         start = max((by_id[p].end for m in members for p in before[m] if p not in members), default=0.0)
+        start = max([start] + [free.get(by_id[m].agent, 0.0) for m in members if by_id[m].agent])
         for m in members:
             s = by_id[m]
             length = s.end - s.start
             s.start, s.end = start, start + length
+            if s.agent:
+                free[s.agent] = s.end
             done.add(m)
 
 

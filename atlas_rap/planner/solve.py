@@ -18,7 +18,7 @@ from __future__ import annotations
 import time
 
 from atlas_rap.logic import term_to_str
-from atlas_rap.planner.counterplan import Counter, Protected, assess, counterplan, shorten_exposure
+from atlas_rap.planner.counterplan import Protected, assess, counterplan, shorten_exposure
 from atlas_rap.planner.ground import ground
 from atlas_rap.planner.partial_order import check_every_linearisation, deorder
 from atlas_rap.planner.plan import Plan, build_plan
@@ -41,19 +41,20 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     task = ground(problem)
     grounded = time.process_time()
     stats: dict[str, float | int] = {"facts": len(task.facts), "actions": len(task.actions),
-                                     "uncontrolled_actions": len(task.nature),
-                                     "ground_seconds": round(grounded - started, 4)}
+                                     "uncontrolled_actions": len(task.nature)}
+    timing = {"ground_seconds": round(grounded - started, 4)}
     if task.unreachable_goals:
         goals = ", ".join(term_to_str(g) for g in task.unreachable_goals)
-        return Plan(status="unsolvable", stats=stats,
+        return Plan(status="unsolvable", stats=stats, timing=timing,
                     reason=f"no sequence of actions can make {goals} true")
     left = None if timeout is None else max(0.0, timeout - (grounded - started))
     found = greedy_best_first(task, timeout=left)
-    stats.update(expanded=found.expanded, evaluated=found.evaluated, search_seconds=round(found.seconds, 4))
+    stats.update(expanded=found.expanded, evaluated=found.evaluated)
+    timing["search_seconds"] = round(found.seconds, 4)
     if found.status != "solved":
         reason = ("the reachable states were searched and none meets the goals" if found.status == "unsolvable"
                   else f"no plan found within {timeout:g} s")
-        return Plan(status=found.status, stats=stats, reason=reason)
+        return Plan(status=found.status, stats=stats, timing=timing, reason=reason)
     sequence = eliminate_redundant(task, found.plan)
     left = None if timeout is None else max(1.0, timeout - (time.process_time() - started))
     if protect:
@@ -61,30 +62,18 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     else:
         first = assess(task, sequence)
         protected = Protected(sequence, [], first, first.risk)
-    order = deorder(task, protected.plan)
-    if protected.assessment.risk > 0:
+    order = deorder(task, protected.plan, fixed={c.step for c in protected.counters})
+    if protected.assessment.risk > 0 and not protected.counters:
         reordered = shorten_exposure(task, order.steps, order.closure())
         if reordered != order.steps:
-            moved = [Counter(_new_position(order.steps, reordered, c.step), c.threat, c.fact)
-                     for c in protected.counters]
-            protected = Protected(reordered, moved, assess(task, reordered), protected.first_risk)
+            protected = Protected(reordered, [], assess(task, reordered), protected.first_risk)
             order = deorder(task, reordered)
     problems = check_every_linearisation(task, order)
     if problems:
         raise PlannerBug("the partial order is not valid in every linearisation: " + "; ".join(problems))
-    stats.update(length=len(order.steps), parallel_length=order.parallel_length(),
-                 seconds=round(time.process_time() - started, 4))
-    return build_plan(task, order, protected, stats)
+    stats.update(length=len(order.steps), parallel_length=order.parallel_length())
+    timing["seconds"] = round(time.process_time() - started, 4)
+    plan = build_plan(task, order, protected, stats)
+    plan.timing = timing
+    return plan
 
-
-def _new_position(old: list, new: list, index: int) -> int:
-    """Where step ``index`` of ``old`` is in ``new`` (a permutation of the same objects)."""
-    target = old[index]
-    occurrence = sum(1 for a in old[:index] if a is target)
-    seen = 0
-    for j, action in enumerate(new):
-        if action is target:
-            if seen == occurrence:
-                return j
-            seen += 1
-    raise ValueError("not a permutation")

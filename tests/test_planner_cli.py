@@ -1,0 +1,324 @@
+"""`atlas plan` in a new process, as a user runs it: exit codes, the plan's JSON,
+DOT and plan-file forms, PDDL plans checked by the independent validator,
+reproducibility, and bad input reported with a caret, never a traceback."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+from cli_process import ENV, assert_no_traceback, atlas, atlas_command
+from pddl_problems import BLOCKS_DOMAIN, blocks_problem, gripper_problem, write_problem
+from planner_cases import (
+    DELIVERY,
+    ONE_WAY_DOOR,
+    bulky_box,
+    door_problem,
+    linearisations,
+    write_ap,
+)
+
+from atlas_rap.planner.plan_file import read_plan_file, validate_plan_file
+
+TWO_ARMS = bulky_box(["left-arm", "right-arm"], {"left-arm": 25, "right-arm": 25})
+
+
+def plan_json(done: subprocess.CompletedProcess) -> dict:
+    assert_no_traceback(done)
+    return json.loads(done.stdout)
+
+
+def assert_located_error(done: subprocess.CompletedProcess, file: str, line: int, *words: str) -> str:
+    """Exit 1, no traceback, and a report ``FILE:LINE:COL: error: ...`` followed by the
+    source line and a caret under column COL; every one of ``words`` in the message."""
+    assert done.returncode == 1, (done.returncode, done.stdout, done.stderr)
+    assert_no_traceback(done)
+    out = done.stderr
+    lines = out.split("\n")
+    pattern = re.compile(rf"^(?:.*/)?{re.escape(file)}:{line}:(\d+): error: (.*)$")
+    for i, text in enumerate(lines):
+        match = pattern.match(text)
+        if match and all(w in match.group(2) for w in words):
+            column = int(match.group(1))
+            source, caret = lines[i + 1], lines[i + 2]
+            assert caret.strip() == "^", out
+            assert caret.index("^") - 4 == column - 1, out
+            assert source[4:] != "" and source[4:].strip() != "", out
+            return match.group(2)
+    raise AssertionError(f"no error at {file}:{line} naming {words}:\n{out}")
+
+
+# ============================================================================= the bulky box and unsolvable problems
+
+def test_bulky_box_plan_has_two_grips_by_distinct_agents_in_one_simultaneous_group(tmp_path: Path) -> None:
+    write_ap(tmp_path, TWO_ARMS, "box.ap")
+    done = atlas("plan", "box.ap", "--json", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    data = plan_json(done)
+    grips = [s for s in data["steps"] if s["action"].startswith("(grip ")]
+    assert sorted(s["action"] for s in grips) == ["(grip left-arm box-1)", "(grip right-arm box-1)"]
+    assert sorted(s["agent"] for s in grips) == ["left-arm", "right-arm"]
+    assert [sorted(g) for g in data["simultaneous"]] == [sorted(s["id"] for s in grips)]
+    assert grips[0]["start"] == grips[1]["start"]
+
+
+def test_one_strong_one_armed_robot_is_unsolvable(tmp_path: Path) -> None:
+    write_ap(tmp_path, bulky_box(["strong-robot"], {"strong-robot": 1000}), "strong.ap")
+    done = atlas("plan", "strong.ap", "--json", cwd=tmp_path)
+    assert done.returncode == 1
+    data = plan_json(done)
+    assert data["status"] == "unsolvable" and data["steps"] == []
+
+
+def test_one_way_door_ends_unsolvable_not_in_a_hang(tmp_path: Path) -> None:
+    write_ap(tmp_path, ONE_WAY_DOOR, "oneway.ap")
+    started = time.monotonic()
+    done = subprocess.run(atlas_command("plan", "oneway.ap"), cwd=tmp_path, capture_output=True,
+                          text=True, env=ENV, timeout=30, check=False)
+    assert time.monotonic() - started < 10
+    assert done.returncode == 1
+    assert_no_traceback(done)
+    assert done.stdout.startswith("unsolvable")
+
+
+def test_blocks_goal_cycle_ends_unsolvable(tmp_path: Path) -> None:
+    blocks = ["b1", "b2", "b3", "b4"]
+    init = " ".join(f"(ontable {b}) (clear {b})" for b in blocks) + " (handempty)"
+    goal = "(on b1 b2) (on b2 b3) (on b3 b4) (on b4 b1)"
+    write_problem(tmp_path, BLOCKS_DOMAIN, f"""\
+(define (problem cycle) (:domain blocks) (:objects b1 b2 b3 b4)
+  (:init {init}) (:goal (and {goal})))
+""", "cycle.pddl")
+    started = time.monotonic()
+    done = subprocess.run(atlas_command("plan", "--pddl", "domain.pddl", "cycle.pddl", "--json"), cwd=tmp_path,
+                          capture_output=True, text=True, env=ENV, timeout=30, check=False)
+    assert time.monotonic() - started < 10
+    assert done.returncode == 1
+    assert plan_json(done)["status"] == "unsolvable"
+
+
+# ============================================================================= PDDL plans are valid
+
+@pytest.mark.parametrize("kind,size,seed", [("gripper", 2, 0), ("gripper", 4, 0), ("blocks", 5, 3), ("blocks", 7, 8)])
+def test_pddl_plan_file_is_valid(tmp_path: Path, kind: str, size: int, seed: int) -> None:
+    domain, problem = gripper_problem(tmp_path, size) if kind == "gripper" else blocks_problem(tmp_path, size, seed)
+    done = atlas("plan", "--pddl", domain.name, problem.name, "--plan-file", "out.plan", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert_no_traceback(done)
+    assert done.stdout.startswith("solved")
+    verdict = validate_plan_file(domain, problem, tmp_path / "out.plan")
+    assert verdict.ok, verdict.message
+
+
+# ============================================================================= same input, same plan
+
+def run_with_hash_seed(args: list[str], cwd: Path, seed: str) -> subprocess.CompletedProcess:
+    return subprocess.run(atlas_command(*args), cwd=cwd, capture_output=True, text=True,
+                          env={**ENV, "PYTHONHASHSEED": seed}, timeout=60, check=False)
+
+
+def test_same_input_gives_byte_identical_json(tmp_path: Path) -> None:
+    domain, problem = gripper_problem(tmp_path, 20)
+    args = ["plan", "--pddl", domain.name, problem.name, "--json"]
+    first = run_with_hash_seed(args, tmp_path, "1")
+    second = run_with_hash_seed(args, tmp_path, "2")
+    assert first.returncode == second.returncode == 0
+    assert first.stdout == second.stdout
+
+
+@pytest.mark.parametrize("case", ["gripper", "door"])
+def test_same_input_gives_the_same_plan(tmp_path: Path, case: str) -> None:
+    """The plan itself (all but the timing statistics) across processes."""
+    if case == "gripper":
+        domain, problem = gripper_problem(tmp_path, 20)
+        args = ["plan", "--pddl", domain.name, problem.name, "--json"]
+    else:
+        write_ap(tmp_path, door_problem(things=("parcel", "box"), people=("person", "visitor")), "door.ap")
+        args = ["plan", "door.ap", "--json"]
+    first = plan_json(run_with_hash_seed(args, tmp_path, "3"))
+    second = plan_json(run_with_hash_seed(args, tmp_path, "4"))
+    for data in (first, second):
+        stats = data.pop("stats")
+        assert stats["length"] >= 3
+    assert first == second
+
+
+# ============================================================================= bad input
+
+def test_effect_with_a_new_arity(tmp_path: Path) -> None:
+    (tmp_path / "bad.ap").write_text(ONE_WAY_DOOR.replace("(visited ?to)", "(visited ?to ?r)"))
+    message = assert_located_error(atlas("plan", "bad.ap", cwd=tmp_path), "bad.ap", 7, "(visited ?to ?r)")
+    assert "2 arguments" in message
+
+
+def test_goal_no_operator_achieves(tmp_path: Path) -> None:
+    text = ONE_WAY_DOOR.replace("(goals (visited hall) (at robot lab))", "(goals (visited hall) (flying robot))")
+    (tmp_path / "bad.ap").write_text(text)
+    assert_located_error(atlas("plan", "bad.ap", cwd=tmp_path), "bad.ap", 10, "goal", "(flying robot)")
+
+
+def test_constraint_variable_of_an_agent_never_declared(tmp_path: Path) -> None:
+    text = ONE_WAY_DOOR.replace(":preconditions", ":constraints ((strong ?helper))\n  :preconditions")
+    (tmp_path / "bad.ap").write_text(text)
+    assert_located_error(atlas("plan", "bad.ap", cwd=tmp_path), "bad.ap", 3, "?helper")
+
+
+def test_operator_needing_agents_when_none_are_declared(tmp_path: Path) -> None:
+    (tmp_path / "bad.ap").write_text(ONE_WAY_DOOR.replace("(agents (controlled robot))\n", ""))
+    assert_located_error(atlas("plan", "bad.ap", cwd=tmp_path), "bad.ap", 3, "go", "agent")
+
+
+def test_plot_cycle(tmp_path: Path) -> None:
+    (tmp_path / "bad.ap").write_text("""\
+(operator fetch
+  :purpose (have ?x)
+  :agent ?r
+  :plot (sequence (ready ?x))
+  :effects ((have ?x)))
+(operator prepare
+  :purpose (ready ?x)
+  :agent ?r
+  :plot (sequence (have ?x))
+  :effects ((ready ?x)))
+(agents (controlled robot))
+(initial (thing box))
+(goals (have box))
+""")
+    done = atlas("plan", "bad.ap", cwd=tmp_path)
+    assert done.returncode == 1
+    assert_no_traceback(done)
+    assert re.search(r"bad\.ap:(4|9):\d+: error: plot cycle: .*(fetch.*prepare|prepare.*fetch)", done.stderr), \
+        done.stderr
+    line = int(re.search(r"bad\.ap:(\d+):", done.stderr).group(1))
+    assert_located_error(done, "bad.ap", line, "plot cycle")
+
+
+def test_unsupported_pddl_feature_is_named(tmp_path: Path) -> None:
+    domain = """\
+(define (domain d)
+  (:requirements :strips :adl)
+  (:predicates (p ?x) (q ?x))
+  (:action a
+    :parameters (?x)
+    :precondition (p ?x)
+    :effect (forall (?y) (q ?y))))
+"""
+    write_problem(tmp_path, domain, "(define (problem pr) (:domain d) (:objects o) (:init (p o)) (:goal (q o)))\n")
+    done = atlas("plan", "--pddl", "domain.pddl", "problem.pddl", cwd=tmp_path)
+    assert_located_error(done, "domain.pddl", 7, "forall")
+
+
+def test_missing_file_and_bad_usage(tmp_path: Path) -> None:
+    done = atlas("plan", "nothing.ap", cwd=tmp_path)
+    assert done.returncode == 1 and "nothing.ap" in done.stderr
+    assert_no_traceback(done)
+    done = atlas("plan", "--pddl", "only-one.pddl", cwd=tmp_path)
+    assert done.returncode == 2
+    assert_no_traceback(done)
+
+
+# ============================================================================= the plan's output forms
+
+def test_json_fields_and_schedule(tmp_path: Path) -> None:
+    write_ap(tmp_path, DELIVERY, "delivery.ap")
+    done = atlas("plan", "delivery.ap", "--json", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    data = plan_json(done)
+    for key in ("status", "steps", "orderings", "links", "counterplan", "risk", "makespan"):
+        assert key in data, key
+    assert data["status"] == "solved" and data["counterplan"] == [] and data["risk"] == 0
+    ids = [s["id"] for s in data["steps"]]
+    assert len(ids) == len(set(ids)) == 6
+    by_id = {s["id"]: s for s in data["steps"]}
+    for s in data["steps"]:
+        assert set(s) >= {"id", "action", "operator", "agent", "start", "end"}
+        assert s["agent"] in ("r1", "r2")
+        assert s["action"].startswith(f"({s['operator']} ")
+    for a, b in data["orderings"]:
+        assert by_id[b]["start"] >= by_id[a]["end"]
+    for link in data["links"]:
+        assert set(link) == {"from", "to", "fact"}
+        assert link["from"] == "init" or link["from"] in by_id
+        assert link["to"] == "goal" or link["to"] in by_id
+        if link["from"] != "init" and link["to"] != "goal":
+            assert by_id[link["to"]]["start"] >= by_id[link["from"]]["end"]
+    assert {link["fact"] for link in data["links"] if link["to"] == "goal"} == {"(at p1 lab)", "(at p2 office)"}
+    assert data["makespan"] == max(s["end"] for s in data["steps"]) == 3
+    # the two robots work at the same time
+    assert sorted(s["start"] for s in data["steps"]) == [0, 0, 1, 1, 2, 2]
+
+
+def test_json_counterplan_and_risk(tmp_path: Path) -> None:
+    write_ap(tmp_path, door_problem(), "door.ap")
+    data = plan_json(atlas("plan", "door.ap", "--json", cwd=tmp_path))
+    prop = next(s for s in data["steps"] if s["action"].startswith("(prop-door"))
+    assert data["counterplan"] == [{"step": prop["id"], "threat": "(close-door person d1)", "protects": "(open d1)"}]
+    assert data["risk"] == 0 and data["risk_before_counterplanning"] == pytest.approx(0.3)
+    bare = plan_json(atlas("plan", "door.ap", "--json", "--no-counterplan", cwd=tmp_path))
+    assert bare["counterplan"] == [] and bare["risk"] == pytest.approx(0.3)
+    assert not any(s["action"].startswith("(prop-door") for s in bare["steps"])
+
+
+def test_simultaneous_steps_share_a_start(tmp_path: Path) -> None:
+    text = f"""\
+(include "{Path(__file__).resolve().parent.parent / 'operators' / 'space-station.ap'}")
+(agents (controlled left-arm right-arm camera-1) (uncontrolled astronaut))
+(initial (max-lift left-arm 25) (max-lift right-arm 25) (size box-1 40)
+         (top box-1 clear) (on box-1 shelf-2) (camera camera-1))
+(goals (holding planner box-1) (inspected camera-site))
+"""
+    (tmp_path / "station.ap").write_text(text)
+    data = plan_json(atlas("plan", "station.ap", "--json", cwd=tmp_path))
+    assert data["status"] == "solved"
+    by_id = {s["id"]: s for s in data["steps"]}
+    assert data["simultaneous"]
+    for group in data["simultaneous"]:
+        assert len(group) >= 2
+        assert len({by_id[i]["start"] for i in group}) == 1
+        assert len({by_id[i]["agent"] for i in group}) == len(group)
+    for a, b in data["orderings"]:
+        assert by_id[b]["start"] >= by_id[a]["end"]
+
+
+def test_dot_is_a_digraph_mentioning_every_step(tmp_path: Path) -> None:
+    write_ap(tmp_path, door_problem(), "door.ap")
+    data = plan_json(atlas("plan", "door.ap", "--json", cwd=tmp_path))
+    done = atlas("plan", "door.ap", "--dot", cwd=tmp_path)
+    assert done.returncode == 0
+    assert_no_traceback(done)
+    dot = done.stdout.strip()
+    assert dot.startswith("digraph") and dot.endswith("}")
+    assert dot.count("{") == dot.count("}")
+    for step in data["steps"]:
+        node = re.search(rf'^\s*s{step["id"]} \[label="([^"]*)"', dot, re.MULTILINE)
+        assert node, step
+        assert step["action"] in node.group(1)
+    for a, b in data["orderings"]:
+        assert re.search(rf"^\s*s{a} -> s{b}\b", dot, re.MULTILINE), (a, b)
+
+
+def test_plan_file_has_one_action_a_line_in_a_valid_order(tmp_path: Path) -> None:
+    write_ap(tmp_path, DELIVERY, "delivery.ap")
+    done = atlas("plan", "delivery.ap", "--json", "--plan-file", "out.plan", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    data = plan_json(done)
+    lines = [line for line in (tmp_path / "out.plan").read_text().split("\n") if line.strip()]
+    actions = [line for line in lines if not line.startswith(";")]
+    assert all(re.fullmatch(r"\([a-z0-9-]+( [a-z0-9-]+)*\)", line) for line in actions), lines
+    assert len(actions) == len(data["steps"]) == len(read_plan_file(tmp_path / "out.plan"))
+    assert sorted(actions) == sorted(s["action"] for s in data["steps"])
+    # the file's order is one of the plan's linearisations
+    position = {s["action"]: s["id"] for s in data["steps"]}
+    written = [position[a] for a in actions]
+    assert written in list(linearisations(len(written), data["orderings"], first=1))
+
+
+def test_no_plan_file_when_unsolvable(tmp_path: Path) -> None:
+    write_ap(tmp_path, ONE_WAY_DOOR, "oneway.ap")
+    done = atlas("plan", "oneway.ap", "--plan-file", "out.plan", cwd=tmp_path)
+    assert done.returncode == 1
+    assert not (tmp_path / "out.plan").exists()
