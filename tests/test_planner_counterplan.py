@@ -260,3 +260,25 @@ def test_fond_triangle_tireworld_is_solved_with_no_risk(name: str) -> None:
     if not (TRIANGLE / "domain.pddl").exists() or not (TRIANGLE / f"{name}.pddl").exists():
         pytest.skip(f"the FOND triangle-tireworld benchmark is not at {TRIANGLE}")
     check_tireworld(load_pddl(TRIANGLE / "domain.pddl", TRIANGLE / f"{name}.pddl"))
+
+
+TOOL_TAKEN = """\
+(operator go :purpose (at ?r ?to) :agent ?r :preconditions ((at ?r ?from) (room ?to))
+  :effects ((at ?r ?to) (not (at ?r ?from))))
+(operator pick-up :purpose (holding ?r ?t) :agent ?r :preconditions ((at ?r ?room) (tool-in ?t ?room))
+  :effects ((holding ?r ?t) (not (tool-in ?t ?room))))
+(operator person-takes-tool :agent ?p :preconditions ((tool-in ?t ?room))
+  :effects ((not (tool-in ?t ?room)) (tool-left-in ?t ?elsewhere)) :uncontrolled t :probability 0.2)
+(agents (controlled robot) (uncontrolled person))
+(initial (at robot hall) (room hall) (room workshop) (room office) (room store) (tool-in wrench workshop))
+(goals (holding robot wrench))
+"""
+
+
+def test_an_uncontrolled_action_counts_once_whatever_the_values_of_its_effects_only_variables(tmp_path: Path) -> None:
+    """The person takes the wrench while the robot walks to the workshop, and leaves it
+    somewhere: one event of probability 0.2, however many places it could end up in."""
+    plan = solve(load_problem(tmp_path, TOOL_TAKEN))
+    assert plan.status == "solved"
+    assert [str(s.action) for s in plan.steps] == ["(go robot workshop hall)", "(pick-up robot wrench workshop)"]
+    assert plan.risk == pytest.approx(0.2)

@@ -151,3 +151,24 @@ def test_reloading_a_file_replaces_raps_rules_and_skills_and_a_bad_file_changes_
     assert result.ok
     (alarm,) = result.tasks
     assert alarm.last_method == "quiet" and alarm.attempts == 2
+
+
+def test_the_succeed_test_comes_before_the_constraints_so_a_method_may_end_its_own_constraint():
+    """Releasing a thing needs it gripped (constraint) and ends with it not gripped
+    (succeed): when the method is done the task succeeds, it does not fail."""
+    program = forms("""
+        (define-rap (release ?thing)
+          (succeed (not (gripping ?thing)))
+          (constraints (gripping ?thing))
+          (method (task-net (retract (gripping ?thing)))))
+        (define-rap (release-twice ?thing)
+          (constraints (gripping ?thing))
+          (method (task-net (t1 (release ?thing)))))""")
+    seq = Sequencer(program)
+    seq.assert_fact(term("(gripping box)"))
+    task = seq.post(term("(release box)"))
+    seq.settle()
+    assert task.status == "succeeded"
+    other = seq.post(term("(release-twice box)"))  # nothing gripped now: its constraints fail it
+    seq.settle()
+    assert other.status == "failed" and "constraints do not hold" in other.failure.reason

@@ -11,8 +11,9 @@ is never planned, but it may happen. The model, where LANGUAGE.md is silent:
 - It **threatens** a causal link ``i --p--> j`` when it deletes ``p`` in one
   of the states from the producer ``i`` up to just before the consumer ``j``.
 - The **risk** of a plan is the probability that at least one threatening
-  action happens: ``1 - prod(1 - probability)`` over distinct (action,
-  state) pairs; 0 when nothing can defeat the plan.
+  action happens: ``1 - prod(1 - probability)`` over distinct (event,
+  state) pairs, an event being an uncontrolled operator with its agent and
+  the values its preconditions bind; 0 when nothing can defeat the plan.
 
 :func:`counterplan` first plans without regard to them; if that plan is
 threatened it searches again under the *worst case*: after each step, every
@@ -32,7 +33,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Iterable
 
-from atlas_rap.logic import Compound
+from atlas_rap.logic import Compound, variables
 from atlas_rap.planner.ground import GroundAction, GroundTask
 from atlas_rap.planner.search import Settle
 
@@ -66,15 +67,29 @@ class Assessment:
 
     @property
     def risk(self) -> float:
-        """1 - prod(1 - p) over distinct (action, state) pairs that threaten the plan."""
+        """1 - prod(1 - p) over distinct (event, state) pairs that threaten the plan.
+
+        An event is an uncontrolled operator with the values of the variables of
+        its agent and preconditions: groundings that differ only in a variable
+        of the effects (where the person leaves the tool) are one event, which
+        happens with the operator's probability, not once per object.
+        """
         survive = 1.0
-        for _, action in {(t.action.index, t.after): t.action for t in self.threats}.items():
+        for action in {(_event(t.action), t.after): t.action for t in self.threats}.values():
             survive *= 1.0 - action.probability
         return round(max(0.0, 1.0 - survive), 12)
 
     def actions(self) -> list[GroundAction]:
         """The uncontrolled actions that threaten the plan, first seen first."""
         return list({t.action.index: t.action for t in self.threats}.values())
+
+
+def _event(action: GroundAction) -> tuple:
+    """What identifies an uncontrolled action's happening: its operator and the values
+    of the variables of its agent and preconditions."""
+    op = action.operator
+    deciding = set(variables(Compound("", tuple(op.preconditions) + ((op.agent,) if op.agent else ()))))
+    return (op.name, tuple(sorted((v.name, str(value)) for v, value in action.binding.items() if v in deciding)))
 
 
 class Adversary:

@@ -5,8 +5,10 @@ simulated clock:
 
 1. :meth:`Sequencer.settle` takes the best pending task off the agenda
    (priority, then deadline, then age) and *selects* it:
-   ``constraints`` false → the task fails; ``succeed`` true → it succeeds
-   doing nothing; otherwise an applicable method is chosen by ``context``
+   ``succeed`` true → it succeeds doing nothing (checked first, so a method
+   that ends its own constraint on the way to success still succeeds);
+   ``constraints`` false → the task fails; otherwise an applicable method
+   is chosen by ``context``
    (untried methods first, then the least tried, then the first written),
    its bindings are taken and its body starts (``net.MethodRun``).
 2. Subtasks go on the agenda; steps wait for events through the wait index;
@@ -254,11 +256,11 @@ class Sequencer:
         task.bindings = bindings
         memory, relations = self.memory, self.relations
         try:
-            if rap.constraints is not None and not memory.holds(rap.constraints, bindings, relations):
-                self._fail(task, f"its constraints do not hold: {_shown(rap.constraints, bindings)}")
-                return
             if rap.succeed is not None and memory.holds(rap.succeed, bindings, relations):
                 self._succeed(task)
+                return
+            if rap.constraints is not None and not memory.holds(rap.constraints, bindings, relations):
+                self._fail(task, f"its constraints do not hold: {_shown(rap.constraints, bindings)}")
                 return
             if task.method_ended_ok:
                 task.method_ended_ok = False
