@@ -155,8 +155,9 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
     deletes = [frozenset(a.delete) for a in acts]
     adds = [frozenset(a.add) for a in acts]
     parents: dict[frozenset[int], tuple[frozenset[int] | None, int]] = {start: (None, -1)}
-    regular: list[tuple[float, int, frozenset[int], int]] = []
-    preferred: list[tuple[float, int, frozenset[int], int]] = []
+    depth: dict[frozenset[int], int] = {start: 0}
+    regular: list[tuple[float, int, int, frozenset[int], int]] = []
+    preferred: list[tuple[float, int, int, frozenset[int], int]] = []
     tick = 0
     expanded = evaluated = 0
 
@@ -173,12 +174,13 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
 
     def open_successors(h: float, state: frozenset[int], applicable: list[int], helpful: set[int]) -> None:
         nonlocal tick
+        g = depth[state] + 1
         for a in applicable:
             neg = negs[a]
             if neg and any(n in state for n in neg):
                 continue
             tick += 1
-            entry = (h, tick, state, a)
+            entry = (h, g, tick, state, a)
             heapq.heappush(regular, entry)
             if a in helpful:
                 heapq.heappush(preferred, entry)
@@ -202,13 +204,14 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
         else:
             queue = regular
             use_preferred = True
-        _, _, state, a = heapq.heappop(queue)
+        _, g, _, state, a = heapq.heappop(queue)
         child = (state - deletes[a]) | adds[a]
         if settle is not None:
             child = settle(child, acts[a])
         if child in parents:
             continue
         parents[child] = (state, a)
+        depth[child] = g
         expanded += 1
         if timeout is not None and expanded % 64 == 0 and time.process_time() - started > timeout:
             return result("timeout")
@@ -255,3 +258,62 @@ def _without(task: GroundTask, plan: list[GroundAction], i: int,
         elif j < i:
             return None
     return kept if task.is_goal(state) else None
+
+
+def shorter_plan(task: GroundTask, plan: list[GroundAction], budget: int, weight: float = 3.0,
+                 timeout: float | None = None) -> list[GroundAction] | None:
+    """A plan shorter than ``plan``, or None: weighted A* (f = g + weight * hFF) that
+    prunes every node that cannot beat ``plan``'s length, within ``budget``
+    heuristic evaluations (a count, so the result does not depend on the
+    machine's speed).
+    The second iteration of a LAMA-style planner, run once."""
+    started = time.process_time()
+    heuristic = RelaxedPlanHeuristic(task)
+    acts = heuristic.actions
+    bound = len(plan)
+    start = task.init
+    h0, applicable0, _ = heuristic.evaluate(start)
+    if h0 == INFINITY or bound <= 1:
+        return None
+    best_g: dict[frozenset[int], int] = {start: 0}
+    parents: dict[frozenset[int], tuple[frozenset[int] | None, int]] = {start: (None, -1)}
+    queue: list[tuple[float, float, int, frozenset[int], int, list[int]]] = [(weight * h0, h0, 0, start, 0, applicable0)]
+    tick = 0
+    expanded = evaluated = 0
+    negs = [a.neg for a in acts]
+    deletes = [frozenset(a.delete) for a in acts]
+    adds = [frozenset(a.add) for a in acts]
+    while queue and evaluated < budget:
+        _, _, _, state, g, applicable = heapq.heappop(queue)
+        if g > best_g.get(state, g):
+            continue
+        expanded += 1
+        if timeout is not None and expanded % 64 == 0 and time.process_time() - started > timeout:
+            return None
+        for a in applicable:
+            neg = negs[a]
+            if neg and any(n in state for n in neg):
+                continue
+            child = (state - deletes[a]) | adds[a]
+            cg = g + 1
+            if cg >= bound or cg >= best_g.get(child, bound):
+                continue
+            best_g[child] = cg
+            parents[child] = (state, a)
+            if task.is_goal(child):
+                found: list[GroundAction] = []
+                node: frozenset[int] | None = child
+                while node is not None:
+                    parent, step = parents[node]
+                    if step >= 0:
+                        found.append(acts[step])
+                    node = parent
+                found.reverse()
+                return found
+            h, c_applicable, _ = heuristic.evaluate(child)
+            evaluated += 1
+            if h == INFINITY or cg + h >= bound:
+                continue
+            tick += 1
+            heapq.heappush(queue, (cg + weight * h, h, tick, child, cg, c_applicable))
+    return None

@@ -6,7 +6,10 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
 
 1. :func:`~atlas_rap.planner.ground.ground` the operators;
 2. greedy best-first search with hFF and helpful actions
-   (:mod:`~atlas_rap.planner.search`), then drop redundant actions;
+   (:mod:`~atlas_rap.planner.search`), then drop redundant actions; then a
+   weighted-A* searches for a shorter plan, each bounded by the best plan so
+   far and by a count of evaluations (3000 more than twice the first
+   search's, at most IMPROVE_BUDGET), as LAMA's later iterations do;
 3. :func:`~atlas_rap.planner.counterplan.counterplan` against uncontrolled agents;
 4. :func:`~atlas_rap.planner.partial_order.deorder` into a partial order,
    checked valid in every linearisation;
@@ -23,9 +26,11 @@ from atlas_rap.planner.ground import ground
 from atlas_rap.planner.partial_order import check_every_linearisation, deorder
 from atlas_rap.planner.plan import Plan, build_plan
 from atlas_rap.planner.problem import PlanningProblem
-from atlas_rap.planner.search import eliminate_redundant, greedy_best_first
+from atlas_rap.planner.search import eliminate_redundant, greedy_best_first, shorter_plan
 
 DEFAULT_TIMEOUT = 60.0
+IMPROVE_BUDGET = 20000  # heuristic evaluations of each plan-shortening search
+IMPROVE_WEIGHTS = (3.0, 2.0)  # its weights, in turn, each bounded by the best plan so far
 
 
 class PlannerBug(AssertionError):
@@ -56,6 +61,14 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
                   else f"no plan found within {timeout:g} s")
         return Plan(status=found.status, stats=stats, timing=timing, reason=reason)
     sequence = eliminate_redundant(task, found.plan)
+    for weight in IMPROVE_WEIGHTS:
+        left = None if timeout is None else max(0.0, timeout - (time.process_time() - started))
+        better = shorter_plan(task, sequence, budget=min(IMPROVE_BUDGET, 3000 + 2 * found.evaluated),
+                              weight=weight, timeout=left)
+        if better is not None:
+            better = eliminate_redundant(task, better)
+            if len(better) < len(sequence):
+                sequence = better
     left = None if timeout is None else max(1.0, timeout - (time.process_time() - started))
     if protect:
         protected = counterplan(task, sequence, timeout=left)
