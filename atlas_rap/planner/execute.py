@@ -17,7 +17,8 @@ RAP and a post of it:
 
 The task net keeps the plan's partial order: an ordering ``a`` before ``b``
 is ``(for sb)`` on step ``a``; unordered steps (and simultaneous ones) run at
-once. Planning happens when the mission is loaded, before anything runs, so
+once. The planner's ``initial`` facts are what the robot believes too: they
+go into RAP memory beside ``initial-memory``. Planning happens when the mission is loaded, before anything runs, so
 a goal with no plan or a step no RAP can execute is an error naming the goal
 or the step. The sequencer does not import the planner: the mission loader
 takes this function as its ``planner`` hook.
@@ -77,7 +78,10 @@ def expand_plan_requests(program, timeout: float = 60.0):
         replaced[id(request)] = [rap, post]
     if problems:
         raise SourceError(problems)
+    believed = [f for f in base.initial if f not in set(memory_facts)]
     forms = tuple(new for form in program.forms for new in replaced.get(id(form), [form]))
+    if believed:
+        forms = (ast.InitialMemory(facts=tuple(believed), loc=requests[0].loc),) + forms
     return dataclasses.replace(program, forms=forms)
 
 
