@@ -89,6 +89,34 @@ def door_problem(people: Sequence[str] = ("person",), wedge: bool = True,
 
 # ----------------------------------------------------------------------------- unsolvable, in AP
 
+# The paper's bulky box and a camera inspection, on the shipped space-station operators.
+STATION = f"""\
+(include "{Path(__file__).resolve().parent.parent / 'operators' / 'space-station.ap'}")
+(agents (controlled left-arm right-arm camera-1) (uncontrolled astronaut))
+(initial (max-lift left-arm 25) (max-lift right-arm 25) (size box-1 40)
+         (top box-1 clear) (on box-1 shelf-2) (camera camera-1))
+(goals (holding planner box-1) (inspected camera-site))
+"""
+
+
+# Two operators whose plots name each other's purposes.
+PLOT_CYCLE = """\
+(operator fetch
+  :purpose (have ?x)
+  :agent ?r
+  :plot (sequence (ready ?x))
+  :effects ((have ?x)))
+(operator prepare
+  :purpose (ready ?x)
+  :agent ?r
+  :plot (sequence (have ?x))
+  :effects ((ready ?x)))
+(agents (controlled robot))
+(initial (thing box))
+(goals (have box))
+"""
+
+
 ONE_WAY_DOOR = """\
 ;; The robot may go from the lab to the hall, never back; it must visit the
 ;; hall and end in the lab. The delete relaxation says yes; the truth is no.

@@ -16,6 +16,8 @@ from pddl_problems import BLOCKS_DOMAIN, blocks_problem, gripper_problem, write_
 from planner_cases import (
     DELIVERY,
     ONE_WAY_DOOR,
+    PLOT_CYCLE,
+    STATION,
     bulky_box,
     door_problem,
     linearisations,
@@ -173,21 +175,7 @@ def test_operator_needing_agents_when_none_are_declared(tmp_path: Path) -> None:
 
 
 def test_plot_cycle(tmp_path: Path) -> None:
-    (tmp_path / "bad.ap").write_text("""\
-(operator fetch
-  :purpose (have ?x)
-  :agent ?r
-  :plot (sequence (ready ?x))
-  :effects ((have ?x)))
-(operator prepare
-  :purpose (ready ?x)
-  :agent ?r
-  :plot (sequence (have ?x))
-  :effects ((ready ?x)))
-(agents (controlled robot))
-(initial (thing box))
-(goals (have box))
-""")
+    (tmp_path / "bad.ap").write_text(PLOT_CYCLE)
     done = atlas("plan", "bad.ap", cwd=tmp_path)
     assert done.returncode == 1
     assert_no_traceback(done)
@@ -264,13 +252,7 @@ def test_json_counterplan_and_risk(tmp_path: Path) -> None:
 
 
 def test_simultaneous_steps_share_a_start(tmp_path: Path) -> None:
-    text = f"""\
-(include "{Path(__file__).resolve().parent.parent / 'operators' / 'space-station.ap'}")
-(agents (controlled left-arm right-arm camera-1) (uncontrolled astronaut))
-(initial (max-lift left-arm 25) (max-lift right-arm 25) (size box-1 40)
-         (top box-1 clear) (on box-1 shelf-2) (camera camera-1))
-(goals (holding planner box-1) (inspected camera-site))
-"""
+    text = STATION
     (tmp_path / "station.ap").write_text(text)
     data = plan_json(atlas("plan", "station.ap", "--json", cwd=tmp_path))
     assert data["status"] == "solved"

@@ -13,6 +13,8 @@ from planner_cases import (
     DELIVERY,
     LOCKS,
     ONE_WAY_DOOR,
+    PLOT_CYCLE,
+    STATION,
     bulky_box,
     door_problem,
     linearisations,
@@ -443,13 +445,7 @@ def test_schedule_respects_orderings_and_groups(tmp_path: Path) -> None:
 
 
 def test_plots_expand_into_steps_sharing_the_operators_duration(tmp_path: Path) -> None:
-    text = f"""\
-(include "{Path(__file__).resolve().parent.parent / 'operators' / 'space-station.ap'}")
-(agents (controlled left-arm right-arm camera-1) (uncontrolled astronaut))
-(initial (max-lift left-arm 25) (max-lift right-arm 25) (size box-1 40)
-         (top box-1 clear) (on box-1 shelf-2) (camera camera-1))
-(goals (holding planner box-1) (inspected camera-site))
-"""
+    text = STATION
     plan = solve(load_problem(tmp_path, text))
     assert plan.status == "solved"
     by_action = {str(s.action): s for s in plan.steps}
@@ -533,21 +529,7 @@ def test_check_operator_needing_agents_without_agents(tmp_path: Path) -> None:
 
 
 def test_check_plot_cycle(tmp_path: Path) -> None:
-    text = """\
-(operator fetch
-  :purpose (have ?x)
-  :agent ?r
-  :plot (sequence (ready ?x))
-  :effects ((have ?x)))
-(operator prepare
-  :purpose (ready ?x)
-  :agent ?r
-  :plot (sequence (have ?x))
-  :effects ((ready ?x)))
-(agents (controlled robot))
-(initial (thing box))
-(goals (have box))
-"""
+    text = PLOT_CYCLE
     found = check_problem(load_problem(tmp_path, text))
     assert len(found) == 1
     assert "plot cycle" in found[0].message and "fetch" in found[0].message and "prepare" in found[0].message

@@ -14,7 +14,6 @@ from functools import lru_cache
 from pathlib import Path
 
 import pytest
-
 from cli_process import ENV, REPO, assert_no_traceback, atlas, atlas_command
 
 OPERATORS = REPO / "operators"

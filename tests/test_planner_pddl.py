@@ -5,6 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from pddl_problems import (
+    SHARED_PDDL,
+    blocks_problem,
+    gripper_problem,
+    tireworld_problem,
+    write_problem,
+)
 
 from atlas_rap.errors import AtlasError, SourceError
 from atlas_rap.lang import ast
@@ -16,7 +23,6 @@ from atlas_rap.planner.plan_file import (
     validate_plan_file,
     write_plan_file,
 )
-from pddl_problems import SHARED_PDDL, blocks_problem, gripper_problem, tireworld_problem, write_problem
 
 
 def C(functor: str, *args) -> Compound:

@@ -16,7 +16,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from atlas_rap.lang import ast
-from atlas_rap.logic import Compound, Term, is_ground, substitute, term_to_str, unify, variables
+from atlas_rap.logic import (
+    Compound,
+    Term,
+    is_ground,
+    substitute,
+    term_to_str,
+    unify,
+    variables,
+)
 from atlas_rap.planner.plan import Plan, PlanStep
 
 

@@ -33,7 +33,18 @@ from itertools import product
 from typing import Iterator, Sequence
 
 from atlas_rap.lang import ast
-from atlas_rap.logic import Compound, Memory, String, Subst, Term, Var, evaluate, substitute, unify, variables
+from atlas_rap.logic import (
+    Compound,
+    Memory,
+    String,
+    Subst,
+    Term,
+    Var,
+    evaluate,
+    substitute,
+    unify,
+    variables,
+)
 from atlas_rap.planner.agents import AgentProblem, assign_agents
 from atlas_rap.planner.problem import PlanningProblem
 

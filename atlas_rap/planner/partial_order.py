@@ -96,6 +96,18 @@ class PartialOrder:
         return max(depth, default=0)
 
 
+def _touching(steps: list[GroundAction]) -> tuple[dict[int, list[int]], dict[int, list[int]]]:
+    """For each fact, the steps that add it and the steps that delete it, in order."""
+    adders: dict[int, list[int]] = {}
+    deleters: dict[int, list[int]] = {}
+    for i, action in enumerate(steps):
+        for f in action.add:
+            adders.setdefault(f, []).append(i)
+        for f in action.delete:
+            deleters.setdefault(f, []).append(i)
+    return adders, deleters
+
+
 def deorder(task: GroundTask, plan: list[GroundAction], fixed: Iterable[int] = ()) -> PartialOrder:
     """The partial order that ``plan`` (valid, in sequence) needs; see the module docstring.
 
@@ -104,13 +116,7 @@ def deorder(task: GroundTask, plan: list[GroundAction], fixed: Iterable[int] = (
     against depends on the states around them, not only on causal links.
     """
     n = len(plan)
-    adders: dict[int, list[int]] = {}
-    deleters: dict[int, list[int]] = {}
-    for i, action in enumerate(plan):
-        for f in action.add:
-            adders.setdefault(f, []).append(i)
-        for f in action.delete:
-            deleters.setdefault(f, []).append(i)
+    adders, deleters = _touching(plan)
     orderings: set[tuple[int, int]] = set()
     links: list[Link] = []
 
@@ -153,13 +159,7 @@ def check_every_linearisation(task: GroundTask, order: PartialOrder) -> list[str
     n = len(steps)
     closure = order.closure()
     problems: list[str] = []
-    adders: dict[int, list[int]] = {}
-    deleters: dict[int, list[int]] = {}
-    for i, action in enumerate(steps):
-        for f in action.add:
-            adders.setdefault(f, []).append(i)
-        for f in action.delete:
-            deleters.setdefault(f, []).append(i)
+    adders, deleters = _touching(steps)
 
     def before(a: int, b: int) -> bool:
         return b == n or a in closure[b]

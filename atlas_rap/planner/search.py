@@ -162,14 +162,7 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
     expanded = evaluated = 0
 
     def result(status: str, goal_state: frozenset[int] | None = None) -> SearchResult:
-        plan: list[GroundAction] = []
-        state = goal_state
-        while state is not None:
-            parent, a = parents[state]
-            if a >= 0:
-                plan.append(acts[a])
-            state = parent
-        plan.reverse()
+        plan = _path_to(goal_state, parents, acts) if goal_state is not None else []
         return SearchResult(status, plan, expanded, evaluated, time.process_time() - started)
 
     def open_successors(h: float, state: frozenset[int], applicable: list[int], helpful: set[int]) -> None:
@@ -226,6 +219,20 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
             boost += BOOST
         open_successors(h, child, applicable, helpful)
     return result("unsolvable")
+
+
+def _path_to(state: frozenset[int], parents: dict[frozenset[int], tuple[frozenset[int] | None, int]],
+             acts: Sequence[GroundAction]) -> list[GroundAction]:
+    """The actions that led from the start to ``state``, following ``parents`` back."""
+    plan: list[GroundAction] = []
+    node: frozenset[int] | None = state
+    while node is not None:
+        parent, a = parents[node]
+        if a >= 0:
+            plan.append(acts[a])
+        node = parent
+    plan.reverse()
+    return plan
 
 
 def eliminate_redundant(task: GroundTask, plan: list[GroundAction],
@@ -301,15 +308,7 @@ def shorter_plan(task: GroundTask, plan: list[GroundAction], budget: int, weight
             best_g[child] = cg
             parents[child] = (state, a)
             if task.is_goal(child):
-                found: list[GroundAction] = []
-                node: frozenset[int] | None = child
-                while node is not None:
-                    parent, step = parents[node]
-                    if step >= 0:
-                        found.append(acts[step])
-                    node = parent
-                found.reverse()
-                return found
+                return _path_to(child, parents, acts)
             h, c_applicable, _ = heuristic.evaluate(child)
             evaluated += 1
             if h == INFINITY or cg + h >= bound:

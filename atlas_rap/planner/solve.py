@@ -21,12 +21,21 @@ from __future__ import annotations
 import time
 
 from atlas_rap.logic import term_to_str
-from atlas_rap.planner.counterplan import Protected, assess, counterplan, shorten_exposure
+from atlas_rap.planner.counterplan import (
+    Protected,
+    assess,
+    counterplan,
+    shorten_exposure,
+)
 from atlas_rap.planner.ground import ground
 from atlas_rap.planner.partial_order import check_every_linearisation, deorder
 from atlas_rap.planner.plan import Plan, build_plan
 from atlas_rap.planner.problem import PlanningProblem
-from atlas_rap.planner.search import eliminate_redundant, greedy_best_first, shorter_plan
+from atlas_rap.planner.search import (
+    eliminate_redundant,
+    greedy_best_first,
+    shorter_plan,
+)
 
 DEFAULT_TIMEOUT = 60.0
 IMPROVE_BUDGET = 20000  # heuristic evaluations of each plan-shortening search
