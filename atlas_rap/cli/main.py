@@ -15,6 +15,7 @@ from atlas_rap import __version__
 from atlas_rap.cli.check import check
 from atlas_rap.cli.map import map_group
 from atlas_rap.cli.plan import plan
+from atlas_rap.cli.repl import repl
 from atlas_rap.cli.run import run
 
 
@@ -26,7 +27,8 @@ def cli() -> None:
     Write routine procedures as RAPs (.rap files) and planning operators as
     AP files (.ap); check them with `atlas check`; run a mission with
     `atlas run`; make a plan with `atlas plan` (AP goals or PDDL);
-    build and abstract maps with `atlas map`.
+    work with a running robot in `atlas repl`; build and abstract maps
+    with `atlas map`.
     """
 
 
@@ -34,6 +36,7 @@ cli.add_command(check)
 cli.add_command(run)
 cli.add_command(map_group)
 cli.add_command(plan)
+cli.add_command(repl)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -42,22 +42,32 @@ class Executive:
 
     def run(self, sequencer: Any, until: float, pace: Callable[[float], None] | None = None) -> str:
         """Run until every posted task has ended ("done") or ``until`` seconds ("time-limit")."""
-        sim, manager, seq = self.simulation, self.manager, self.sequencer
-        timers = seq.timers
-        skill_every, sequencer_every = self.skill_every, self.sequencer_every
-        manager.tick(self.time)
-        seq.settle()
-        while seq.live_roots():
+        self.manager.tick(self.time)
+        self.sequencer.settle()
+        while self.sequencer.live_roots():
             if self.time >= until:
                 return "time-limit"
-            sim.step()
-            self.steps += 1
-            now = self.time
-            if self.steps % skill_every == 0:
-                timers.fire_due(now, late=False)
-                manager.tick(now)
-            if self.steps % sequencer_every == 0:
-                if pace is not None:
-                    pace(now)
-                seq.advance_to(now)
+            self.step(pace)
         return "done"
+
+    def advance(self, seconds: float, pace: Callable[[float], None] | None = None,
+                stop: Callable[[], bool] | None = None) -> None:
+        """Let the world run ``seconds`` of simulated time, whether or not tasks are live
+        (the REPL's :run and its background clock); ``stop()`` ends it early."""
+        until = self.time + seconds
+        self.sequencer.settle()
+        while self.time < until - 1e-9 and not (stop is not None and stop()):
+            self.step(pace)
+
+    def step(self, pace: Callable[[float], None] | None = None) -> None:
+        """One physics step, and the skills and the sequencer when their periods come round."""
+        self.simulation.step()
+        self.steps += 1
+        now = self.time
+        if self.steps % self.skill_every == 0:
+            self.sequencer.timers.fire_due(now, late=False)
+            self.manager.tick(now)
+        if self.steps % self.sequencer_every == 0:
+            if pace is not None:
+                pace(now)
+            self.sequencer.advance_to(now)
