@@ -49,6 +49,7 @@ class SearchResult:
     expanded: int = 0
     evaluated: int = 0
     seconds: float = 0.0
+    heuristic: RelaxedPlanHeuristic | None = None
 
 
 class RelaxedPlanHeuristic:
@@ -163,7 +164,7 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
 
     def result(status: str, goal_state: frozenset[int] | None = None) -> SearchResult:
         plan = _path_to(goal_state, parents, acts) if goal_state is not None else []
-        return SearchResult(status, plan, expanded, evaluated, time.process_time() - started)
+        return SearchResult(status, plan, expanded, evaluated, time.process_time() - started, heuristic)
 
     def open_successors(h: float, state: frozenset[int], applicable: list[int], helpful: set[int]) -> None:
         nonlocal tick
@@ -268,51 +269,54 @@ def _without(task: GroundTask, plan: list[GroundAction], i: int,
 
 
 def shorter_plan(task: GroundTask, plan: list[GroundAction], budget: int, weight: float = 3.0,
-                 timeout: float | None = None) -> list[GroundAction] | None:
-    """A plan shorter than ``plan``, or None: weighted A* (f = g + weight * hFF) that
-    prunes every node that cannot beat ``plan``'s length, within ``budget``
-    heuristic evaluations (a count, so the result does not depend on the
-    machine's speed).
-    The second iteration of a LAMA-style planner, run once."""
+                 timeout: float | None = None,
+                 heuristic: RelaxedPlanHeuristic | None = None) -> list[GroundAction] | None:
+    """A plan shorter than ``plan``, or None: lazy weighted A* (f = g + weight * hFF,
+    helpful actions first among equals) that prunes every node that cannot beat
+    ``plan``'s length, within ``budget`` heuristic evaluations (a count, so the
+    result does not depend on the machine's speed). A later iteration of a
+    LAMA-style planner; pass the first search's ``heuristic`` to reuse it."""
     started = time.process_time()
-    heuristic = RelaxedPlanHeuristic(task)
+    heuristic = heuristic or RelaxedPlanHeuristic(task)
     acts = heuristic.actions
     bound = len(plan)
     start = task.init
-    h0, applicable0, _ = heuristic.evaluate(start)
+    h0, applicable0, helpful0 = heuristic.evaluate(start)
     if h0 == INFINITY or bound <= 1:
         return None
     best_g: dict[frozenset[int], int] = {start: 0}
     parents: dict[frozenset[int], tuple[frozenset[int] | None, int]] = {start: (None, -1)}
-    queue: list[tuple[float, float, int, frozenset[int], int, list[int]]] = [(weight * h0, h0, 0, start, 0, applicable0)]
-    tick = 0
-    expanded = evaluated = 0
+    queue: list[tuple[float, int, int, frozenset[int], int, int]] = []
     negs = [a.neg for a in acts]
     deletes = [frozenset(a.delete) for a in acts]
     adds = [frozenset(a.add) for a in acts]
-    while queue and evaluated < budget:
-        _, _, _, state, g, applicable = heapq.heappop(queue)
-        if g > best_g.get(state, g):
-            continue
-        expanded += 1
-        if timeout is not None and expanded % 64 == 0 and time.process_time() - started > timeout:
-            return None
+    tick = 0
+
+    def open_successors(state: frozenset[int], g: int, h: float, applicable: list[int], helpful: set[int]) -> None:
+        nonlocal tick
         for a in applicable:
             neg = negs[a]
             if neg and any(n in state for n in neg):
                 continue
-            child = (state - deletes[a]) | adds[a]
-            cg = g + 1
-            if cg >= bound or cg >= best_g.get(child, bound):
-                continue
-            best_g[child] = cg
-            parents[child] = (state, a)
-            if task.is_goal(child):
-                return _path_to(child, parents, acts)
-            h, c_applicable, _ = heuristic.evaluate(child)
-            evaluated += 1
-            if h == INFINITY or cg + h >= bound:
-                continue
             tick += 1
-            heapq.heappush(queue, (cg + weight * h, h, tick, child, cg, c_applicable))
+            heapq.heappush(queue, (g + 1 + weight * h, 0 if a in helpful else 1, tick, state, a, g + 1))
+
+    open_successors(start, 0, h0, applicable0, helpful0)
+    evaluated = 0
+    while queue and evaluated < budget:
+        _, _, _, state, a, g = heapq.heappop(queue)
+        child = (state - deletes[a]) | adds[a]
+        if g >= bound or g >= best_g.get(child, bound):
+            continue
+        best_g[child] = g
+        parents[child] = (state, a)
+        if task.is_goal(child):
+            return _path_to(child, parents, acts)
+        if timeout is not None and evaluated % 64 == 0 and time.process_time() - started > timeout:
+            return None
+        h, applicable, helpful = heuristic.evaluate(child)
+        evaluated += 1
+        if h == INFINITY or g + h >= bound:
+            continue
+        open_successors(child, g, h, applicable, helpful)
     return None

@@ -7,9 +7,9 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
 1. :func:`~atlas_rap.planner.ground.ground` the operators;
 2. greedy best-first search with hFF and helpful actions
    (:mod:`~atlas_rap.planner.search`), then drop redundant actions; then a
-   weighted-A* searches for a shorter plan, each bounded by the best plan so
-   far and by a count of evaluations (3000 more than twice the first
-   search's, at most IMPROVE_BUDGET), as LAMA's later iterations do;
+   lazy weighted-A* searches for a shorter plan, each bounded by the best
+   plan so far and by a count of evaluations (100 more than four times the
+   first search's, at most IMPROVE_BUDGET), as LAMA's later iterations do;
 3. :func:`~atlas_rap.planner.counterplan.counterplan` against uncontrolled agents;
 4. :func:`~atlas_rap.planner.partial_order.deorder` into a partial order,
    checked valid in every linearisation;
@@ -39,7 +39,7 @@ from atlas_rap.planner.search import (
 
 DEFAULT_TIMEOUT = 60.0
 IMPROVE_BUDGET = 20000  # heuristic evaluations of each plan-shortening search
-IMPROVE_WEIGHTS = (3.0, 2.0)  # its weights, in turn, each bounded by the best plan so far
+IMPROVE_WEIGHTS = (3.0,)  # its weights, in turn, each bounded by the best plan so far
 
 
 class PlannerBug(AssertionError):
@@ -72,8 +72,8 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     sequence = eliminate_redundant(task, found.plan)
     for weight in IMPROVE_WEIGHTS:
         left = None if timeout is None else max(0.0, timeout - (time.process_time() - started))
-        better = shorter_plan(task, sequence, budget=min(IMPROVE_BUDGET, 3000 + 2 * found.evaluated),
-                              weight=weight, timeout=left)
+        better = shorter_plan(task, sequence, budget=min(IMPROVE_BUDGET, 100 + 4 * found.evaluated),
+                              weight=weight, timeout=left, heuristic=found.heuristic)
         if better is not None:
             better = eliminate_redundant(task, better)
             if len(better) < len(sequence):
