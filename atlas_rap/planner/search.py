@@ -139,16 +139,22 @@ Settle = Callable[[frozenset[int], GroundAction], frozenset[int]]
 
 def greedy_best_first(task: GroundTask, timeout: float | None = None,
                       actions: Sequence[GroundAction] | None = None,
-                      init: frozenset[int] | None = None, settle: Settle | None = None) -> SearchResult:
+                      init: frozenset[int] | None = None, settle: Settle | None = None, *,
+                      shallow_first: bool = True, max_evaluations: int | None = None,
+                      heuristic: RelaxedPlanHeuristic | None = None) -> SearchResult:
     """Search ``task`` from ``init`` (default the task's initial state) with ``actions``
-    (default the task's own). Stops with ``timeout`` after that many CPU seconds.
+    (default the task's own). Stops with ``timeout`` after that many CPU seconds,
+    or (status ``timeout``) after ``max_evaluations`` heuristic evaluations.
 
     ``settle(state, action)``, when given, changes each state an action
     reaches before it is evaluated: counterplanning passes the worst that
-    uncontrolled agents can do there.
+    uncontrolled agents can do there. ``shallow_first`` breaks ties between
+    equal heuristic values towards the shallower node, else in order of
+    generation; the two find different plans, which the planner uses as a
+    small portfolio.
     """
     started = time.process_time()
-    heuristic = RelaxedPlanHeuristic(task, actions)
+    heuristic = heuristic or RelaxedPlanHeuristic(task, actions)
     acts = heuristic.actions
     start = task.init if init is None else init
     is_goal = task.is_goal
@@ -168,7 +174,7 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
 
     def open_successors(h: float, state: frozenset[int], applicable: list[int], helpful: set[int]) -> None:
         nonlocal tick
-        g = depth[state] + 1
+        g = depth[state] + 1 if shallow_first else 0
         for a in applicable:
             neg = negs[a]
             if neg and any(n in state for n in neg):
@@ -211,6 +217,8 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
             return result("timeout")
         if is_goal(child):
             return result("solved", child)
+        if max_evaluations is not None and evaluated >= max_evaluations:
+            return result("timeout")
         h, applicable, helpful = heuristic.evaluate(child)
         evaluated += 1
         if h == INFINITY:

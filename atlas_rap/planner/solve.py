@@ -6,7 +6,11 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
 
 1. :func:`~atlas_rap.planner.ground.ground` the operators;
 2. greedy best-first search with hFF and helpful actions
-   (:mod:`~atlas_rap.planner.search`), then drop redundant actions; then a
+   (:mod:`~atlas_rap.planner.search`), ties to the shallower node; when it
+   wandered (evaluated more than WANDERED states per step of its plan), the
+   same search with ties in order of generation, within twice the first
+   one's evaluations (a portfolio of two: each finds shorter plans on some
+   domains); redundant actions dropped from both and the shorter kept; then a
    lazy weighted-A* searches for a shorter plan, each bounded by the best
    plan so far and by a count of evaluations (100 more than four times the
    first search's, at most IMPROVE_BUDGET), as LAMA's later iterations do;
@@ -38,6 +42,7 @@ from atlas_rap.planner.search import (
 )
 
 DEFAULT_TIMEOUT = 60.0
+WANDERED = 4  # a first search that evaluated this many states per plan step wandered: try the other ties
 IMPROVE_BUDGET = 20000  # heuristic evaluations of each plan-shortening search
 IMPROVE_WEIGHTS = (3.0,)  # its weights, in turn, each bounded by the best plan so far
 
@@ -70,6 +75,13 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
                   else f"no plan found within {timeout:g} s")
         return Plan(status=found.status, stats=stats, timing=timing, reason=reason)
     sequence = eliminate_redundant(task, found.plan)
+    if found.evaluated > WANDERED * max(1, len(sequence)):
+        other = greedy_best_first(task, timeout=left, shallow_first=False, heuristic=found.heuristic,
+                                  max_evaluations=100 + 2 * found.evaluated)
+        if other.status == "solved":
+            other_sequence = eliminate_redundant(task, other.plan)
+            if len(other_sequence) < len(sequence):
+                sequence = other_sequence
     for weight in IMPROVE_WEIGHTS:
         left = None if timeout is None else max(0.0, timeout - (time.process_time() - started))
         better = shorter_plan(task, sequence, budget=min(IMPROVE_BUDGET, 100 + 4 * found.evaluated),
