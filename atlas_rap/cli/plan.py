@@ -17,7 +17,7 @@ import click
               help="Also write one linearisation, an action a line, for a PDDL plan validator.")
 @click.option("--render", type=click.Path(dir_okay=False, writable=True), metavar="OUT.png",
               help="Draw the plan's schedule: a lane per agent, orderings as arrows.")
-@click.option("--check-raps", type=click.Path(file_okay=False, exists=True), metavar="DIR",
+@click.option("--check-raps", type=click.Path(file_okay=False), metavar="DIR",
               help="Report the plan steps that no RAP in DIR (its .rap files) can execute; exit 1 if any.")
 @click.option("--timeout", type=float, default=60.0, show_default=True, metavar="SECONDS",
               help="CPU time for the whole planner; the status is 'timeout' past it.")
@@ -87,9 +87,14 @@ def _read_problem(files: tuple[str, ...], pddl: bool):
 
 def _raps_cover(result, folder: str) -> bool:
     """Print the steps no RAP in ``folder`` can execute; True when there are none."""
+    from atlas_rap.errors import AtlasError
     from atlas_rap.planner.dispatch import load_raps, match_steps
+    from atlas_rap.shipped import resolve_user_path
 
-    missing = [d for d in match_steps(result, load_raps(folder)) if d.rap is None]
+    found = resolve_user_path(folder)
+    if not found.is_dir():
+        raise AtlasError(f"--check-raps {folder}: no such folder")
+    missing = [d for d in match_steps(result, load_raps(found)) if d.rap is None]
     for d in missing:
         click.secho(f"step {d.step.id} {d.step.action}: no RAP in {folder} can execute it "
                     f"({d.how})", fg="red", err=True)
