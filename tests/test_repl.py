@@ -7,7 +7,7 @@ import io
 import subprocess
 from pathlib import Path
 
-from cli_process import ENV, assert_no_traceback, atlas_command
+from cli_process import ENV, REPO, assert_no_traceback, atlas_command
 from rich.console import Console
 
 from atlas_rap.cli.repl_session import Session
@@ -132,3 +132,15 @@ def test_plan_shows_a_plan_from_memory_and_a_plan_form_carries_it_out(tmp_path: 
     assert "(take arm-1 cup) [arm-1]" in done.stdout
     assert "✓ [1] (carry-out-plan-" in done.stdout
     assert done.stdout.rstrip().endswith("yes")
+
+
+def test_in_a_world_a_posted_task_drives_the_robot_and_the_map_is_drawn(tmp_path: Path) -> None:
+    script = "(? (place ?p))\n(post (go-to office))\n:run\n(? (at robot ?where))\n:skills\n:map route.png\n"
+    done = repl(script, str(REPO / "rap_library/navigation.rap"), "--world", "lab-corridor-office", cwd=tmp_path)
+    assert_no_traceback(done)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "?p = office" in done.stdout  # the prior map is in memory
+    assert "✓ [1] (go-to office) succeeded" in done.stdout
+    assert "?where = office" in done.stdout
+    assert "navigate-to (1 args)" in done.stdout
+    assert (tmp_path / "route.png").stat().st_size > 10_000
