@@ -53,6 +53,7 @@ from atlas_rap.lang.loader import Program
 from atlas_rap.lang.reader import Forms, SList, read_text
 from atlas_rap.lang.validator import to_term, validate
 from atlas_rap.logic import Compound, Term, Var, is_anonymous, term_to_str, variables
+from atlas_rap.shipped import resolve_user_path
 
 COMMANDS = {
     ":agenda": "the task tree with each task's status",
@@ -153,7 +154,9 @@ class Session:
             if kind == "form":
                 form = next(validated)
                 if isinstance(form, ast.Include):
-                    for included in load(Path(form.path)).forms:
+                    program = load(resolve_user_path(form.path))
+                    self.lines.update(program.lines)
+                    for included in program.forms:
                         self.apply(included)
                 else:
                     self.apply(form)
@@ -353,7 +356,7 @@ class Session:
     def _reload(self, rest: str) -> None:
         if not rest:
             raise AtlasError(":reload takes a file name")
-        names = self.mission.reload(Path(rest))
+        names = self.mission.reload(resolve_user_path(rest))
         self.note(f"reloaded {rest}: {', '.join(names) if names else 'nothing to replace'}")
 
     def _skills(self, rest: str) -> None:
