@@ -567,3 +567,17 @@ def test_a_one_way_door_is_unsolvable(tmp_path: Path) -> None:
     plan = solve(load_problem(tmp_path, ONE_WAY_DOOR), timeout=10)
     assert plan.status == "unsolvable" and plan.steps == []
     assert plan.to_dict()["status"] == "unsolvable"
+
+
+def test_a_constraint_binds_the_other_variables_it_names_once_the_agent_is_chosen(tmp_path: Path) -> None:
+    """The robot charges at its own dock: the constraint that picks the agent also
+    gives ?dock its value, instead of ?dock ranging over every object."""
+    text = """\
+(operator charge :purpose (charged ?r) :agent ?r :constraints ((robot ?r) (dock-of ?r ?dock))
+  :effects ((charged ?r) (at ?r ?dock)))
+(agents (controlled r1))
+(initial (robot r1) (dock-of r1 dock-1) (room kitchen) (room dock-2))
+(goals (charged r1))
+"""
+    task = ground(load_problem(tmp_path, text))
+    assert [str(a.term) for a in task.actions] == ["(charge r1 dock-1)"]

@@ -251,12 +251,10 @@ class _OperatorGrounder:
             s = answer
         holds = self._holds
         for assigned in assign_agents(self.agents, holds, s) if self.agents.variables else (s,):
-            if self.agents.variables:
-                answers: Iterator[Subst] = iter((assigned,))  # constraints were its tests
-            elif op.constraints:
-                answers = evaluate(Compound("and", op.constraints), self.init, assigned, self.relations)
-            else:
-                answers = iter((assigned,))
+            # The agents passed the constraints; solving them again binds the
+            # other variables they mention.
+            answers: Iterator[Subst] = (evaluate(Compound("and", op.constraints), self.init, assigned, self.relations)
+                                        if op.constraints else iter((assigned,)))
             for answer in answers:
                 yield from self._free(answer)
 
