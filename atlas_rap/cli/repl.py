@@ -125,8 +125,11 @@ def _interactive(session, speed: float) -> None:
                     continue
                 except EOFError:
                     break
-                with _interruptible(session):
-                    session.submit(text)
+                try:
+                    with _interruptible(session):
+                        session.submit(text)
+                except KeyboardInterrupt:  # Ctrl-C in the instant before the handler is in place
+                    session.out.print("interrupted", style="dim")
         finally:
             stop.set()
             clock.join(timeout=2)

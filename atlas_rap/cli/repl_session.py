@@ -32,7 +32,6 @@ Choices where the issue is silent:
 
 from __future__ import annotations
 
-import dataclasses
 import shlex
 import threading
 from pathlib import Path
@@ -52,7 +51,7 @@ from atlas_rap.lang import ast, format_node, load
 from atlas_rap.lang.loader import Program
 from atlas_rap.lang.reader import Forms, SList, read_text
 from atlas_rap.lang.validator import to_term, validate
-from atlas_rap.logic import Compound, Term, Var, is_anonymous, term_to_str, variables
+from atlas_rap.logic import Compound, Term, Var, is_anonymous, substitute, term_to_str, variables
 from atlas_rap.shipped import resolve_user_path
 
 COMMANDS = {
@@ -258,7 +257,7 @@ class Session:
             self.out.print("yes", markup=False)
         else:
             for answer in answers:
-                self.out.print("  ".join(f"?{v.name} = {term_to_str(_resolve(v, answer))}" for v in shown),
+                self.out.print("  ".join(f"?{v.name} = {term_to_str(substitute(v, answer))}" for v in shown),
                                markup=False)
         return answers
 
@@ -360,10 +359,9 @@ class Session:
         self.note(f"reloaded {rest}: {', '.join(names) if names else 'nothing to replace'}")
 
     def _skills(self, rest: str) -> None:
-        running = {str(call) for call in getattr(self.virtual, "running", lambda: [])()}
-        manager = self.setup.manager
-        if manager is not None:
-            running |= {str(call) for call in manager.running()} if hasattr(manager, "running") else set()
+        running = {str(call) for call in self.virtual.running()}
+        if self.setup.manager is not None:
+            running |= {str(call) for call in self.setup.manager.running()}
         for name, arities in sorted(self.skills.skills().items()):
             self.out.print(f"{name} ({'/'.join(map(str, sorted(arities)))} args)", markup=False)
         if running:
@@ -420,22 +418,20 @@ class Session:
         """Plan for ``goals`` from memory with the session's operators; show it, and
         with ``execute`` post the RAP that carries it out."""
         from atlas_rap.planner.checks import raise_problems
-        from atlas_rap.planner.execute import plan_rap_text
+        from atlas_rap.planner.execute import PLAN_TASK, plan_rap_text
         from atlas_rap.planner.problem import problem_from_program
         from atlas_rap.planner.solve import solve
 
         forms = tuple(self.planning) + tuple(self.sequencer.library.values())
         program = Program(root="<repl>", files=(), forms=forms, lines=self.lines)
-        problem = dataclasses.replace(problem_from_program(program, name="<repl>"), goals=goals,
-                                      initial=tuple(self.sequencer.memory),
-                                      goal_locations=(loc,) * len(goals))
+        problem = problem_from_program(program, name="<repl>").asked(goals, tuple(self.sequencer.memory), loc)
         raise_problems(problem)
         result = solve(problem)
         self.out.print(result.to_text(), markup=False)
         if result.status != "solved" or not execute:
             return result
         self.submissions += 1
-        name = f"carry-out-plan-{self.submissions}"
+        name = PLAN_TASK.format(n=self.submissions)
         text, missing = plan_rap_text(result, list(self.sequencer.library.values()), name)
         if missing:
             raise AtlasError("no RAP can execute plan step " + "; ".join(missing))
@@ -446,12 +442,6 @@ class Session:
         """Write the trace file, if one was asked for."""
         if self.sink is not None:
             self.sink.close()
-
-
-def _resolve(var, answer: dict) -> Term:
-    from atlas_rap.logic import substitute
-
-    return substitute(var, answer)
 
 
 def _number(text: str, usage: str, kind: Callable = float):

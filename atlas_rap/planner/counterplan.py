@@ -35,7 +35,7 @@ from typing import Iterable
 
 from atlas_rap.logic import Compound, variables
 from atlas_rap.planner.ground import GroundAction, GroundTask
-from atlas_rap.planner.search import Settle
+from atlas_rap.planner.search import Settle, eliminate_redundant, greedy_best_first
 
 
 @dataclass(frozen=True)
@@ -98,6 +98,7 @@ class Adversary:
     def __init__(self, task: GroundTask, allowed: Iterable[GroundAction] | None = None) -> None:
         self.task = task
         chosen = list(task.nature if allowed is None else allowed)
+        self.actions = chosen
         self.anytime = [u for u in chosen if u.operator.outcome_of is None]
         self.tied: dict[tuple[str, tuple], list[GroundAction]] = {}
         for u in chosen:
@@ -134,7 +135,7 @@ class Adversary:
         absent, and that only our own deletion of F removes.
         """
         task = self.task
-        deletable = {f for u in self.task.nature for f in u.delete}
+        deletable = {f for u in self.actions for f in u.delete}
         negative = {f for a in task.actions for f in a.neg} | set(task.goal_neg)
         shadow = {f: len(task.facts) + i for i, f in enumerate(sorted(deletable & negative))}
         if not shadow:
@@ -232,8 +233,6 @@ class Protected:
 def counterplan(task: GroundTask, plan: list[GroundAction], timeout: float | None = None) -> Protected:
     """Protect ``plan`` (a valid sequential plan of ``task``) from uncontrolled actions;
     see the module docstring. ``timeout`` bounds the extra searches (seconds)."""
-    from atlas_rap.planner.search import eliminate_redundant, greedy_best_first
-
     full = Adversary(task)
     first = assess(task, plan, full)
     if not first.threats:

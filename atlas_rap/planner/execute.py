@@ -51,9 +51,7 @@ def expand_plan_requests(program, timeout: float = 60.0):
     replaced: dict[int, list] = {}
     problems: list[Problem] = []
     for n, request in enumerate(requests, 1):
-        problem = dataclasses.replace(base, goals=request.goals,
-                                      goal_locations=(request.loc,) * len(request.goals),
-                                      initial=tuple(dict.fromkeys(base.initial + memory_facts)))
+        problem = base.asked(request.goals, base.initial + memory_facts, request.loc)
         found = check_problem(problem)
         if found:
             problems += found

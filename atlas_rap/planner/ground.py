@@ -28,7 +28,7 @@ a negated fact that can never become true is dropped.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from itertools import product
 from typing import Iterator, Sequence
 
@@ -109,10 +109,6 @@ class GroundTask:
     actions: list[GroundAction]
     nature: list[GroundAction]
     unreachable_goals: tuple[Term, ...] = ()
-    stats: dict[str, float] = field(default_factory=dict)
-
-    def fact(self, i: int) -> Compound:
-        return self.facts[i]
 
     def is_goal(self, state: frozenset[int]) -> bool:
         return all(g in state for g in self.goal) and not any(g in state for g in self.goal_neg)

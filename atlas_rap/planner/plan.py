@@ -158,7 +158,7 @@ def build_plan(task: GroundTask, order: PartialOrder, protected: Protected, stat
     for index, action in enumerate(order.steps):
         tree = expander.expand(action, 0)
         unit = action.duration / max(1, _chain(tree))
-        first, last = _place(tree, action, index, unit, steps, inner, groups)
+        first, last = _place(tree, index, unit, steps, inner, groups)
         entries.append(first)
         exits.append(last)
     orderings: set[tuple[int, int]] = set(inner)
@@ -183,11 +183,10 @@ def build_plan(task: GroundTask, order: PartialOrder, protected: Protected, stat
 
 
 class _Expander:
-    """Plot trees of ground actions: ('step', term, agent) leaves under
+    """Plot trees of ground actions: ('step', term, action, agent) leaves under
     ('sequence' | 'parallel' | 'simultaneous', parts) nodes."""
 
     def __init__(self, task: GroundTask) -> None:
-        self.task = task
         self.by_purpose: dict[Term, GroundAction] = {}
         for action in task.actions:
             purpose = action.operator.purpose
@@ -222,7 +221,7 @@ def _chain(tree: tuple) -> int:
     return sum(lengths) if kind == "sequence" else max(lengths, default=0)
 
 
-def _place(tree: tuple, top: GroundAction, index: int, unit: float, steps: list[PlanStep],
+def _place(tree: tuple, index: int, unit: float, steps: list[PlanStep],
            inner: list[tuple[int, int]], groups: list[list[int]]) -> tuple[list[int], list[int]]:
     """Add the tree's steps; return the ids of its first and last steps."""
     kind = tree[0]
@@ -235,7 +234,7 @@ def _place(tree: tuple, top: GroundAction, index: int, unit: float, steps: list[
                         binding=action.binding)
         steps.append(step)
         return [step.id], [step.id]
-    parts = [_place(part, top, index, unit, steps, inner, groups) for part in tree[1]]
+    parts = [_place(part, index, unit, steps, inner, groups) for part in tree[1]]
     if kind == "sequence":
         for (_, last), (first, _) in zip(parts, parts[1:]):
             inner.extend((a, b) for a in last for b in first)

@@ -9,6 +9,7 @@ search, partial order, counterplanning) is written once.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 from atlas_rap.errors import SourceLocation
@@ -50,6 +51,13 @@ class PlanningProblem:
             if op.name == name:
                 return op
         raise KeyError(name)
+
+    def asked(self, goals: tuple[Term, ...], initial: tuple[Compound, ...],
+              loc: SourceLocation | None = None) -> PlanningProblem:
+        """The same operators, agents and relations, asked for ``goals`` from ``initial``
+        (a mission's ``(plan ...)``, the REPL's memory); ``loc`` is where the goals were asked."""
+        return dataclasses.replace(self, goals=tuple(goals), initial=tuple(dict.fromkeys(initial)),
+                                   goal_locations=(loc,) * len(goals))
 
     def line(self, loc: SourceLocation | None) -> str | None:
         """The source line at ``loc``, for a caret under a problem."""

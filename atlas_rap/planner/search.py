@@ -53,7 +53,11 @@ class SearchResult:
 
 
 class RelaxedPlanHeuristic:
-    """hFF over a task's actions, with helpful actions and the applicable set."""
+    """hFF over a task's actions, with helpful actions and the applicable set.
+
+    It also holds, once, what the searches need to apply an action by number:
+    ``negs`` (negative preconditions), ``deletes`` and ``add_sets`` (frozensets).
+    """
 
     def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None) -> None:
         self.actions = list(task.actions if actions is None else actions)
@@ -72,6 +76,9 @@ class RelaxedPlanHeuristic:
             if not action.pre:
                 self.no_pre.append(i)
         self.goal = task.goal
+        self.negs = [a.neg for a in self.actions]
+        self.deletes = [frozenset(a.delete) for a in self.actions]
+        self.add_sets = [frozenset(a.add) for a in self.actions]
 
     def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
         """(h, applicable action numbers, helpful action numbers) of ``state``."""
@@ -158,9 +165,7 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
     acts = heuristic.actions
     start = task.init if init is None else init
     is_goal = task.is_goal
-    negs = [a.neg for a in acts]
-    deletes = [frozenset(a.delete) for a in acts]
-    adds = [frozenset(a.add) for a in acts]
+    negs, deletes, adds = heuristic.negs, heuristic.deletes, heuristic.add_sets
     parents: dict[frozenset[int], tuple[frozenset[int] | None, int]] = {start: (None, -1)}
     depth: dict[frozenset[int], int] = {start: 0}
     regular: list[tuple[float, int, int, frozenset[int], int]] = []
@@ -295,9 +300,7 @@ def shorter_plan(task: GroundTask, plan: list[GroundAction], budget: int, weight
     best_g: dict[frozenset[int], int] = {start: 0}
     parents: dict[frozenset[int], tuple[frozenset[int] | None, int]] = {start: (None, -1)}
     queue: list[tuple[float, int, int, frozenset[int], int, int]] = []
-    negs = [a.neg for a in acts]
-    deletes = [frozenset(a.delete) for a in acts]
-    adds = [frozenset(a.add) for a in acts]
+    negs, deletes, adds = heuristic.negs, heuristic.deletes, heuristic.add_sets
     tick = 0
 
     def open_successors(state: frozenset[int], g: int, h: float, applicable: list[int], helpful: set[int]) -> None:

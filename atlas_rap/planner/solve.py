@@ -79,17 +79,13 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
         other = greedy_best_first(task, timeout=left, shallow_first=False, heuristic=found.heuristic,
                                   max_evaluations=100 + 2 * found.evaluated)
         if other.status == "solved":
-            other_sequence = eliminate_redundant(task, other.plan)
-            if len(other_sequence) < len(sequence):
-                sequence = other_sequence
+            sequence = _shorter(task, other.plan, sequence)
     for weight in IMPROVE_WEIGHTS:
         left = None if timeout is None else max(0.0, timeout - (time.process_time() - started))
         better = shorter_plan(task, sequence, budget=min(IMPROVE_BUDGET, 100 + 4 * found.evaluated),
                               weight=weight, timeout=left, heuristic=found.heuristic)
         if better is not None:
-            better = eliminate_redundant(task, better)
-            if len(better) < len(sequence):
-                sequence = better
+            sequence = _shorter(task, better, sequence)
     left = None if timeout is None else max(1.0, timeout - (time.process_time() - started))
     if protect:
         protected = counterplan(task, sequence, timeout=left)
@@ -111,3 +107,8 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     plan.timing = timing
     return plan
 
+
+def _shorter(task, candidate: list, current: list) -> list:
+    """``candidate`` without its redundant actions, if that is shorter than ``current``."""
+    candidate = eliminate_redundant(task, candidate)
+    return candidate if len(candidate) < len(current) else current
