@@ -39,3 +39,11 @@ def resolve_user_path(path: str | Path) -> Path:
             if candidate.exists():
                 return candidate
     return given
+
+
+def shipped_worlds() -> list[str]:
+    """Names of the worlds that ship with atlas-rap (``worlds/*.yaml``), sorted."""
+    root = shipped_root("worlds")
+    if root is None:
+        return []
+    return sorted(p.stem for p in root.glob("*.yaml"))
