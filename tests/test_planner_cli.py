@@ -5,6 +5,8 @@ reproducibility, and bad input reported with a caret, never a traceback."""
 from __future__ import annotations
 
 import json
+import os
+import pty
 import re
 import subprocess
 import time
@@ -15,6 +17,7 @@ from cli_process import ENV, assert_no_traceback, atlas, atlas_command
 from pddl_problems import BLOCKS_DOMAIN, blocks_problem, gripper_problem, write_problem
 from planner_cases import (
     DELIVERY,
+    DOOR_OPERATORS,
     ONE_WAY_DOOR,
     PLOT_CYCLE,
     STATION,
@@ -304,3 +307,155 @@ def test_no_plan_file_when_unsolvable(tmp_path: Path) -> None:
     done = atlas("plan", "oneway.ap", "--plan-file", "out.plan", cwd=tmp_path)
     assert done.returncode == 1
     assert not (tmp_path / "out.plan").exists()
+
+
+# ============================================================================= a file with no goals
+
+def test_a_file_with_no_goals_is_an_error_naming_the_file_as_typed(tmp_path: Path) -> None:
+    """An operators file planned without its goals file: not 'solved: 0 steps'."""
+    (tmp_path / "ops").mkdir()
+    (tmp_path / "ops" / "door-ops.ap").write_text(DOOR_OPERATORS)
+    done = atlas("plan", "ops/door-ops.ap", cwd=tmp_path)
+    assert done.returncode == 1, (done.stdout, done.stderr)
+    assert_no_traceback(done)
+    assert "no goals in ops/door-ops.ap" in done.stderr
+    assert "solved" not in done.stdout + done.stderr
+    data = plan_json(atlas("plan", "ops/door-ops.ap", "--json", cwd=tmp_path))
+    assert data["status"] == "error" and data["steps"] == []
+    assert [(p["file"], p["message"]) for p in data["problems"]] == [("ops/door-ops.ap", "no goals in ops/door-ops.ap")]
+
+
+def test_a_pddl_problem_with_no_goals_is_an_error(tmp_path: Path) -> None:
+    write_problem(tmp_path, BLOCKS_DOMAIN, "(define (problem p) (:domain blocks) (:objects b1)\n"
+                                           "  (:init (ontable b1) (clear b1) (handempty)) (:goal (and)))\n")
+    done = atlas("plan", "--pddl", "domain.pddl", "problem.pddl", cwd=tmp_path)
+    assert done.returncode == 1
+    assert_no_traceback(done)
+    assert "no goals in problem.pddl" in done.stderr
+
+
+# ============================================================================= --json prints JSON whatever happens
+
+def test_json_of_a_goal_no_operator_achieves_is_unsolvable_with_its_location(tmp_path: Path) -> None:
+    text = ONE_WAY_DOOR.replace("(goals (visited hall) (at robot lab))", "(goals (visited hall) (flying robot))")
+    (tmp_path / "bad.ap").write_text(text)
+    done = atlas("plan", "bad.ap", "--json", cwd=tmp_path)
+    assert_located_error(done, "bad.ap", 10, "goal", "(flying robot)")  # the caret report, on stderr
+    data = plan_json(done)
+    assert data["status"] == "unsolvable" and data["steps"] == []
+    assert "(flying robot)" in data["reason"]
+    [problem] = data["problems"]
+    column = text.split("\n")[9].index("(flying robot)") + 1
+    assert (problem["file"], problem["line"], problem["column"]) == ("bad.ap", 10, column)
+    assert "(flying robot)" in problem["message"] and problem["hint"]
+
+
+def test_json_of_a_goal_no_sequence_of_actions_reaches_is_unsolvable_with_its_location(tmp_path: Path) -> None:
+    """An operator could make (visited attic) true, but nothing ever lets it."""
+    text = ONE_WAY_DOOR.replace("(goals (visited hall) (at robot lab))", "(goals (visited attic))")
+    (tmp_path / "attic.ap").write_text(text)
+    done = atlas("plan", "attic.ap", "--json", cwd=tmp_path)
+    assert_located_error(done, "attic.ap", 10, "(visited attic)")
+    data = plan_json(done)
+    assert data["status"] == "unsolvable" and "(visited attic)" in data["reason"]
+    assert [(p["file"], p["line"], p["column"]) for p in data["problems"]] == [("attic.ap", 10, 8)]
+    text_done = atlas("plan", "attic.ap", cwd=tmp_path)
+    assert text_done.stdout.startswith("unsolvable")
+    assert_located_error(text_done, "attic.ap", 10, "(visited attic)")
+
+
+def test_json_of_a_syntax_error_is_an_error_with_its_location(tmp_path: Path) -> None:
+    (tmp_path / "broken.ap").write_text(ONE_WAY_DOOR.replace("(initial (at robot lab)", "(initial (at robot lab"))
+    done = atlas("plan", "broken.ap", "--json", cwd=tmp_path)
+    message = assert_located_error(done, "broken.ap", 9)
+    data = plan_json(done)
+    assert data["status"] == "error" and data["steps"] == [] and data["risk"] == 0
+    [problem] = data["problems"]
+    assert (problem["file"], problem["line"], problem["message"]) == ("broken.ap", 9, message)
+
+
+def test_json_of_a_missing_file_is_an_error(tmp_path: Path) -> None:
+    data = plan_json(atlas("plan", "nothing.ap", "--json", cwd=tmp_path))
+    assert data["status"] == "error"
+    assert [p["file"] for p in data["problems"]] == ["nothing.ap"]
+
+
+def test_every_json_result_has_the_same_keys(tmp_path: Path) -> None:
+    write_ap(tmp_path, DELIVERY, "delivery.ap")
+    write_ap(tmp_path, ONE_WAY_DOOR, "oneway.ap")
+    (tmp_path / "empty.ap").write_text("(initial (at robot lab))\n")
+    keys = [set(plan_json(atlas("plan", name, "--json", cwd=tmp_path)))
+            for name in ("delivery.ap", "oneway.ap", "empty.ap")]
+    assert keys[0] - {"reason"} == keys[1] - {"reason"} == keys[2] - {"reason"}
+    assert {"threats", "problems"} <= keys[0]
+
+
+# ============================================================================= output paths and --timeout
+
+@pytest.mark.parametrize("option,name", [("--render", "p.png"), ("--plan-file", "p.plan")])
+def test_an_output_in_a_missing_folder_makes_the_folder(tmp_path: Path, option: str, name: str) -> None:
+    write_ap(tmp_path, DELIVERY, "delivery.ap")
+    done = atlas("plan", "delivery.ap", option, f"nodir/deeper/{name}", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert_no_traceback(done)
+    written = tmp_path / "nodir" / "deeper" / name
+    assert written.is_file() and written.stat().st_size > 0
+    if option == "--render":
+        assert written.read_bytes().startswith(b"\x89PNG")
+
+
+@pytest.mark.parametrize("option", ["--render", "--plan-file"])
+def test_an_output_that_cannot_be_created_is_a_one_line_error(tmp_path: Path, option: str) -> None:
+    write_ap(tmp_path, DELIVERY, "delivery.ap")
+    (tmp_path / "a-file").write_text("not a folder\n")
+    done = atlas("plan", "delivery.ap", option, "a-file/out", cwd=tmp_path)
+    assert done.returncode == 1
+    assert_no_traceback(done)
+    lines = done.stderr.strip().split("\n")
+    assert len(lines) == 1 and option in lines[0] and "a-file" in lines[0], done.stderr
+    done = atlas("plan", "delivery.ap", option, ".", cwd=tmp_path)  # a folder, not a file
+    assert done.returncode == 1
+    assert_no_traceback(done)
+    assert len(done.stderr.strip().split("\n")) == 1 and option in done.stderr
+
+
+@pytest.mark.parametrize("value", ["0", "-5"])
+def test_timeout_must_be_positive(tmp_path: Path, value: str) -> None:
+    write_ap(tmp_path, DELIVERY, "delivery.ap")
+    done = atlas("plan", "delivery.ap", "--timeout", value, cwd=tmp_path)
+    assert done.returncode == 2
+    assert_no_traceback(done)
+    assert "--timeout" in done.stderr and "solved" not in done.stdout
+
+
+# ============================================================================= NO_COLOR
+
+def stderr_on_a_terminal(args: list[str], cwd: Path, env: dict[str, str]) -> str:
+    """What `atlas ARGS` writes to stderr when stderr is a terminal (a pty)."""
+    main, terminal = pty.openpty()
+    try:
+        subprocess.run(atlas_command(*args), cwd=cwd, env=env, stdin=subprocess.DEVNULL,
+                       stdout=subprocess.DEVNULL, stderr=terminal, timeout=60, check=False)
+    finally:
+        os.close(terminal)
+    chunks = []
+    while True:
+        try:
+            chunk = os.read(main, 4096)
+        except OSError:  # the terminal is closed and drained
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
+    os.close(main)
+    return b"".join(chunks).decode()
+
+
+def test_no_colour_on_a_terminal_when_no_color_is_set(tmp_path: Path) -> None:
+    write_ap(tmp_path, door_problem(), "door.ap")
+    (tmp_path / "raps").mkdir()
+    args = ["plan", "door.ap", "--check-raps", "raps"]
+    styled = stderr_on_a_terminal(args, tmp_path, ENV)
+    assert "no RAP in raps can execute it" in styled and "\x1b[" in styled  # red on a terminal...
+    plain = stderr_on_a_terminal(args, tmp_path, {**ENV, "NO_COLOR": "1"})
+    assert "no RAP in raps can execute it" in plain and "\x1b[" not in plain  # ...but not with NO_COLOR

@@ -1,4 +1,28 @@
-"""``atlas plan GOALS.ap`` and ``atlas plan --pddl DOMAIN PROBLEM``: make a plan."""
+"""``atlas plan GOALS.ap`` and ``atlas plan --pddl DOMAIN PROBLEM``: make a plan.
+
+What ``--json`` prints: always one JSON object on stdout, in the form of
+LANGUAGE.md §3.3, whatever the outcome; the exit code and the report on
+stderr are the same as without ``--json``.
+
+- ``"status": "solved"`` (exit 0): the plan. ``risk`` is made of ``threats``,
+  each an uncontrolled ``action`` as written that may happen ``after`` a step
+  and break a ``link`` of the plan (``from``/``to``/``fact``, as in
+  ``links``), with its ``probability``; threats with the same ``event``
+  number are one happening, so ``risk = 1 - prod(1 - probability)`` over
+  distinct events.
+- ``"status": "unsolvable"`` or ``"timeout"`` (exit 1): no plan; ``reason``
+  says why. When a goal is out of reach of every operator, ``problems``
+  locates it (``file``, ``line``, ``column``, ``message``, ``hint``,
+  ``severity``), and the report with a caret goes to stderr.
+- ``"status": "error"`` (exit 1): the input is bad: a syntax error, a
+  check that fails, a missing file, a file with no goals. ``reason`` and
+  ``problems`` as above, the caret report on stderr.
+
+Every result has the same keys (``steps`` and the others empty when there
+is no plan). Mistakes in the options themselves print no JSON: bad usage
+(exit 2), or an output path that cannot be created (exit 1), is reported
+on stderr before any input is read.
+"""
 
 from __future__ import annotations
 
@@ -6,20 +30,27 @@ import sys
 
 import click
 
+from atlas_rap.cli.options import POSITIVE, OutputFile
+
 
 @click.command()
 @click.argument("files", nargs=-1, metavar="GOALS.ap | DOMAIN.pddl PROBLEM.pddl", type=click.Path(dir_okay=False))
 @click.option("--pddl", is_flag=True, help="Read FILES as a PDDL domain and problem (STRIPS, typing, negative "
                                            "preconditions, equality; FOND oneof as uncontrolled outcomes).")
-@click.option("--json", "as_json", is_flag=True, help="Print the plan as JSON (LANGUAGE.md §3.3).")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the result as JSON (LANGUAGE.md §3.3), whatever it is: the plan with its risk and "
+                   "the threats it is made of; status 'unsolvable' or 'timeout' with the reason; status 'error' "
+                   "for bad input (a syntax error, no goals). Without a plan it has a 'reason' and the located "
+                   "'problems' (file, line, column, message, hint); the report still goes to stderr, and the "
+                   "exit code is the same.")
 @click.option("--dot", "as_dot", is_flag=True, help="Print the partial order as Graphviz DOT.")
-@click.option("--plan-file", type=click.Path(dir_okay=False, writable=True), metavar="FILE",
+@click.option("--plan-file", type=OutputFile(), metavar="FILE",
               help="Also write one linearisation, an action a line, for a PDDL plan validator.")
-@click.option("--render", type=click.Path(dir_okay=False, writable=True), metavar="OUT.png",
-              help="Draw the plan's schedule: a lane per agent, orderings as arrows.")
+@click.option("--render", type=OutputFile(), metavar="OUT.png",
+              help="Draw the plan's schedule: a lane per agent, orderings as arrows, the threats left.")
 @click.option("--check-raps", type=click.Path(file_okay=False), metavar="DIR",
               help="Report the plan steps that no RAP in DIR (its .rap files) can execute; exit 1 if any.")
-@click.option("--timeout", type=float, default=60.0, show_default=True, metavar="SECONDS",
+@click.option("--timeout", type=POSITIVE, default=60.0, show_default=True, metavar="SECONDS",
               help="CPU time for the whole planner; the status is 'timeout' past it.")
 @click.option("--timing", is_flag=True, help="Add CPU times (grounding, search, total) to --json.")
 @click.option("--no-counterplan", is_flag=True, help="Do not protect the plan from uncontrolled agents "
@@ -31,38 +62,57 @@ def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_f
 
     Prints a partially ordered plan: steps with agents and times, orderings,
     causal links, simultaneous steps, the counterplan steps that protect it
-    from uncontrolled agents and the risk left. Exits 0 when solved, 1 when
-    unsolvable, out of time or the input is bad, 2 on bad usage.
+    from uncontrolled agents, the risk left and each threat it is made of.
+    Exits 0 when solved, 1 when unsolvable, out of time or the input is bad
+    (a file with no goals, a syntax error: reported with a caret on stderr),
+    2 on bad usage. With --json the result is always JSON on stdout, also
+    without a plan: status 'unsolvable', 'timeout' or (bad input) 'error',
+    with the reason and its located problems.
     """
     from atlas_rap.errors import AtlasError
+    from atlas_rap.planner.plan import plan_of_error
     from atlas_rap.planner.solve import solve
 
     if as_json and as_dot:
         raise click.UsageError("choose one of --json and --dot")
-    problem = _read_problem(files, pddl)
-    result = solve(problem, timeout=timeout, protect=not no_counterplan)
+    try:
+        problem = _read_problem(files, pddl)
+        result = solve(problem, timeout=timeout, protect=not no_counterplan)
+    except AtlasError as exc:
+        if as_json:
+            click.echo(plan_of_error(exc).to_json(timing))
+        raise
     if as_json:
         click.echo(result.to_json(timing))
     elif as_dot:
         click.echo(result.to_dot())
     else:
         click.echo(result.to_text())
+    for found in result.problems:
+        click.echo(found.render(), err=True)
     if result.status != "solved":
         sys.exit(1)
     if plan_file:
         from atlas_rap.planner.plan_file import write_plan_file
 
-        try:
-            write_plan_file(plan_file, result.sequence)
-        except OSError as exc:
-            raise AtlasError(f"cannot write the plan file {plan_file}: {exc.strerror}") from None
+        _write("--plan-file", plan_file, lambda: write_plan_file(plan_file, result.sequence))
     if render:
         from atlas_rap.planner.render import render_plan
 
-        render_plan(result, render)
+        _write("--render", render, lambda: render_plan(result, render))
         click.echo(f"wrote {render}", err=True)
     if check_raps and not _raps_cover(result, check_raps):
         sys.exit(1)
+
+
+def _write(option: str, path: str, write) -> None:
+    """Run ``write``; an OS error writing ``path`` is a one-line error naming ``option``."""
+    from atlas_rap.outputs import OutputError
+
+    try:
+        write()
+    except OSError as exc:
+        raise OutputError(f"{option} {path}: cannot write it ({exc.strerror or exc})") from None
 
 
 def _read_problem(files: tuple[str, ...], pddl: bool):
@@ -76,17 +126,30 @@ def _read_problem(files: tuple[str, ...], pddl: bool):
             raise click.UsageError("--pddl takes two files: DOMAIN.pddl PROBLEM.pddl")
         from atlas_rap.planner.pddl import load_pddl
 
-        return load_pddl(files[0], files[1])
+        return _with_goals(load_pddl(files[0], files[1]), files[1], "add (:goal ...) to the problem")
     if len(files) != 1:
         raise click.UsageError("give one goals file (GOALS.ap), or --pddl DOMAIN.pddl PROBLEM.pddl")
     path = resolve_user_path(files[0])
-    problem = problem_from_program(load(path), name=str(files[0]))
+    problem = _with_goals(problem_from_program(load(path), name=str(files[0])), files[0],
+                          "add (goals FACT ...), or plan a goals file that includes this one")
     raise_problems(problem)
+    return problem
+
+
+def _with_goals(problem, file: str, hint: str):
+    """``problem``, if it has goals; else an error naming ``file`` as the user typed it
+    (an operators file without its goals file would otherwise be 'solved: 0 steps', or
+    fail checks that are about the goals file it lacks, such as declared agents)."""
+    from atlas_rap.errors import Problem, SourceError, SourceLocation
+
+    if not problem.goals:
+        raise SourceError(Problem(f"no goals in {file}", SourceLocation(file, 1, 1), None, hint))
     return problem
 
 
 def _raps_cover(result, folder: str) -> bool:
     """Print the steps no RAP in ``folder`` can execute; True when there are none."""
+    from atlas_rap.cli.console import secho
     from atlas_rap.errors import AtlasError
     from atlas_rap.planner.dispatch import load_raps, match_steps
     from atlas_rap.shipped import resolve_user_path
@@ -96,8 +159,8 @@ def _raps_cover(result, folder: str) -> bool:
         raise AtlasError(f"--check-raps {folder}: no such folder")
     missing = [d for d in match_steps(result, load_raps(found)) if d.rap is None]
     for d in missing:
-        click.secho(f"step {d.step.id} {d.step.action}: no RAP in {folder} can execute it "
-                    f"({d.how})", fg="red", err=True)
+        secho(f"step {d.step.id} {d.step.action}: no RAP in {folder} can execute it ({d.how})",
+              fg="red", err=True)
     if not missing:
         click.echo(f"every step has a RAP in {folder}", err=True)
     return not missing

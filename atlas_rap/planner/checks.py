@@ -27,21 +27,28 @@ from atlas_rap.planner.problem import PlanningProblem
 _NOT_FACTS = frozenset({"not", "and", "or", "=", "/=", "<", "<=", ">", ">="})
 
 
+class UnreachableGoals(SourceError):
+    """The only problems are goals that no operator can achieve: the problem is
+    well formed, and unsolvable (``atlas plan --json`` says ``unsolvable``)."""
+
+
 def check_problem(problem: PlanningProblem) -> list[Problem]:
     """Every problem found, in source order of the checks above."""
-    found: list[Problem] = []
-    found += _arity_problems(problem)
-    found += _goal_problems(problem)
-    found += _agent_problems(problem)
-    found += _plot_cycles(problem)
-    return found
+    return [p for part in _check_parts(problem) for p in part]
 
 
 def raise_problems(problem: PlanningProblem) -> None:
-    """Raise a :class:`SourceError` with every problem :func:`check_problem` finds."""
-    problems = check_problem(problem)
+    """Raise a :class:`SourceError` with every problem :func:`check_problem` finds;
+    an :class:`UnreachableGoals` when they are all goals no operator achieves."""
+    arity, goals, agents, cycles = _check_parts(problem)
+    problems = arity + goals + agents + cycles
     if problems:
-        raise SourceError(problems)
+        raise (SourceError if arity or agents or cycles else UnreachableGoals)(problems)
+
+
+def _check_parts(problem: PlanningProblem) -> tuple[list[Problem], list[Problem], list[Problem], list[Problem]]:
+    """The problems of each check above: arity, goals, agents, plot cycles."""
+    return _arity_problems(problem), _goal_problems(problem), _agent_problems(problem), _plot_cycles(problem)
 
 
 def _problem(problem: PlanningProblem, message: str, loc: SourceLocation | None, hint: str) -> Problem:

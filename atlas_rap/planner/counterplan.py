@@ -75,13 +75,20 @@ class Assessment:
         happens with the operator's probability, not once per object.
         """
         survive = 1.0
-        for action in {(_event(t.action), t.after): t.action for t in self.threats}.values():
+        for action in {happening(t): t.action for t in self.threats}.values():
             survive *= 1.0 - action.probability
         return round(max(0.0, 1.0 - survive), 12)
 
     def actions(self) -> list[GroundAction]:
         """The uncontrolled actions that threaten the plan, first seen first."""
         return list({t.action.index: t.action for t in self.threats}.values())
+
+
+def happening(threat: Threat) -> tuple:
+    """What the risk counts once: the threat's event (:func:`_event`) in the state it
+    may happen in. Threats with the same happening are one chance of defeat, even
+    when that one action breaks several links."""
+    return (_event(threat.action), threat.after)
 
 
 def _event(action: GroundAction) -> tuple:

@@ -1,6 +1,8 @@
 """The plan the planner returns (LANGUAGE.md §3.3): steps with agents and times,
-orderings, causal links, simultaneity, counterplan steps and risk; as text,
-JSON and Graphviz DOT.
+orderings, causal links, simultaneity, counterplan steps, risk and the threats
+that make it; as text, JSON and Graphviz DOT. A result that is not a plan (an
+unsolvable problem, bad input: :func:`plan_of_error`) has the same JSON form,
+with its ``reason`` and located ``problems``.
 
 Each operator of the partial order is expanded by its ``:plot`` into the
 steps RAPs execute, hierarchically: a plot step that is the purpose of
@@ -27,8 +29,10 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 
+from atlas_rap.errors import AtlasError, Problem, SourceError
 from atlas_rap.logic import Compound, Term, substitute, term_to_str
-from atlas_rap.planner.counterplan import Protected
+from atlas_rap.planner.checks import UnreachableGoals
+from atlas_rap.planner.counterplan import Assessment, Protected, happening
 from atlas_rap.planner.ground import GroundAction, GroundTask
 from atlas_rap.planner.partial_order import INIT, PartialOrder
 
@@ -54,9 +58,44 @@ class PlanStep:
     binding: dict = field(default_factory=dict, repr=False)
 
 
+@dataclass(frozen=True)
+class PlanThreat:
+    """What may still defeat the plan: the uncontrolled ``action`` (as written, with
+    its values) may happen after step ``after`` and delete ``fact``, which the causal
+    link ``producer -> consumer`` needs kept (``"init"``: the initial state,
+    ``"goal"``: the goals), with ``probability``. ``event`` numbers the distinct
+    happenings (an event in a state, :func:`~atlas_rap.planner.counterplan.happening`):
+    threats that share one are a single chance of defeat, counted once in the risk."""
+
+    action: Compound
+    operator: str
+    agent: str | None
+    after: int
+    producer: int | str
+    consumer: int | str
+    fact: str
+    probability: float
+    event: int
+
+    def to_dict(self) -> dict[str, object]:
+        """The JSON form; ``link`` is the threatened entry of the plan's ``links``."""
+        return {"action": term_to_str(self.action), "operator": self.operator, "agent": self.agent,
+                "after": self.after, "link": {"from": self.producer, "to": self.consumer, "fact": self.fact},
+                "probability": self.probability, "event": self.event}
+
+    def describe(self) -> str:
+        """One line for a reader: what may happen when, and which link it breaks."""
+        source = "the initial state" if self.producer == "init" else f"step {self.producer}"
+        need = "the goals" if self.consumer == "goal" else f"step {self.consumer}"
+        return (f"p {self.probability:g}: {term_to_str(self.action)} after step {self.after} may undo "
+                f"{self.fact} (from {source}, needed by {need})")
+
+
 @dataclass
 class Plan:
-    """The planner's answer; ``status`` is ``solved``, ``unsolvable`` or ``timeout``."""
+    """The planner's answer; ``status`` is ``solved``, ``unsolvable`` or ``timeout``
+    (or ``error`` for bad input, :func:`plan_of_error`). ``threats`` are what the
+    ``risk`` is made of; ``problems`` the located reasons there is no plan."""
 
     status: str
     steps: list[PlanStep] = field(default_factory=list)
@@ -65,12 +104,14 @@ class Plan:
     simultaneous: list[list[int]] = field(default_factory=list)
     counterplan: list[dict[str, object]] = field(default_factory=list)
     risk: float = 0.0
+    threats: list[PlanThreat] = field(default_factory=list)
     risk_before_counterplanning: float = 0.0
     makespan: float = 0.0
     sequence: list[Compound] = field(default_factory=list)
     stats: dict[str, float | int] = field(default_factory=dict)
     timing: dict[str, float] = field(default_factory=dict)
     reason: str = ""
+    problems: list[Problem] = field(default_factory=list)
 
     def to_dict(self, timing: bool = False) -> dict[str, object]:
         """The JSON form of LANGUAGE.md §3.3. ``stats`` holds counts only, so the same
@@ -84,11 +125,13 @@ class Plan:
             "simultaneous": self.simultaneous,
             "counterplan": self.counterplan,
             "risk": self.risk,
+            "threats": [t.to_dict() for t in self.threats],
             "risk_before_counterplanning": self.risk_before_counterplanning,
             "makespan": _number(self.makespan),
             "stats": self.stats,
             **({"timing": self.timing} if timing else {}),
             **({"reason": self.reason} if self.reason else {}),
+            "problems": [_problem_dict(p) for p in self.problems],
         }
 
     def to_json(self, timing: bool = False) -> str:
@@ -120,6 +163,7 @@ class Plan:
             lines.append(f"  {s.id:>3}  {_number(s.start):>6}-{_number(s.end):<6} {term_to_str(s.action)}{agent}{note}")
         if self.risk:
             lines.append(f"risk left: {self.risk:g} (an uncontrolled action may still defeat the plan)")
+            lines.extend(f"  {t.describe()}" for t in self.threats)
         return "\n".join(lines)
 
     def to_dot(self) -> str:
@@ -175,11 +219,42 @@ def build_plan(task: GroundTask, order: PartialOrder, protected: Protected, stat
         links.append((src, dst, fact))
     counterplan = [{"step": exits[c.step][0], "threat": term_to_str(c.threat.term),
                     "protects": term_to_str(task.facts[c.fact])} for c in protected.counters]
+    threats = _threats(task, order, protected.assessment, entries, exits)
     return Plan(status="solved", steps=steps, orderings=sorted(orderings), links=links,
                 simultaneous=[g for g in groups if len(g) > 1], counterplan=counterplan,
-                risk=protected.assessment.risk, risk_before_counterplanning=protected.first_risk,
+                risk=protected.assessment.risk, threats=threats, risk_before_counterplanning=protected.first_risk,
                 makespan=max((s.end for s in steps), default=0.0),
                 sequence=[a.term for a in order.steps], stats=stats)
+
+
+def plan_of_error(error: AtlasError) -> Plan:
+    """The result for input that gives no plan, in the plan's JSON form: ``unsolvable``
+    when the only problems are goals no operator achieves, else ``error``; the
+    ``reason`` says what is wrong and ``problems`` are its located problems."""
+    problems = list(error.problems) if isinstance(error, SourceError) else []
+    status = "unsolvable" if isinstance(error, UnreachableGoals) else "error"
+    reason = "; ".join(p.message for p in problems) if problems else str(error)
+    return Plan(status=status, reason=reason, problems=problems)
+
+
+def _threats(task: GroundTask, order: PartialOrder, assessment: Assessment,
+             entries: list[list[int]], exits: list[list[int]]) -> list[PlanThreat]:
+    """The threats of ``assessment`` (on ``order``'s sequence of operators) in plan step
+    ids: the step after which each may happen and the causal link it breaks."""
+    producers = {(link.consumer, link.fact): link.producer for link in order.links if link.positive}
+    events: dict[tuple, int] = {}
+    found = []
+    for t in assessment.threats:
+        producer = producers[(t.consumer, t.fact)]
+        found.append(PlanThreat(
+            action=t.action.term, operator=t.action.operator.name,
+            agent=t.action.agents[0] if t.action.agents else None,
+            after=exits[t.after - 1][-1],
+            producer="init" if producer == INIT else exits[producer][0],
+            consumer="goal" if t.consumer >= len(order.steps) else entries[t.consumer][0],
+            fact=term_to_str(task.facts[t.fact]), probability=t.action.probability,
+            event=events.setdefault(happening(t), len(events) + 1)))
+    return found
 
 
 class _Expander:
@@ -268,6 +343,12 @@ def _schedule(steps: list[PlanStep], orderings: set[tuple[int, int]], groups: li
             if s.agent:
                 free[s.agent] = s.end
             done.add(m)
+
+
+def _problem_dict(problem: Problem) -> dict[str, object]:
+    loc = problem.location
+    return {"file": loc.file, "line": loc.line, "column": loc.column, "message": problem.message,
+            "hint": problem.hint, "severity": problem.severity}
 
 
 def _number(x: float) -> float | int:

@@ -24,7 +24,8 @@ from __future__ import annotations
 
 import time
 
-from atlas_rap.logic import term_to_str
+from atlas_rap.errors import Problem, SourceLocation
+from atlas_rap.logic import Term, term_to_str
 from atlas_rap.planner.counterplan import (
     Protected,
     assess,
@@ -65,7 +66,8 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     if task.unreachable_goals:
         goals = ", ".join(term_to_str(g) for g in task.unreachable_goals)
         return Plan(status="unsolvable", stats=stats, timing=timing,
-                    reason=f"no sequence of actions can make {goals} true")
+                    reason=f"no sequence of actions can make {goals} true",
+                    problems=_unreachable(problem, task.unreachable_goals))
     left = None if timeout is None else max(0.0, timeout - (grounded - started))
     found = greedy_best_first(task, timeout=left)
     stats.update(expanded=found.expanded, evaluated=found.evaluated)
@@ -106,6 +108,18 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     plan = build_plan(task, order, protected, stats)
     plan.timing = timing
     return plan
+
+
+def _unreachable(problem: PlanningProblem, goals: tuple[Term, ...]) -> list[Problem]:
+    """A located problem for each goal that no sequence of actions can make true."""
+    where = dict(zip(problem.goals, problem.goal_locations))
+    found = []
+    for goal in goals:
+        loc = where.get(goal) or SourceLocation(problem.name, 1, 1)
+        found.append(Problem(f"goal {term_to_str(goal)}: no sequence of actions can make it true", loc,
+                             problem.line(where.get(goal)),
+                             "check the initial facts and the preconditions of the operators that achieve it"))
+    return found
 
 
 def _shorter(task, candidate: list, current: list) -> list:
