@@ -238,3 +238,87 @@ def test_the_willow_garage_map_loads_its_soft_walls_as_unknown() -> None:
     rosmap = load_ros_map(DATA / "willow-2010-02-18-0.10.yaml")
     assert rosmap.labels.shape == (608, 566)
     assert (rosmap.labels == UNKNOWN).sum() > (rosmap.labels == OCCUPIED).sum()
+
+
+# -- a world file, or some other YAML, where a map was wanted ----------------------------
+
+WORLDS = Path(__file__).resolve().parents[1] / "worlds"
+
+
+def test_a_world_file_with_a_map_image_points_to_its_map(tmp_path: Path) -> None:
+    (tmp_path / "maps").mkdir()
+    write_ros_map(tmp_path / "maps" / "floor.yaml", np.zeros((10, 10), dtype=np.int8), 0.1, (0, 0, 0))
+    (tmp_path / "world.yaml").write_text("name: floor\n# the walls\nmap: maps/floor.yaml\nrobot: {start: [0.5, 0.5]}\n")
+    with pytest.raises(SourceError) as caught:
+        load_ros_map(tmp_path / "world.yaml", "world.yaml")
+    [(message, line, column)] = only(caught)
+    assert message == "this is a world file, not a ROS map YAML; the map it names is 'maps/floor.yaml'"
+    assert (line, column) == (3, 1)
+    hint = caught.value.problem.hint
+    assert hint == "give that map instead: maps/floor.yaml"
+    assert load_ros_map(tmp_path / hint.split(": ")[1]).labels.shape == (10, 10)  # and that is the map
+
+
+def test_the_shipped_map_world_points_to_its_map() -> None:
+    with pytest.raises(SourceError) as caught:
+        load_ros_map(WORLDS / "small-office-map.yaml")
+    assert "this is a world file" in caught.value.problem.message
+    map_yaml = Path(caught.value.problem.hint.split(": ")[1])
+    assert map_yaml == WORLDS / "maps" / "small-office-map.yaml" and load_ros_map(map_yaml).width == 220
+
+
+def test_a_world_file_without_a_map_image_says_how_to_build_one() -> None:
+    with pytest.raises(SourceError) as caught:
+        load_ros_map(WORLDS / "maze.yaml", "worlds/maze.yaml")
+    problem = caught.value.problem
+    assert problem.message == "this is a world file, not a ROS map YAML, and it names no map image (no map: key)"
+    assert problem.hint == ("build a map of it with `atlas map build --world worlds/maze.yaml --out maze-map`, "
+                            "then give maze-map/occupancy.yaml")
+    assert len(caught.value.problems) == 1  # not one "missing the key" per map key
+
+
+def test_a_world_variant_says_whose_variant_it_is(tmp_path: Path) -> None:
+    (tmp_path / "closed.yaml").write_text("name: closed\nbase: lab-corridor-office\ndoors: {lab-door: {open: false}}\n")
+    with pytest.raises(SourceError) as caught:
+        load_ros_map(tmp_path / "closed.yaml")
+    [(message, line, column)] = only(caught)
+    assert message == "this is a world file (a variant of 'lab-corridor-office'), not a ROS map YAML"
+    assert (line, column) == (2, 1) and "atlas map build --world" in caught.value.problem.hint
+
+
+def test_a_yaml_that_is_neither_a_map_nor_a_world_says_what_a_map_needs(tmp_path: Path) -> None:
+    (tmp_path / "notes.yaml").write_text("title: floor plan\nscale: 1\n")
+    with pytest.raises(SourceError) as caught:
+        load_ros_map(tmp_path / "notes.yaml")
+    [(message, line, column)] = only(caught)
+    assert message == "this is not a ROS map_server map YAML: it has none of a map's keys (it has title, scale)"
+    assert (line, column) == (1, 1)
+    for key in ("image:", "resolution:", "origin: [x, y, yaw]", "occupied_thresh:", "free_thresh:"):
+        assert key in caught.value.problem.hint
+
+
+def test_the_world_keys_it_recognises_are_those_of_world_files() -> None:
+    from atlas_rap.maps.rosmap import MAP_KEYS, WORLD_KEYS
+    from atlas_rap.sim.world import TOP_KEYS, VARIANT_KEYS
+
+    assert (set(TOP_KEYS) | set(VARIANT_KEYS)) - {"name", "description"} == set(WORLD_KEYS)
+    assert not set(WORLD_KEYS) & set(MAP_KEYS)
+
+
+def test_label_at_and_free_points_near(tmp_path: Path) -> None:
+    grid = np.full((10, 10), FREE, dtype=np.int8)  # 1 m x 1 m at 0.1 m
+    grid[:, 0] = OCCUPIED  # x 0..0.1
+    grid[0, :] = UNKNOWN  # y 0.9..1
+    write_ros_map(tmp_path / "map.yaml", grid, 0.1, (0, 0, 0))
+    rosmap = load_ros_map(tmp_path / "map.yaml")
+    assert rosmap.label_at(0.05, 0.5) == OCCUPIED and rosmap.label_at(0.5, 0.95) == UNKNOWN
+    assert rosmap.label_at(0.5, 0.5) == FREE and rosmap.label_at(1.5, 0.5) is None
+    points = rosmap.free_points_near(0.05, 0.45, 0.2)
+    # Cell centres 0.2 m or more from the cells' edges next to the wall, the unknown row and the map's edges.
+    room = {(round(x, 2), round(y, 2)) for x in (0.35, 0.45, 0.55, 0.65, 0.75) for y in (0.25, 0.35, 0.45, 0.55, 0.65)}
+    assert {(round(x, 2), round(y, 2)) for x, y in points} == room and len(points) == len(room)
+    assert points[0] == pytest.approx((0.35, 0.45))
+    distances = [math.dist(p, (0.05, 0.45)) for p in points]
+    assert distances == sorted(distances)
+    assert len(rosmap.free_points_near(0.05, 0.45, 0.2, count=3)) == 3
+    assert rosmap.free_points_near(0.5, 0.5, 2.0) == []

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from itertools import pairwise
 from pathlib import Path
 
@@ -10,7 +11,7 @@ import numpy as np
 import pytest
 
 from atlas_rap.errors import AtlasError, Problem, SourceError
-from atlas_rap.maps.rosmap import write_ros_map
+from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, write_ros_map
 from atlas_rap.sim.model import Door, Segment, World
 from atlas_rap.sim.world import load_world, shipped_worlds
 
@@ -393,6 +394,9 @@ def test_robot_starting_inside_a_wall(tmp_path: Path) -> None:
     [problem] = problems_of(tmp_path, "walls: [[0, 0, 4, 0]]\nrobot:\n  start: [1, 0.1]\n")
     assert "the robot starts 0.10 m from a wall" in problem.message
     assert at(problem) == (3, 10)
+    x, y = suggested_point(problem)
+    assert y >= 0.2 + 0.15 and abs(x - 1) < 0.5
+    write_and_load(tmp_path, f"walls: [[0, 0, 4, 0]]\nrobot:\n  start: [{x}, {y}]\n")  # the hint works
 
 
 def test_duplicate_keys_are_reported(tmp_path: Path) -> None:
@@ -494,3 +498,149 @@ doors:
     problems = route_problems(world)
     assert any("across south from west-gap to east-gap" in p for p in problems), problems
     assert not unreachable(world)
+
+
+# -- where the robot starts -----------------------------------------------------------
+
+SMALL_OFFICE = Path(__file__).resolve().parents[1] / "worlds" / "small-office-map.yaml"
+
+
+def suggested_point(problem: Problem) -> tuple[float, float]:
+    """The (x, y) that a start problem's hint proposes."""
+    found = re.search(r"with room for the robot is at \((-?[\d.]+), (-?[\d.]+)\)", problem.hint or "")
+    assert found, problem.hint
+    return float(found.group(1)), float(found.group(2))
+
+
+def small_office_starting_at(start: str) -> str:
+    """The shipped small-office-map world with another robot.start, its map named by absolute path."""
+    text = SMALL_OFFICE.read_text(encoding="utf-8")
+    assert "  start: [1.5, 1.5, 0]\n" in text and "map: maps/small-office-map.yaml\n" in text
+    text = text.replace("  start: [1.5, 1.5, 0]\n", f"  start: {start}\n")
+    return text.replace("map: maps/small-office-map.yaml", f"map: {SMALL_OFFICE.parent / 'maps/small-office-map.yaml'}")
+
+
+def start_line(text: str) -> int:
+    return next(i for i, line in enumerate(text.split("\n"), 1) if line.strip().startswith("start:"))
+
+
+def test_a_robot_starting_in_the_unknown_outside_a_map_building_is_refused_at_robot_start(tmp_path: Path) -> None:
+    # West of the building's outer wall (x = 0) the image is unknown grey; 0.25 m from the wall outline,
+    # more than the robot's radius, so the wall check alone let it through.
+    text = small_office_starting_at("[-0.3, 4, 0]")
+    [problem] = problems_of(tmp_path, text)
+    assert problem.location.file.endswith("world.yaml") and at(problem) == (start_line(text), 10)
+    assert "robot.start (-0.3, 4) is on an unknown cell of the map" in problem.message
+    assert "small-office-map.pgm" in problem.message
+    assert "^" in problem.render() and "start: [-0.3, 4, 0]" in problem.render()
+    assert problem.hint.startswith("move robot.start into free space; the nearest free cell")
+    x, y = suggested_point(problem)
+    assert 0 < x < 1 and 3 < y < 5  # just inside, in hall-west
+    world = write_and_load(tmp_path, small_office_starting_at(f"[{x}, {y}, 0]"))
+    assert world.place_at(x, y) == "hall-west"
+
+
+def thick_walled_map(tmp_path: Path) -> Path:
+    """A 4 m x 3 m room (free) with a 1 m x 1 m solid pillar, inside a 5 m x 3 m image whose east metre is unknown."""
+    grid = np.full((60, 100), UNKNOWN, dtype=np.int8)  # 0.05 m cells; row 0 at the top (y = 3)
+    grid[:, :80] = OCCUPIED
+    grid[2:58, 2:78] = FREE  # walls 0.1 m thick round x 0..4, y 0..3
+    grid[20:40, 50:70] = OCCUPIED  # the pillar: x 2.5..3.5, y 1..2
+    (tmp_path / "maps").mkdir(exist_ok=True)
+    write_ros_map(tmp_path / "maps" / "pillar.yaml", grid, 0.05, (0.0, 0.0, 0.0))
+    return tmp_path / "maps" / "pillar.yaml"
+
+
+PILLAR_WORLD = """
+map: maps/pillar.yaml
+places:
+  room: {point: [1, 1.5], region: [[0, 0], [4, 0], [4, 3], [0, 3]]}
+"""
+
+
+def test_a_robot_starting_inside_a_thick_wall_of_the_map_image_is_refused(tmp_path: Path) -> None:
+    thick_walled_map(tmp_path)
+    [problem] = problems_of(tmp_path, PILLAR_WORLD + "robot: {start: [3, 1.5, 90]}\n")
+    assert at(problem) == (4, 16)
+    assert "robot.start (3, 1.5) is on an occupied cell of the map 'maps/pillar.yaml'" in problem.message
+    assert "(pixel x=60, y=29 of pillar.pgm)" in problem.message
+    x, y = suggested_point(problem)
+    assert math.dist((x, y), (3, 1.5)) < 1.0
+    world = write_and_load(tmp_path, PILLAR_WORLD + f"robot: {{start: [{x}, {y}, 90]}}\n")
+    assert world.robot.start[:2] == (x, y)
+
+
+def test_a_robot_starting_on_an_unknown_cell_or_off_the_map_is_refused(tmp_path: Path) -> None:
+    thick_walled_map(tmp_path)
+    [problem] = problems_of(tmp_path, PILLAR_WORLD + "robot: {start: [4.6, 1.5]}\n")
+    assert "robot.start (4.6, 1.5) is on an unknown cell" in problem.message and at(problem) == (4, 16)
+    [problem] = problems_of(tmp_path, PILLAR_WORLD + "robot: {start: [12, 1.5]}\n")
+    assert "robot.start (12, 1.5) is outside the map 'maps/pillar.yaml', which covers x 0 to 5, y 0 to 3" \
+        in problem.message
+    x, y = suggested_point(problem)
+    assert 3.5 < x < 4 and 0 < y < 3
+
+
+def test_without_robot_start_the_first_place_must_be_in_free_space(tmp_path: Path) -> None:
+    thick_walled_map(tmp_path)
+    [problem] = problems_of(tmp_path, "map: maps/pillar.yaml\nplaces:\n  porch: {point: [4.6, 1.5]}\n")
+    assert at(problem) == (3, 18)  # the point the robot starts at
+    assert "the robot starts at the point of place 'porch' (4.6, 1.5) (there is no robot.start), " \
+           "which is on an unknown cell" in problem.message
+    assert problem.hint.startswith("add robot.start: [x, y, heading_deg] in free space")
+
+
+def test_a_robot_starting_inside_a_solid_polygon_is_refused(tmp_path: Path) -> None:
+    # The pillar's edges are 1 m from the start: no wall is closer than the robot's radius.
+    world = """
+polygons:
+  - [[0, 0], [8, 0], [8, 4], [0, 4]]     # the room: the places are in it
+  - [[5, 1], [7, 1], [7, 3], [5, 3]]     # a pillar: nothing is
+places:
+  lab: {point: [2, 2]}
+"""
+    [problem] = problems_of(tmp_path, world + "robot: {start: [6, 2, 0]}\n")
+    assert at(problem) == (6, 16)
+    assert "robot.start (6, 2) is inside polygons[1] (line 3), a closed outline with no place in it" \
+        in problem.message
+    x, y = suggested_point(problem)
+    assert not (5 < x < 7 and 1 < y < 3)
+    assert write_and_load(tmp_path, world + f"robot: {{start: [{x}, {y}, 0]}}\n").robot.start[:2] == (x, y)
+    assert write_and_load(tmp_path, world + "robot: {start: [3, 2, 0]}\n")  # in the room, outside the pillar
+
+
+def test_a_variant_of_a_world_whose_robot_starts_off_the_free_space_is_refused(tmp_path: Path) -> None:
+    thick_walled_map(tmp_path)
+    (tmp_path / "base.yaml").write_text(PILLAR_WORLD.lstrip("\n") + "robot: {start: [3, 1.5]}\n")
+    (tmp_path / "variant.yaml").write_text("base: base.yaml\nname: pillar-variant\n")
+    with pytest.raises(SourceError) as caught:
+        load_world(tmp_path / "variant.yaml")
+    print(caught.value)
+    first, last = caught.value.problems
+    assert first.location.file.endswith("base.yaml") and at(first) == (4, 16)
+    assert "is on an occupied cell of the map 'maps/pillar.yaml'" in first.message
+    assert last.location.file.endswith("variant.yaml") and at(last) == (1, 7)
+    assert last.message == "the base world 'base.yaml' has problems (above)"
+
+
+def test_a_variant_whose_base_is_unknown_or_missing_is_located_at_base(tmp_path: Path) -> None:
+    [problem] = problems_of(tmp_path, "base: mazee\n")
+    assert problem.message == "no shipped world named 'mazee'; did you mean 'maze'?" and at(problem) == (1, 7)
+    assert "small-office-map" in problem.hint
+    [problem] = problems_of(tmp_path, "base: nowhere.yaml\n")
+    assert problem.message == "base world file 'nowhere.yaml' not found" and at(problem) == (1, 7)
+
+
+def test_a_world_whose_map_names_a_world_file_says_so(tmp_path: Path) -> None:
+    problems = problems_of(tmp_path, f"map: {SMALL_OFFICE}\n")
+    rendered = "\n".join(p.render() for p in problems)
+    assert "small-office-map.yaml:22:1: error: this is a world file, not a ROS map YAML" in rendered
+    assert "world.yaml:1:6: error: the map" in rendered
+
+
+def test_shipped_worlds_start_the_robot_on_a_free_cell_of_their_maps() -> None:
+    from atlas_rap.maps.rosmap import load_ros_map
+
+    world = load_world("small-office-map")
+    rosmap = load_ros_map(SMALL_OFFICE.parent / "maps" / "small-office-map.yaml")
+    assert rosmap.label_at(*world.robot.start[:2]) == FREE

@@ -32,6 +32,7 @@ Problems are reported at their file:line:column through
 from __future__ import annotations
 
 import re
+import shlex
 import warnings
 from dataclasses import dataclass
 from itertools import pairwise
@@ -39,11 +40,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from yaml.nodes import MappingNode, ScalarNode
 
+from atlas_rap.errors import Problem, line_of
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.geometry import outlines
 from atlas_rap.yamlsource import YamlSource, _kind, _nearest
-from atlas_rap.sim.model import Segment
+from atlas_rap.sim.model import Point, Segment
 
 # --------------------------------------------------------------------------
 # ROS maps
@@ -52,6 +55,11 @@ MAP_KEYS = ("image", "resolution", "origin", "negate", "occupied_thresh", "free_
 MAP_REQUIRED = ("image", "resolution", "origin", "occupied_thresh", "free_thresh")
 MODES = ("trinary", "scale", "raw")
 FREE, OCCUPIED, UNKNOWN = 0, 100, -1
+# The top-level keys of a world file (atlas_rap.sim.world) that no map YAML has: a YAML with
+# one of them and no image is a world given where a map was wanted.
+WORLD_KEYS = ("walls", "polygons", "map", "places", "doors", "disturbances", "robot", "sonar", "base")
+MAP_NEEDS = ("image: the PGM or PNG beside it, resolution: metres per pixel, origin: [x, y, yaw], "
+             "occupied_thresh: and free_thresh: (usually 0.65 and 0.196)")
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,16 +124,45 @@ class RosMap:
         """(xmin, ymin, xmax, ymax) of the map's area in the world (axis-aligned, yaw included)."""
         return self.frame.extent
 
+    def label_at(self, x: float, y: float) -> int | None:
+        """The label (0 free, 100 occupied, -1 unknown, 1..99) of the cell at world (x, y); None off the map."""
+        row, col = self.world_to_cell(x, y)
+        return int(self.labels[row, col]) if self.contains_cell(row, col) else None
+
+    def free_points_near(self, x: float, y: float, clearance: float, count: int = 200) -> list[Point]:
+        """Centres of free cells at least ``clearance`` metres from every cell that is not free, nearest first.
+
+        Up to ``count`` of them, the nearest to world (x, y) first: where a
+        robot of radius ``clearance`` could be put instead of (x, y).
+        Cells off the map count as not free.
+        """
+        from scipy.ndimage import distance_transform_edt
+
+        free = np.pad(self.labels == FREE, 1, constant_values=False)
+        room = distance_transform_edt(free)[1:-1, 1:-1] * self.resolution - self.resolution / 2 >= clearance
+        rows, cols = np.nonzero(room)
+        if rows.size == 0:
+            return []
+        xs, ys = self.cell_to_world(rows, cols)
+        xs, ys = np.atleast_1d(xs), np.atleast_1d(ys)
+        distance = np.hypot(xs - x, ys - y)
+        nearest = np.argpartition(distance, count)[:count] if distance.size > count else np.arange(distance.size)
+        nearest = nearest[np.argsort(distance[nearest], kind="stable")]
+        return [(float(xs[i]), float(ys[i])) for i in nearest]
+
 
 def load_ros_map(path_yaml: str | Path, shown_as: str | None = None) -> RosMap:
     """Read a map_server YAML and its image into a :class:`RosMap`.
 
     A file that is not a map raises :class:`SourceError` with every problem
     located at its key in the YAML (``shown_as`` is the name used in those
-    reports; the path by default).
+    reports; the path by default). A world file, or a YAML with none of a
+    map's keys, gets one problem that says so: where the world's map is, how
+    to build one, or which keys a map needs.
     """
     path = Path(path_yaml)
     src = YamlSource.read(path, shown_as, "ROS map YAML")
+    _check_is_a_map(src, path)
     entries = src.keys(src.root, "", None, MAP_REQUIRED, what=" (a ROS map_server map)")
     if entries is None:
         src.check()
@@ -182,6 +219,70 @@ def load_ros_map(path_yaml: str | Path, shown_as: str | None = None) -> RosMap:
     labels, occupancy = classify(shade, alpha, mode=mode, negate=negate, occupied_thresh=occ, free_thresh=free)
     return RosMap(occupancy, labels, resolution, origin, mode, negate, occ, free,
                   str(image_path), shown_as or str(path))
+
+
+def _check_is_a_map(src: YamlSource, path: Path) -> None:
+    """Refuse, as one located problem, a YAML that is a world file or has none of a map's keys.
+
+    Without this a world file (or any other YAML) given where a map is wanted
+    gets a "missing the key" error for each of a map's keys, which says
+    nothing of what the file is or where the map is.
+    """
+    root = src.root
+    if not isinstance(root, MappingNode):
+        src.error(root, f"this is not a ROS map_server map YAML: it must be a mapping of keys to values, "
+                        f"not {_kind(root)}",
+                  f"a map YAML has {MAP_NEEDS}")
+        src.check()
+    assert isinstance(root, MappingNode)
+    keys = {str(k.value): (k, v) for k, v in root.value if isinstance(k, ScalarNode)}
+    if "image" in keys:
+        return
+    if any(key in keys for key in WORLD_KEYS):
+        src.problems.append(_world_file_problem(src, keys, path))
+        src.check()
+    if not any(key in keys for key in MAP_KEYS):
+        shown = ", ".join(list(keys)[:6]) + (", ..." if len(keys) > 6 else "")
+        src.error(root, f"this is not a ROS map_server map YAML: it has none of a map's keys (it has {shown})",
+                  f"a map YAML has {MAP_NEEDS}")
+        src.check()
+
+
+def _world_file_problem(src: YamlSource, keys: dict[str, tuple[Any, Any]], path: Path) -> Problem:
+    """What to say of a world file given where a ROS map YAML is wanted: where its map is, or how to build one.
+
+    ``path`` is the world file; ``src.file`` how it is named in messages (the map's path is shown the same way).
+    """
+    map_node = keys["map"][1] if "map" in keys else None
+    if isinstance(map_node, ScalarNode) and str(map_node.value).strip():
+        key, (message, hint) = keys["map"][0], _map_of_world(src.file, str(map_node.value).strip(), path)
+    elif "base" in keys:
+        key = keys["base"][0]
+        base = keys["base"][1].value if isinstance(keys["base"][1], ScalarNode) else "?"
+        message = f"this is a world file (a variant of '{base}'), not a ROS map YAML"
+        hint = f"give the map that world '{base}' names in its map: key, if any; or {_build_hint(src.file)}"
+    else:
+        key = next(k for name, (k, _) in keys.items() if name in WORLD_KEYS)
+        message = "this is a world file, not a ROS map YAML, and it names no map image (no map: key)"
+        hint = _build_hint(src.file)
+    loc = src.location(key)
+    return Problem(message, loc, line_of(src.lines, loc.line), hint)
+
+
+def _map_of_world(shown: str, name: str, path: Path) -> tuple[str, str]:
+    """(message, hint) for a world whose ``map:`` is ``name``: the map's path, as the world's is shown."""
+    given = Path(name)
+    hint = f"give that map instead: {given if given.is_absolute() else Path(shown).parent / name}"
+    if not (given if given.is_absolute() else path.parent / name).is_file():
+        hint += " (it is not there: the path is relative to the world file)"
+    return f"this is a world file, not a ROS map YAML; the map it names is '{name}'", hint
+
+
+def _build_hint(world: str) -> str:
+    """How to get a ROS map of a world that has no map image: map it from sonar with `atlas map build`."""
+    out = f"{Path(world).stem}-map"
+    return (f"build a map of it with `atlas map build --world {shlex.quote(world)} --out {shlex.quote(out)}`, "
+            f"then give {out}/occupancy.yaml")
 
 
 def classify(shade: np.ndarray, alpha: np.ndarray | None = None, *, mode: str = "trinary", negate: bool = False,

@@ -44,7 +44,12 @@ What is checked, with every problem reported at its key's file:line:column:
 unknown keys (with the nearest known key as a hint), wrong types and
 shapes, doors between places that do not exist, a place point outside its
 region or closer than the robot's radius + 0.15 m to a wall, a robot that
-starts inside a wall, a schedule out of time order, duplicate names.
+starts inside a wall (closer than its radius to a segment, or inside a
+polygon that no place is in) or, with a ``map:``, on a cell of the image that
+is not free (occupied, unknown, or off the image), a schedule out of time
+order, duplicate names. A bad start is reported at ``robot.start`` with the
+nearest point where the robot would fit; a variant reports its base's
+problems, then the ``base:`` line.
 
 ``bounds`` is the box around the walls, the places and the robot's start,
 with a margin of :data:`BOUNDS_MARGIN`. Without ``robot.start`` the robot
@@ -64,10 +69,10 @@ from yaml.nodes import MappingNode, Node, ScalarNode
 
 from atlas_rap.errors import AtlasError, SourceError
 from atlas_rap.lang.validator import nearest
-from atlas_rap.maps.rosmap import load_ros_map, wall_segments
+from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, RosMap, load_ros_map, wall_segments
 from atlas_rap.yamlsource import YamlSource
-from atlas_rap.shipped import resolve_user_path, shipped_root
-from atlas_rap.sim.model import Disturbance, Door, Place, Point, RobotConfig, Segment, SonarConfig, World
+from atlas_rap.shipped import resolve_user_path, shipped_root, shipped_worlds
+from atlas_rap.sim.model import Disturbance, Door, Place, Point, RobotConfig, Segment, SonarConfig, World, _inside
 
 TOP_KEYS = ("name", "description", "walls", "polygons", "map", "places", "doors", "disturbances", "robot", "sonar")
 VARIANT_KEYS = ("name", "description", "base", "doors")
@@ -80,16 +85,10 @@ SONAR_KEYS = ("count", "beam_width_deg", "max_range", "min_range", "range_noise"
               "specular_angle_deg", "specular_dropout", "rays_per_beam", "rate")
 DISTURBANCE_KINDS = ("person", "box")
 WALL_CLEARANCE_MARGIN = 0.15  # a place point must be this much more than the robot's radius from walls
+FREE_POINT_SEARCH = 5.0  # metres around a bad start searched for a free point to suggest (worlds without a map)
+FREE_POINT_STEP = 0.05
 BOUNDS_MARGIN = 1.0
 NAME_PATTERN = re.compile(r"[a-z][a-z0-9_-]*\Z")
-
-
-def shipped_worlds() -> list[str]:
-    """Names of the worlds that ship with atlas-rap (``worlds/*.yaml``)."""
-    root = shipped_root("worlds")
-    if root is None:
-        return []
-    return sorted(p.stem for p in root.glob("*.yaml"))
 
 
 def world_path(name_or_path: str | Path) -> Path:
@@ -109,7 +108,7 @@ def world_path(name_or_path: str | Path) -> Path:
         return given
     names = shipped_worlds()
 
-    near = nearest(text, names)
+    near = nearest(text.lower(), names)  # shipped names are lower-case: MAZE means maze
     message = f"no shipped world named '{text}'"
     message += f"; did you mean '{near}'?" if near else ""
     message += f"\n  shipped worlds: {', '.join(names) if names else '(none found)'}"
@@ -143,6 +142,10 @@ class _WorldReader:
         self.path = path
         self.wall_nodes: list[tuple[Segment, Node]] = []
         self.start_node: Node | None = None
+        self.start_unreadable = False  # robot.start has problems of its own: do not check where it is
+        self.polygons: list[tuple[tuple[Point, ...], str, Node]] = []  # (points, key path, node)
+        self.rosmap: RosMap | None = None
+        self.map_name = ""
         self.declared_places: set[str] = set()
 
     def read(self) -> World:
@@ -182,11 +185,11 @@ class _WorldReader:
         base_node = top["base"][1]
         base_name = src.string(base_node, "base") or ""
         src.check()
-        target = base_name if not _looks_like_path(base_name) else str(self.path.resolve().parent / base_name)
+        target = base_name if not _looks_like_path(base_name) else str(self.path.parent / base_name)
         if Path(target).resolve() == self.path.resolve():
             src.error(base_node, "a world cannot be its own base")
             src.check()
-        world = load_world(target)
+        world = self._base_world(base_node, base_name, target)
         doors = dict(world.doors)
         entries = src.keys(top["doors"][1], "doors", None) if "doors" in top and _given(top["doors"][1]) else {}
         for name, (key, value) in (entries or {}).items():
@@ -216,6 +219,23 @@ class _WorldReader:
         src.check()
         return replace(world, name=name or self.path.stem, doors=doors, source=src.file)
 
+    def _base_world(self, node: Node, name: str, target: str) -> World:
+        """The world a variant is based on, read and checked as any world; its problems are raised located."""
+        src = self.src
+        if _looks_like_path(name) and not Path(target).is_file():
+            src.error(node, f"base world file '{name}' not found",
+                      f"looked for {target}; the path is relative to this file")
+            src.check()
+        try:
+            return load_world(target)
+        except SourceError as error:
+            src.problems += error.problems
+            src.error(node, f"the base world '{name}' has problems (above)")
+        except AtlasError as error:  # an unknown shipped world's name
+            first, *rest = str(error).split("\n")
+            src.error(node, first, "; ".join(line.strip() for line in rest) or None)
+        raise SourceError(src.problems)  # the base's problems, then this file's base: line
+
     # -- geometry -------------------------------------------------------------
 
     def walls(self, walls: Node | None, polygons: Node | None) -> list[Segment]:
@@ -234,6 +254,8 @@ class _WorldReader:
                                  if _given(polygons) else []):
             points = src.points(item, f"polygons[{i}]", 3, "[[x, y], [x, y], [x, y], ...]")
             found += self._chain(points or [], item, closed=True)
+            if points:
+                self.polygons.append((tuple(points), f"polygons[{i}]", item))
         return found
 
     def _chain(self, points: list[Point], node: Node, closed: bool) -> list[Segment]:
@@ -260,6 +282,7 @@ class _WorldReader:
             src.problems += error.problems
             src.error(node, f"the map '{name}' has problems (above)")
             return []
+        self.rosmap, self.map_name = rosmap, name
         segments = wall_segments(rosmap)
         self.wall_nodes += [(s, node) for s in segments]
         return segments
@@ -461,6 +484,7 @@ class _WorldReader:
         if "start" in fields:
             self.start_node = fields["start"][1]
             values = src.numbers(fields["start"][1], "robot.start", (2, 3), "[x, y] or [x, y, heading_deg]")
+            self.start_unreadable = values is None
             if values is not None:
                 start = (values[0], values[1], math.radians(values[2]) if len(values) == 3 else 0.0)
         radius = self._number(fields, "robot", "radius", default.radius, above=0.0)
@@ -501,28 +525,133 @@ class _WorldReader:
 
     def check_clearances(self, walls: tuple[Segment, ...], places: dict[str, Place], point_nodes: dict[str, Node],
                          robot: RobotConfig) -> None:
-        """Place points must leave the robot room; the robot must not start inside a wall."""
-        if not walls:
-            return
+        """Place points must leave the robot room; the robot must start in free space (:meth:`check_start`)."""
         need = robot.radius + WALL_CLEARANCE_MARGIN
-        for name, place in places.items():
+        for name, place in places.items() if walls else ():
             gap, wall = nearest_wall(walls, place.point)
             if gap < need:
                 self.src.error(point_nodes[name],
                                f"the point of place '{name}' is {gap:.2f} m from a wall "
                                f"({self._wall_text(wall)}); the robot needs {need:.2f} m",
                                "move the point away from the wall: the robot drives to it")
-        gap, wall = nearest_wall(walls, robot.start[:2])
-        if gap < robot.radius and self.start_node is not None:
-            self.src.error(self.start_node, f"the robot starts {gap:.2f} m from a wall ({self._wall_text(wall)}), "
-                                  f"less than its radius {robot.radius:g} m",
-                           "move robot.start into free space")
+        self.check_start(walls, places, point_nodes, robot)
+
+    # -- where the robot starts ------------------------------------------------------
+
+    def check_start(self, walls: tuple[Segment, ...], places: dict[str, Place], point_nodes: dict[str, Node],
+                    robot: RobotConfig) -> None:
+        """The robot must start in free space: on a free cell of the map, outside solid polygons, clear of walls.
+
+        Reported at ``robot.start`` (at the first place's point, or the top of
+        the file, when the robot starts there for want of a ``robot.start``),
+        with the nearest point where the robot would fit as a hint.
+        """
+        if self.start_unreadable:
+            return
+        point = robot.start[:2]
+        what = self._start_what(point, places)
+        problem = self._start_on_map(point, what) or self._start_in_polygon(point, what, places)
+        if problem is None and self.start_node is not None:  # a defaulted start is a place point, checked above
+            problem = self._start_near_wall(walls, point, robot)
+        if problem is None:
+            return
+        where = self.start_node or next((point_nodes[n] for n in places if n in point_nodes), self.src.root)
+        free = self._free_point_near(walls, point, robot, places)
+        move = "move robot.start into free space" if self.start_node is not None \
+            else "add robot.start: [x, y, heading_deg] in free space"
+        kind = "cell" if self.rosmap is not None else "point"
+        found = f"the nearest free {kind} with room for the robot is at ({free[0]:.2f}, {free[1]:.2f})" \
+            if free is not None else f"no free {kind} with room for the robot (radius {robot.radius:g} m) is near it"
+        self.src.error(where, problem, f"{move}; {found}")
+
+    def _start_what(self, point: Point, places: dict[str, Place]) -> str:
+        """How messages name the start: robot.start (x, y), or where the robot starts without one."""
+        at = f"({point[0]:g}, {point[1]:g})"
+        if self.start_node is not None:
+            return f"robot.start {at}"
+        if places:
+            at = f"the point of place '{next(iter(places))}' {at}"
+        return f"the robot starts at {at} (there is no robot.start), which"
+
+    def _start_on_map(self, point: Point, what: str) -> str | None:
+        """What is wrong with the map cell the robot starts on (occupied, unknown, off the map), if anything."""
+        rosmap = self.rosmap
+        if rosmap is None:
+            return None
+        label = rosmap.label_at(*point)
+        if label == FREE:
+            return None
+        name = f"the map '{self.map_name}'"
+        if label is None:
+            xmin, ymin, xmax, ymax = rosmap.extent
+            return (f"{what} is outside {name}, which covers x {xmin:g} to {xmax:g}, y {ymin:g} to {ymax:g} m: "
+                    f"nothing is known there")
+        row, col = rosmap.world_to_cell(*point)
+        cell = {OCCUPIED: "an occupied cell", UNKNOWN: "an unknown cell"}.get(label, f"a cell that is not free "
+                                                                               f"(value {label} of 100)")
+        return f"{what} is on {cell} of {name} (pixel x={col}, y={row} of {Path(rosmap.image).name})"
+
+    def _start_in_polygon(self, point: Point, what: str, places: dict[str, Place]) -> str | None:
+        """A polygon the robot starts inside although no place is in it: a solid block, not a room."""
+        solid = self._solid_polygon_at(point, places)
+        if solid is None:
+            return None
+        path, node = solid
+        return (f"{what} is inside {path} (line {self.src.location(node).line}), a closed outline "
+                f"with no place in it: a solid block the robot could not leave")
+
+    def _solid_polygon_at(self, point: Point, places: dict[str, Place]) -> tuple[str, Node] | None:
+        """The key path and node of a polygon that contains ``point`` but no place's point (none without places)."""
+        if not places:
+            return None
+        for points, path, node in self.polygons:
+            if _inside(points, *point) and not any(_inside(points, *p.point) for p in places.values()):
+                return path, node
+        return None
+
+    def _start_near_wall(self, walls: tuple[Segment, ...], point: Point, robot: RobotConfig) -> str | None:
+        """A wall closer to the start than the robot's radius: the robot would start inside it."""
+        gap, wall = nearest_wall(walls, point)
+        if gap >= robot.radius:
+            return None
+        return (f"the robot starts {gap:.2f} m from a wall ({self._wall_text(wall)}), "
+                f"less than its radius {robot.radius:g} m")
+
+    def _free_point_near(self, walls: tuple[Segment, ...], point: Point, robot: RobotConfig,
+                         places: dict[str, Place]) -> Point | None:
+        """The nearest point to ``point`` where the robot would start clear of everything, or None.
+
+        On a map world the candidates are the map's free cells with room for
+        the robot; elsewhere points on rings around ``point``. Each must also
+        keep radius + :data:`WALL_CLEARANCE_MARGIN` from every wall and lie
+        outside the solid polygons.
+        """
+        need = robot.radius + WALL_CLEARANCE_MARGIN
+        if self.rosmap is not None:
+            candidates = self.rosmap.free_points_near(*point, need)
+        else:
+            candidates = _ring_points(point, FREE_POINT_SEARCH, FREE_POINT_STEP)
+        for candidate in candidates:
+            if nearest_wall(walls, candidate)[0] >= need and self._solid_polygon_at(candidate, places) is None:
+                return candidate
+        return None
 
     def _wall_text(self, wall: Segment | None) -> str:
         """A wall for messages: its ends and the line of the file that made it."""
         node = next((n for s, n in self.wall_nodes if s == wall), None)
         line = f" from line {self.src.location(node).line}" if node is not None else ""
         return _segment_text(wall) + line
+
+
+def _ring_points(center: Point, reach: float, step: float) -> list[Point]:
+    """Points on rings of radius ``step``, ``2 step`` ... ``reach`` around ``center``, nearest rings first."""
+    found: list[Point] = []
+    for k in range(1, int(round(reach / step)) + 1):
+        r = k * step
+        count = max(8, int(math.pi * r / step))  # points about two steps apart
+        angles = (2 * math.pi * i / count for i in range(count))
+        found += [(center[0] + r * math.cos(a), center[1] + r * math.sin(a)) for a in angles]
+    return found
 
 
 def _looks_like_path(text: str) -> bool:
