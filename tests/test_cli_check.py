@@ -116,3 +116,31 @@ def test_tree_prints_every_shipped_file_with_operators_and_effects():
     assert "Effect 13:13" in done.stdout
     assert "positive: nil" in done.stdout  # the astronaut's (not (pointed-at ...))
     assert "VirtualSkillDef" in done.stdout and "MemoryRuleDef" in done.stdout
+
+
+def test_a_memory_rule_cycle_is_a_warning_that_does_not_fail_the_check(tmp_path):
+    (tmp_path / "cyc.rap").write_text(
+        "; rules only: a library of memory rules\n"
+        "(define-memory-rule up (on (ping ?n)) (assert (pong ?n)))\n"
+        "(define-memory-rule down (on (pong ?n)) (assert (ping (+ ?n 1))))\n", encoding="utf-8")
+    done = atlas("check", "cyc.rap", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert_no_traceback(done)
+    lines = done.stderr.splitlines()
+    assert lines[0] == ("cyc.rap:2:1: warning: memory rules can trigger each other in a cycle: "
+                        "up (cyc.rap:2:1) -> down (cyc.rap:3:1) -> up")
+    assert lines[1:3] == ["    (define-memory-rule up (on (ping ?n)) (assert (pong ?n)))", "    ^"]
+    assert lines[3].startswith("  hint: a rule in this cycle needs a (when ...) that stops it")
+    assert "ok: cyc.rap: 2 memory rules" in done.stdout
+
+
+def test_initial_memory_arithmetic_without_a_value_fails_the_check_with_a_caret(tmp_path):
+    (tmp_path / "m.rap").write_text("(initial-memory (level (+ 1 2))\n  (level (/ 1 0)))\n", encoding="utf-8")
+    done = atlas("check", "m.rap", cwd=tmp_path)
+    assert done.returncode == 1
+    assert_no_traceback(done)
+    lines = done.stderr.splitlines()
+    assert lines[0] == ("m.rap:2:3: error: cannot evaluate the arithmetic in the fact (level (/ 1 0)): "
+                        "division by zero in (/ 1 0)")
+    assert lines[1:3] == ["      (level (/ 1 0)))", "      ^"]
+    assert lines[-1] == "m.rap: 1 problem"

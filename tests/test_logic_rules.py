@@ -9,11 +9,13 @@ from atlas_rap.logic import (
     Compound,
     Memory,
     MemoryRule,
+    QueryError,
     Relation,
     RuleCycleError,
     RuleEngine,
     RuleError,
     Var,
+    rule_cycles,
     term_to_str,
 )
 
@@ -183,3 +185,147 @@ def test_a_rule_prints_as_the_form_that_defines_it() -> None:
         "(define-memory-rule at-is-unique (on (at ?thing ?new)) "
         "(when (and (at ?thing ?old) (/= ?old ?new))) (retract (at ?thing ?old)))"
     )
+
+
+# -- where rules were written, in every error while they fire ---------------------
+
+CYCLE_FILE = (
+    "; ping-pong for ever\n"
+    "(define-memory-rule up (on (ping ?n)) (assert (pong ?n)))\n"
+    "(define-memory-rule down (on (pong ?n)) (assert (ping (+ ?n 1))))\n"
+)
+
+
+def rules_of(text: str, filename: str = "cyc.rap") -> list[MemoryRule]:
+    from atlas_rap.lang import ast, parse_text
+
+    return [form.rule for form in parse_text(text, filename).forms if isinstance(form, ast.MemoryRuleDef)]
+
+
+def test_a_rule_read_from_a_file_knows_where_it_was_written() -> None:
+    up, down = rules_of(CYCLE_FILE)
+    assert (str(up.loc), str(down.loc)) == ("cyc.rap:2:1", "cyc.rap:3:1")
+    assert up.label == "up (cyc.rap:2:1)"
+    assert AT_IS_UNIQUE.loc is None and AT_IS_UNIQUE.label == "at-is-unique"
+
+
+def test_the_location_is_not_part_of_a_rules_equality() -> None:
+    (written,) = rules_of("(define-memory-rule r (on (p ?x)) (assert (q ?x)))")
+    in_code = MemoryRule("r", C("p", X), None, (("assert", C("q", X)),))
+    assert written.loc is not None
+    assert written == in_code and hash(written) == hash(in_code)
+
+
+def test_a_cycle_error_names_the_rules_with_file_line_and_column_most_useful_first() -> None:
+    memory = Memory()
+    with pytest.raises(RuleCycleError) as caught:
+        RuleEngine(rules_of(CYCLE_FILE)).assert_fact(memory, C("ping", 0))
+    error = caught.value
+    message = str(error)
+    assert message.startswith(
+        "memory rules did not reach a fixed point after 10000 firings caused by asserting (ping 0): "
+        "up (cyc.rap:2:1) fired 5001 times, down (cyc.rap:3:1) fired 5000 times; last firings: ")
+    assert message.endswith("up on (ping 4999), down on (pong 4999), up on (ping 5000)")
+    assert len(message) < 250
+    assert error.rules == ("up", "down")
+    assert [str(loc) for loc in error.locations] == ["cyc.rap:2:1", "cyc.rap:3:1"]
+    assert len(error.changes) == 10001
+
+
+def test_a_cycle_error_cuts_long_facts_and_rules_made_in_code_have_no_location() -> None:
+    grow = MemoryRule("grow", C("big", X), None, (("assert", C("big", C("wrap", X))),))
+    with pytest.raises(RuleCycleError) as caught:
+        RuleEngine([grow], max_firings=30).assert_fact(Memory(), C("big", "x" * 80))
+    assert caught.value.locations == (None,)
+    assert "grow fired 31 times" in str(caught.value)
+    assert len(str(caught.value)) < 400
+    assert "caused by asserting (big xxxxxxxxxxxxxxxxx ... xxxxxxxxxxxx): " in str(caught.value)
+    assert "x" * 41 not in str(caught.value)
+
+
+def test_an_effect_that_is_not_ground_names_the_rule_and_where_it_is() -> None:
+    (sloppy,) = rules_of("(define-memory-rule sloppy\n  (on (at ?x ?y)) (assert (near ?x ?z)))", "s.rap")
+    with pytest.raises(RuleError) as caught:
+        RuleEngine([sloppy]).assert_fact(Memory(), C("at", "robot", "lab"))
+    assert str(caught.value).startswith("memory rule sloppy (s.rap:1:1): the effect (assert (near robot ?z)) "
+                                        "is not ground")
+    assert [str(loc) for loc in caught.value.locations] == ["s.rap:1:1"]
+    assert caught.value.changes == [("assert", C("at", "robot", "lab"))]
+
+
+def test_arithmetic_that_fails_in_an_effect_names_the_rule_and_where_it_is() -> None:
+    (bad,) = rules_of("\n(define-memory-rule bad (on (oops ?n)) (assert (level (/ ?n 0))))", "b.rap")
+    with pytest.raises(RuleError, match=r"^memory rule bad \(b.rap:2:1\): cannot evaluate the effect "
+                                        r"\(assert \(level \(/ 3 0\)\)\): division by zero in \(/ 3 0\)$"):
+        RuleEngine([bad]).assert_fact(Memory(), C("oops", 3))
+
+
+def test_a_condition_that_raises_a_query_error_becomes_a_rule_error_naming_the_rule() -> None:
+    (odd,) = rules_of("(define-memory-rule odd (on (n ?n)) (when (< ?n foo)) (assert (small ?n)))", "q.rap")
+    with pytest.raises(RuleError) as caught:
+        RuleEngine([odd]).assert_fact(Memory(), C("n", 3))
+    assert not isinstance(caught.value, QueryError)
+    assert str(caught.value) == ("memory rule odd (q.rap:1:1): its condition (when (< ?n foo)) cannot be "
+                                 "evaluated: (< ?n foo): foo is not a number; arithmetic and < need numbers")
+    assert isinstance(caught.value.__cause__, QueryError)
+
+
+def test_a_runaway_relation_in_a_condition_is_wrapped_too() -> None:
+    loop = {"loop": [Relation(C("loop", X), C("loop", X))]}
+    rule = MemoryRule("spin", C("go", X), C("loop", X), (("assert", C("went", X)),))
+    with pytest.raises(RuleError, match=r"memory rule spin: its condition \(when \(loop \?x\)\) cannot be "
+                                        r"evaluated: defined relations called each other more than"):
+        RuleEngine([rule], relations=loop).assert_fact(Memory(), C("go", 1))
+
+
+# -- cycles seen before anything runs ---------------------------------------------
+
+
+def names(cycles: list[tuple[MemoryRule, ...]]) -> list[list[str]]:
+    return [[rule.name for rule in cycle] for cycle in cycles]
+
+
+def test_two_rules_that_assert_each_others_trigger_are_a_cycle() -> None:
+    assert names(rule_cycles(rules_of(CYCLE_FILE))) == [["up", "down"]]
+
+
+def test_a_rule_that_asserts_its_own_trigger_pattern_is_a_cycle_of_one() -> None:
+    count = MemoryRule("count", C("count", X), C("<", X, 10), (("assert", C("count", C("+", X, 1))),))
+    assert names(rule_cycles([AT_IS_UNIQUE, count])) == [["count"]]
+    assert names(rule_cycles([CONTENTS_MOVE_ALONG])) == [["contents-move-along"]]
+
+
+def test_asserting_exactly_the_trigger_fact_again_is_not_a_cycle() -> None:
+    echo = MemoryRule("echo", C("seen", X, Y), None, (("assert", C("seen", X, Y)), ("assert", C("heard", X))))
+    assert rule_cycles([echo]) == []
+
+
+def test_retractions_and_non_unifying_effects_make_no_edges() -> None:
+    veto = MemoryRule("veto", C("at", X, "forbidden"), None, (("retract", C("at", X, "forbidden")),))
+    log = MemoryRule("log", C("at", X, Y), None, (("assert", C("was-at", X, Y)),))
+    two = MemoryRule("two", C("count", 2), None, (("assert", C("count", C("+", 1, 2))),))
+    assert rule_cycles([veto, log, AT_IS_UNIQUE, two]) == []
+
+
+def test_arithmetic_in_an_effect_is_its_value_or_any_number() -> None:
+    two = MemoryRule("two", C("count", 2), None, (("assert", C("count", C("+", 1, 1))), ("assert", C("x")),))
+    assert rule_cycles([two]) == []  # (count 2) again: already in memory
+    step = MemoryRule("step", C("count", 3), None, (("assert", C("count", C("+", X, 1))),))
+    assert names(rule_cycles([step])) == [["step"]]  # ?x bound somehow: some number, maybe 3
+
+
+def test_variables_are_renamed_apart_before_unifying() -> None:
+    # (p a ?x) and the trigger (p ?x b) unify only once ?x is renamed in one of them: (p a b) triggers it.
+    shift = MemoryRule("shift", C("p", X, "b"), None, (("assert", C("p", "a", X)),))
+    assert names(rule_cycles([shift])) == [["shift"]]
+
+
+def test_cycles_are_found_once_per_group_shortest_first_in_definition_order() -> None:
+    a = MemoryRule("a", C("a", X), None, (("assert", C("b", X)),))
+    b = MemoryRule("b", C("b", X), None, (("assert", C("c", X)), ("assert", C("a", X))))
+    c = MemoryRule("c", C("c", X), None, (("assert", C("a", X)),))
+    solo = MemoryRule("solo", C("s", X), None, (("assert", C("s", C("f", X))),))
+    lone = MemoryRule("lone", C("l", X), None, (("assert", C("a", X)),))
+    assert names(rule_cycles([lone, solo, c, b, a])) == [["solo"], ["c", "a", "b"]]
+    assert names(rule_cycles([a, b, c])) == [["a", "b"]]
+    assert names(rule_cycles([a, b, c])) == names(rule_cycles([a, b, c]))

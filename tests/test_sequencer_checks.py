@@ -1,14 +1,29 @@
-"""Bad RAP programs are caught when the mission loads, each with file, line, column and a hint."""
+"""Bad RAP programs are caught by the load-time checks, each with file, line, column and a hint."""
 
 from __future__ import annotations
+
+from types import SimpleNamespace
 
 import pytest
 
 from atlas_rap.errors import SourceError
-from atlas_rap.sequencer import load_mission
+from atlas_rap.lang import load
+from atlas_rap.sequencer.checks import check_program
+from atlas_rap.skills.virtual import VirtualSkills
 from source_problems import at
 
 SKILL = "(define-virtual-skill (beep ?n) (after 1 (finish :succeed)))\n"
+
+
+def load_mission(path):
+    """Load a mission file and check it as a mission loader does (skills: its virtual
+    skills; it must post something): SourceError if any error, else its warnings."""
+    program = load(path)
+    skills = VirtualSkills.from_program(program)
+    problems = check_program(program, skills.skills(), skills.produces(), require_post=True)
+    if any(problem.severity == "error" for problem in problems):
+        raise SourceError(problems)
+    return SimpleNamespace(warnings=problems)
 
 
 def load_problems(tmp_path, text: str):
@@ -135,3 +150,79 @@ def test_a_wait_for_on_a_fact_that_a_skill_script_asserts_is_not_warned(tmp_path
         "  (sequence (dock h) (wait-for (docked h)) (wait-for (or (x) (docked h)))))))\n"
         "(post (go))\n", encoding="utf-8")
     assert load_mission(path).warnings == []
+
+
+# -- memory: arithmetic in facts, rules that trigger each other --------------------
+
+POST_GO = SKILL + "(define-rap (go) (method (task-net (beep 1))))\n(post (go))\n"
+
+
+def test_arithmetic_without_a_value_in_initial_memory_is_an_error_under_the_fact(tmp_path):
+    problem = only(load_problems(tmp_path, POST_GO + (
+        "(initial-memory (level (+ 1 2)) (ok)\n"
+        "                (level (/ 1 0)))\n")))
+    assert problem.severity == "error"
+    assert problem.message == ("cannot evaluate the arithmetic in the fact (level (/ 1 0)): "
+                               "division by zero in (/ 1 0)")
+    assert at(problem) == (5, 17)
+    assert problem.render().splitlines()[1:3] == ["                    (level (/ 1 0)))",
+                                                  "                    ^"]
+    assert "arithmetic in a fact is evaluated when the fact is asserted" in problem.hint
+
+
+def test_arithmetic_on_a_symbol_in_an_at_time_fact_is_an_error_under_the_fact(tmp_path):
+    problem = only(load_problems(tmp_path, POST_GO + (
+        "(at-time 2 (assert (door open))\n"
+        "  (retract   (fuel (- full 1))))\n")))
+    assert problem.message == ("cannot evaluate the arithmetic in the fact (fuel (- full 1)): "
+                               "full is not a number, in (- full 1)")
+    assert at(problem) == (5, 14)
+
+
+def test_arithmetic_with_a_value_in_initial_memory_and_at_time_is_fine(tmp_path):
+    path = tmp_path / "m.rap"
+    path.write_text(POST_GO + "(initial-memory (level (+ 1 2)))\n(at-time 2 (assert (level (* 2 (- 3)))))\n",
+                    encoding="utf-8")
+    assert load_mission(path).warnings == []
+
+
+CYCLE = (
+    "(define-memory-rule up (on (ping ?n)) (assert (pong ?n)))\n"
+    "(define-memory-rule down (on (pong ?n)) (assert (ping (+ ?n 1))))\n"
+)
+
+
+def test_memory_rules_that_trigger_each_other_are_warned_at_the_first_rule_of_the_cycle(tmp_path):
+    path = tmp_path / "m.rap"
+    path.write_text(POST_GO + CYCLE, encoding="utf-8")
+    (warning,) = load_mission(path).warnings
+    assert warning.severity == "warning"
+    assert at(warning) == (4, 1)
+    file = warning.location.file
+    assert file.endswith("m.rap")
+    assert warning.message == (f"memory rules can trigger each other in a cycle: up ({file}:4:1) -> "
+                               f"down ({file}:5:1) -> up")
+    assert warning.hint.startswith("a rule in this cycle needs a (when ...) that stops it")
+
+
+def test_a_rule_that_triggers_itself_is_warned_and_the_hint_names_its_when(tmp_path):
+    path = tmp_path / "m.rap"
+    path.write_text(POST_GO + (
+        "(define-memory-rule at-is-unique (on (at ?thing ?new))\n"
+        "  (when (and (at ?thing ?old) (/= ?old ?new))) (retract (at ?thing ?old)))\n"
+        "(define-memory-rule echo (on (seen ?x)) (assert (seen ?x)))\n"
+        "(define-memory-rule count (on (count ?n)) (when (< ?n 10)) (assert (count (+ ?n 1))))\n"),
+        encoding="utf-8")
+    (warning,) = load_mission(path).warnings
+    assert at(warning) == (7, 1)
+    assert warning.message.startswith("memory rule count (")
+    assert warning.message.endswith(":7:1) can trigger itself: it asserts a fact its own (on ...) matches")
+    assert warning.hint.startswith("make sure the (when ...) of count stops the cycle")
+
+
+def test_errors_come_before_the_cycle_warnings(tmp_path):
+    path = tmp_path / "m.rap"
+    path.write_text(CYCLE + POST_GO + "(initial-memory (x (* a 2)))\n", encoding="utf-8")
+    with pytest.raises(SourceError) as caught:
+        load_mission(path)
+    assert [p.severity for p in caught.value.problems] == ["error", "warning"]

@@ -63,7 +63,8 @@ def _sequencer_problems(program) -> list:
     from atlas_rap.skills.catalog import STOCK_EVENTS, STOCK_SKILLS
     from atlas_rap.skills.virtual import VirtualSkills
 
-    if not program.of_type(ast.RapDef) and not program.of_type(ast.Post):
+    if not any(program.of_type(kind) for kind in (ast.RapDef, ast.Post, ast.MemoryRuleDef, ast.InitialMemory,
+                                                   ast.AtTime)):
         return []
     virtual = VirtualSkills.from_program(program)
     names, events = virtual.skills(), virtual.produces()

@@ -477,8 +477,9 @@ class Validator:
         if trigger is None:
             self.fail("memory rule has no (on FACT) clause", self.at(form),
                       "say which assertion triggers it, e.g. (on (at ?thing ?place))")
-        rule = MemoryRule(name=name, trigger=trigger, condition=condition, effects=tuple(effects))
-        return ast.MemoryRuleDef(rule=rule, loc=self.loc(self.at(form)))
+        here = self.loc(self.at(form))
+        rule = MemoryRule(name=name, trigger=trigger, condition=condition, effects=tuple(effects), loc=here)
+        return ast.MemoryRuleDef(rule=rule, loc=here)
 
     def define_virtual_skill(self, form: SList) -> ast.VirtualSkillDef:
         if len(form.items) < 2:

@@ -6,15 +6,19 @@ implementation shared by the RAP sequencer and the AP planner.
 - ``unify``: :func:`unify` (two-sided, occurs check) and :func:`match`
   (one-sided, against ground terms).
 - ``memory``: :class:`Memory`, indexed ground facts with times.
+- ``arithmetic``: the one evaluation of ``+ - * /``, for queries and for
+  facts (:func:`evaluated_fact`: ``(counter (+ 3 1))`` is ``(counter 4)``).
 - ``query``: :func:`evaluate`, the query language, and defined relations
   (:class:`Relation`).
-- ``rules``: :class:`MemoryRule` and the :class:`RuleEngine` that runs them.
+- ``rules``: :class:`MemoryRule` and the :class:`RuleEngine` that runs them;
+  :func:`rule_cycles`, the rules that can trigger each other for ever.
 
 This package imports nothing of atlas-rap but ``atlas_rap.errors``.
 """
 
 from __future__ import annotations
 
+from atlas_rap.logic.arithmetic import evaluated_fact
 from atlas_rap.logic.errors import (
     FactError,
     LogicError,
@@ -33,7 +37,7 @@ from atlas_rap.logic.query import (
     Relation,
     evaluate,
 )
-from atlas_rap.logic.rules import DEFAULT_MAX_FIRINGS, Change, MemoryRule, RuleEngine
+from atlas_rap.logic.rules import DEFAULT_MAX_FIRINGS, Change, MemoryRule, RuleEngine, rule_cycles
 from atlas_rap.logic.terms import (
     Compound,
     String,
@@ -78,6 +82,7 @@ __all__ = [
     "Term",
     "Var",
     "evaluate",
+    "evaluated_fact",
     "fresh_var",
     "is_anonymous",
     "is_ground",
@@ -86,6 +91,7 @@ __all__ = [
     "is_symbol",
     "match",
     "match_into",
+    "rule_cycles",
     "substitute",
     "term_to_str",
     "unify",

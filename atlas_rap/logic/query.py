@@ -18,11 +18,18 @@ The arguments of comparisons, ``=`` and ``/=`` are *expressions*:
 arithmetic ``(+ a b ...)`` ``(- a b ...)`` ``(* a b ...)`` ``(/ a b ...)``
 (nested as deep as you like; ``(- a)`` negates) and ``(get-value OBJ
 ATTR)``, the value ``V`` of the first fact ``(ATTR OBJ V)`` in memory (no
-such fact: the query fails). Elsewhere, in pattern arguments and effects,
-an arithmetic form is data; bind its value first: ``(and (= ?y (+ ?x 1))
-(n ?y))``. A variable bound to an expression (a relation's argument such
-as ``(/ ?size 2)``) is evaluated when a comparison reads it.
-``/`` of two integers is an integer when it divides exactly.
+such fact: the query fails). A variable bound to an expression (a
+relation's argument such as ``(/ ?size 2)``) is evaluated when a
+comparison reads it. ``/`` of two integers is an integer when it divides
+exactly. The arithmetic itself is ``logic.arithmetic``, shared with facts.
+
+Facts are evaluated too: a fact asserted or retracted through a
+``RuleEngine`` (outside changes, and memory-rule effects) has its
+arithmetic replaced by its value (``(assert (counter (+ ?n 1)))`` with ?n
+= 3 stores ``(counter 4)``; see :func:`~atlas_rap.logic.arithmetic.evaluated_fact`).
+So memory never holds an arithmetic form, and a query pattern is *not*
+evaluated: in ``(counter (+ ?n 1))`` the form is matched as data and
+matches nothing. Bind the value first: ``(and (= ?y (+ ?x 1)) (counter ?y))``.
 
 Arithmetic on a non-number, a comparison (or ``/=``) of an unbound
 variable, or a form that is not a query raises :class:`QueryError` naming
@@ -36,6 +43,7 @@ import operator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, Iterator, Mapping, Sequence
 
+from atlas_rap.logic.arithmetic import ARITHMETIC, ArithmeticUndefined, combine
 from atlas_rap.logic.errors import QueryError, RelationDepthError
 from atlas_rap.logic.terms import (
     Compound,
@@ -61,9 +69,6 @@ COMPARISONS: dict[str, Callable[[Any, Any], bool]] = {
     ">=": operator.ge,
 }
 """The numeric comparisons, by name."""
-
-ARITHMETIC: frozenset[str] = frozenset({"+", "-", "*", "/"})
-"""The arithmetic functors, evaluated inside the arguments of comparisons."""
 
 EXPRESSION_FORMS: frozenset[str] = ARITHMETIC | {"get-value"}
 """Functors evaluated (not matched) in the arguments of comparisons, ``=`` and ``/=``."""
@@ -257,30 +262,11 @@ class _Solver:
         if functor == "get-value":
             return self._get_value(expression, s, query)
         numbers = [self._number(arg, s, query) for arg in expression.args]
-        if functor == "+":
-            return sum(numbers)
-        if functor == "*":
-            product: int | float = 1
-            for number in numbers:
-                product *= number
-            return product
-        if not numbers:
-            raise QueryError(f"{term_to_str(query)}: ({functor}) needs at least one number")
-        if functor == "-":
-            if len(numbers) == 1:
-                return -numbers[0]
-            result = numbers[0]
-            for number in numbers[1:]:
-                result -= number
-            return result
-        if len(numbers) == 1:
-            numbers.insert(0, 1)
-        result = numbers[0]
-        for number in numbers[1:]:
-            if number == 0:
-                raise QueryError(f"{term_to_str(query)}: division by zero in {term_to_str(substitute(expression, s))}")
-            result = _divide(result, number)
-        return result
+        try:
+            return combine(functor, numbers)
+        except ArithmeticUndefined as exc:
+            where = f" in {term_to_str(substitute(expression, s))}" if numbers else ""
+            raise QueryError(f"{term_to_str(query)}: {exc}{where}") from None
 
     def _get_value(self, expression: Compound, s: Subst, query: Compound) -> Term:
         if len(expression.args) != 2:
@@ -295,12 +281,6 @@ class _Solver:
         for answer in self.memory.matches(Compound(attribute, (obj, _VALUE))):
             return answer[_VALUE]
         raise _NoValue
-
-
-def _divide(a: int | float, b: int | float) -> int | float:
-    if type(a) is int and type(b) is int and a % b == 0:
-        return a // b
-    return a / b
 
 
 def _not_a_number(query: Compound, term: Term, value: Term) -> str:

@@ -10,22 +10,33 @@ program and the skill link, so they run when a mission is loaded (and in
 - a post of something that is not a RAP;
 - steps ordered in a circle by ``sequence``, ``(for L)`` and ``until-end``
   (they would wait for each other for ever);
-- a mission with nothing to run (no ``post``).
+- a mission with nothing to run (no ``post``);
+- a fact in ``initial-memory`` or ``at-time`` whose arithmetic has no value
+  (``(level (/ 1 0))``), with the caret under the fact: asserted facts are
+  evaluated (``(level (+ 1 2))`` is ``(level 3)``), and this one would
+  fail when it is asserted.
 
-Warnings do not stop the run: in a mission, a ``wait-for`` of a RAP the
-mission can reach from its posts that can never match, because no skill,
-memory rule, script, step or initial fact produces its predicate. (A
-library checked on its own is not warned: a mission may produce the fact.)
+Warnings do not stop the run:
+
+- in a mission, a ``wait-for`` of a RAP the mission can reach from its
+  posts that can never match, because no skill, memory rule, script, step
+  or initial fact produces its predicate. (A library checked on its own is
+  not warned: a mission may produce the fact.)
+- memory rules that can trigger each other in a cycle
+  (``logic.rules.rule_cycles``), at the first rule of the cycle: unless a
+  ``(when ...)`` stops it, one assertion makes them fire until the engine
+  gives up.
 """
 
 from __future__ import annotations
 
 from typing import Iterable, Iterator
 
-from atlas_rap.errors import Problem, SourceLocation
+from atlas_rap.errors import AtlasError, Problem, SourceLocation
 from atlas_rap.lang import ast
+from atlas_rap.lang.reader import SList, read_text
 from atlas_rap.lang.validator import nearest
-from atlas_rap.logic import COMPARISONS, Compound, Term, term_to_str
+from atlas_rap.logic import COMPARISONS, Compound, FactError, Term, evaluated_fact, is_ground, rule_cycles, term_to_str
 
 
 def check_program(program, skills: dict[str, set[int]], produces: Iterable[str], *,
@@ -60,6 +71,8 @@ class _Checker:
                 self.method(method)
         for post in self.program.of_type(ast.Post):
             self.post(post)
+        self.memory_facts()
+        self.memory_rules()
         if require_post and not self.program.of_type(ast.Post):
             raps = self.program.of_type(ast.RapDef)
             example = f", e.g. (post {term_to_str(raps[-1].head)})" if raps else ""
@@ -162,6 +175,44 @@ class _Checker:
                         f"(no skill event, memory rule, script, step or initial fact)",
                         wait.loc if wait.loc.line else (loc or wait.loc),
                         "check the predicate's spelling, or assert it somewhere", severity="warning")
+
+    # -- memory -------------------------------------------------------------------
+
+    def memory_facts(self) -> None:
+        """Report the initial-memory and at-time facts whose arithmetic has no value."""
+        for form in self.program.forms:
+            if isinstance(form, ast.InitialMemory):
+                for i, fact in enumerate(form.facts):
+                    self.fact_arithmetic(fact, form.loc, (1 + i,))
+            elif isinstance(form, ast.AtTime):
+                for i, op in enumerate(form.actions):
+                    if is_ground(op.fact):  # one with variables fails as it is asserted
+                        self.fact_arithmetic(op.fact, form.loc, (2 + i, 1))
+
+    def fact_arithmetic(self, fact: Compound, form_loc: SourceLocation, path: tuple[int, ...]) -> None:
+        try:
+            evaluated_fact(fact)
+        except FactError as exc:
+            self.report(str(exc), _item_location(self.program, form_loc, path),
+                        "arithmetic in a fact is evaluated when the fact is asserted: "
+                        "every argument of + - * / must be a number, and no division by zero")
+
+    def memory_rules(self) -> None:
+        """Warn about memory rules that can trigger each other in a cycle."""
+        rules = [form.rule for form in self.program.of_type(ast.MemoryRuleDef)]
+        for cycle in rule_cycles(rules):
+            first = cycle[0]
+            if len(cycle) == 1:
+                message = f"memory rule {first.label} can trigger itself: it asserts a fact its own (on ...) matches"
+            else:
+                chain = " -> ".join(rule.label for rule in cycle)
+                message = f"memory rules can trigger each other in a cycle: {chain} -> {first.name}"
+            guarded = [rule.name for rule in cycle if rule.condition is not None]
+            hint = (f"make sure the (when ...) of {', '.join(guarded)} stops the cycle" if guarded else
+                    "a rule in this cycle needs a (when ...) that stops it")
+            loc = first.loc or SourceLocation(self.program.root, 1, 1)
+            self.report(message, loc, hint + ", or one assertion makes the rules fire until the engine gives up",
+                        severity="warning")
 
     # -- orderings ----------------------------------------------------------------
 
@@ -271,6 +322,30 @@ def _name(node: object) -> str:
     if isinstance(node, ast.WaitFor):
         return f"(wait-for {term_to_str(node.query)})"
     return type(node).__name__
+
+
+def _item_location(program, form_loc: SourceLocation, path: tuple[int, ...]) -> SourceLocation:
+    """Where item ``path`` (indices, one per level) of the top-level form at ``form_loc`` starts.
+
+    The AST keeps one location per form; a report about one fact inside
+    it reads the file again (only then) to put the caret under the fact.
+    Falls back to ``form_loc`` when the file's text is not known.
+    """
+    lines = getattr(program, "lines", {}).get(form_loc.file)
+    if not lines:
+        return form_loc
+    try:
+        forms = read_text("\n".join(lines), form_loc.file)
+    except AtlasError:  # not readable on its own any more: keep the form's place
+        return form_loc
+    where = (form_loc.line, form_loc.column)
+    node = next((datum for datum, loc in zip(forms, forms.locs) if loc == where), None)
+    for index in path:
+        if type(node) is not SList or index >= len(node.items):
+            return form_loc
+        where = node.locs[index]
+        node = node.items[index]
+    return SourceLocation(form_loc.file, where[0], where[1])
 
 
 def _arities(arities: set[int]) -> str:
