@@ -34,16 +34,33 @@ user would expect:
   fail at once instead of retrying.
 - Reloading (:meth:`Sequencer.define`) replaces definitions; a running task
   keeps its current method and uses the new definition at its next selection.
+- Skills are resources (:meth:`Sequencer.enable_skill`): a skill instance
+  belongs to the task whose step enabled it, until that step ends. When
+  another live task enables it, the newer task takes it unless the
+  holder's priority is higher: the loser's step ends at once with
+  ``:preempted`` (the holder) or ``:busy`` (a refused newcomer), a failure
+  outcome, with a reason naming the other task, so its RAP recovers through
+  its methods and retries. Each contest is a ``skill-preempted`` trace
+  event naming both tasks. The same task enabling a skill it holds restarts
+  it, as before.
+- A memory rule that cannot be applied (a cycle, an effect that is not
+  ground, arithmetic that fails) leaves memory untrustworthy, so the run
+  stops: the task whose change triggered it fails (fatally), every other
+  live task fails saying the run stopped, every skill is disabled, and
+  :attr:`Sequencer.fault` keeps the message for the summary. A fact whose
+  own arithmetic fails fails only the task that asserted it.
 """
 
 from __future__ import annotations
 
 from itertools import count
-from typing import Iterable, Mapping, Sequence
+from typing import Hashable, Iterable, Mapping, Sequence
 
 from atlas_rap.lang import ast
 from atlas_rap.logic import (
     Compound,
+    FactError,
+    LogicError,
     Memory,
     MemoryRule,
     QueryError,
@@ -57,9 +74,11 @@ from atlas_rap.logic import (
     term_to_str,
     unify,
 )
+from atlas_rap.logic.arithmetic import evaluated_fact
+from atlas_rap.logic.errors import RuleError
 from atlas_rap.logic.rules import Change
 from atlas_rap.sequencer.agenda import Agenda
-from atlas_rap.sequencer.net import FAILURE_OUTCOMES, MethodRun, StepNode, method_label
+from atlas_rap.sequencer.net import FAILURE_OUTCOMES, HALTED_OUTCOME, MethodRun, Node, StepNode, method_label
 from atlas_rap.sequencer.skill_link import NoSkills, SkillLink
 from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Task
 from atlas_rap.sequencer.timers import Timers
@@ -81,12 +100,12 @@ _ANY = Var("%any")
 class Sequencer:
     """The RAP interpreter: agenda, memory, memory rules, wait index, timers and trace.
 
-    Build one with :meth:`from_program` (a loaded mission or RAP library) or
-    from RAP definitions and memory rules directly; :meth:`post` tasks;
+    Build one from RAP definitions and memory rules (and add more with
+    :meth:`define`, :meth:`define_rules`, :meth:`define_relations`); :meth:`post` tasks;
     change memory with :meth:`change` (or :meth:`assert_fact` /
     :meth:`retract_fact`); call :meth:`settle` to let the agenda run at the
     current time and :meth:`advance_to` to move simulated time on.
-    ``mission.run_until_done`` drives all of that for ``--world none``.
+    The mission engine (``atlas_rap.layers.engine``) drives all of that.
     """
 
     def __init__(
@@ -102,31 +121,24 @@ class Sequencer:
         max_depth: int = DEFAULT_MAX_DEPTH,
     ) -> None:
         self.memory = memory if memory is not None else Memory()
-        self.relations = relations or None
-        self.rules = RuleEngine(rules, relations=relations)
+        self.relations: dict[str, list[Relation]] = {name: list(clauses) for name, clauses in (relations or {}).items()}
+        self.rules = RuleEngine(rules, relations=self.relations)
         self.timers = timers if timers is not None else Timers()
         self.trace = trace if trace is not None else Trace(self.now)
         if self.trace.clock is None:
             self.trace.clock = self.now
-        self.waits = WaitIndex(relations)
+        self.waits = WaitIndex(self.relations)
         self.agenda = Agenda()
         self.max_depth = max_depth
         self.library: dict[tuple[str, int], ast.RapDef] = {}
         self.roots: list[Task] = []
         self._ids = count(1)
+        self.holders: dict[Hashable, tuple[MethodRun, Compound]] = {}  # skill instance -> its run and call
+        self.fault: str | None = None  # why memory rules stopped the run, until the runner takes it
         self.skills: SkillLink = skills if skills is not None else NoSkills()
         self.skills.connect(self)
         self._skill_names = self.skills.skills()
         self.define(raps)
-
-    @classmethod
-    def from_program(cls, program, skills: SkillLink | None = None, **options) -> Sequencer:
-        """A sequencer with the RAPs, memory rules and relations of a loaded program."""
-        relations: dict[str, list[Relation]] = {}
-        for form in program.of_type(ast.RelationDef):
-            relations.setdefault(form.name, []).append(Relation(form.head, form.body))
-        return cls(program.of_type(ast.RapDef), [form.rule for form in program.of_type(ast.MemoryRuleDef)],
-                   skills, relations=relations, **options)
 
     # -- definitions -------------------------------------------------------
 
@@ -141,6 +153,12 @@ class Sequencer:
         kept = [new.pop(rule.name, rule) for rule in self.rules.rules]
         engine = RuleEngine(kept + list(new.values()), relations=self.relations)
         self.rules = engine
+
+    def define_relations(self, relations: Mapping[str, Sequence[Relation]]) -> None:
+        """Add or replace defined relations by name: the clauses given replace every
+        earlier clause of that relation (memory rules and waiting queries see them at once)."""
+        for name, clauses in relations.items():
+            self.relations[name] = list(clauses)
 
     def refresh_skills(self) -> None:
         """Ask the skill link again which skills it has (after it gained some)."""
@@ -388,17 +406,24 @@ class Sequencer:
 
     # -- memory and skills ------------------------------------------------------
 
-    def change(self, changes: Iterable[Change], source: str = "") -> list[Change]:
+    def change(self, changes: Iterable[Change], source: str = "", *, task: Task | None = None,
+               skill: Compound | None = None) -> list[Change]:
         """Assert/retract facts, run the memory rules, trace it, and wake waiters it concerns.
 
         ``source`` names who made the outside changes (a skill, a task, an
         ``at-time`` event) in the trace; changes the rules made are traced
-        as ``"by": "memory rule"``.
+        as ``"by": "memory rule"``. ``task`` (or the holder of ``skill``) is
+        the task a failure of these changes is charged to (see the module
+        docstring for what a memory error does).
         """
         made: list[Change] = []
         trace = self.trace
         for change in changes:
-            done = self.rules.apply(self.memory, (change,), self.timers.now)
+            try:
+                done = self.rules.apply(self.memory, (change,), self.timers.now)
+            except LogicError as exc:
+                self._memory_error(exc, change, source, task or self._holder(skill))
+                return made
             if trace.active:
                 for i, (kind, fact) in enumerate(done):
                     by = source if i == 0 else "memory rule"
@@ -408,6 +433,28 @@ class Sequencer:
         if made and self.waits.size:
             self._wake(made)
         return made
+
+    def _holder(self, skill: Compound | None) -> Task | None:
+        if skill is None:
+            return None
+        held = self.holders.get(self.skills.instance(skill))
+        return held[0].task if held is not None and held[1] == skill else None
+
+    def _memory_error(self, exc: LogicError, change: Change, source: str, task: Task | None) -> None:
+        """A change that memory could not take: fail its task; a broken rule stops the run."""
+        message = str(exc)
+        fields = {"id": task.id, "task": task.text} if task is not None else {}
+        self.trace.emit("memory-error", error=message, fact=term_to_str(change[1]),
+                        **({"by": source} if source else {}), **fields)
+        if not isinstance(exc, RuleError):
+            if task is not None and not task.finished:
+                self._fail(task, message)
+            return
+        self.fault = message
+        if task is not None and not task.finished:
+            self._fail(task, message, fatal=True)
+        for root in self.live_roots():
+            self.cancel(root, f"the run stopped: {message}")
 
     def assert_fact(self, fact: Compound, source: str = "") -> list[Change]:
         """Assert one fact (memory rules run, waiters wake); the changes made."""
@@ -431,33 +478,71 @@ class Sequencer:
                 waiter.owner.woken(waiter, answer)
 
     def apply_memory_op(self, run: MethodRun, op: ast.MemoryOp) -> bool:
-        """Apply an assert/retract step of a method; False (and the method fails) if it is not ground."""
+        """Apply an assert/retract step of a method; False (and the method fails) if it cannot be."""
         fact = substitute(op.fact, run.subst) if run.subst else op.fact
         if not is_ground(fact):
             run.fail(Failure(f"({op.kind} {term_to_str(fact)})", "the fact has unbound variables"))
             return False
-        self.change(((op.kind, fact),), f"task {run.task.id}")
-        return True
+        try:
+            fact = evaluated_fact(fact)
+        except FactError as exc:
+            run.fail(Failure(f"({op.kind} {term_to_str(fact)})", str(exc)))
+            return False
+        self.change(((op.kind, fact),), f"task {run.task.id}", task=run.task)
+        return run.live
 
-    def enable_skill(self, run: MethodRun, call: Compound) -> str | None:
-        """Enable a skill for a method; a message saying why not, or None."""
+    def enable_skill(self, run: MethodRun, call: Compound, node: Node) -> tuple[str, str] | None:
+        """Enable a skill for ``node`` of a method; None, or the outcome and reason its step ends with.
+
+        The skill's instance (:meth:`SkillLink.instance`) then belongs to
+        ``run``'s task. If another live task holds it, the one with the
+        higher priority keeps or takes it, the newer on a tie: the holder's
+        step ends ``:preempted``, or this one ``:busy``.
+        """
         if not is_ground(call):
-            return f"skill {term_to_str(call)} was enabled with unbound arguments"
+            return ":fail", f"skill {term_to_str(call)} was enabled with unbound arguments"
         if not self.is_skill(call):
-            return f"no skill {call.functor} with {_plural(len(call.args), 'argument')}"
+            return ":fail", f"no skill {call.functor} with {_plural(len(call.args), 'argument')}"
+        instance = self.skills.instance(call)
+        held = self.holders.get(instance)
+        if held is not None and held[0] is not run:
+            refused = self._contest(held, run, call)
+            if refused is not None:
+                return refused
+            if not run.live:  # the holder's failure halted this very task
+                return HALTED_OUTCOME, "its method was halted"
         stale = list(self.memory.facts(Compound("done", (call, _ANY)))) + list(
             self.memory.facts(Compound("why", (call, _ANY))))
         if stale:
             self.change([("retract", fact) for fact in stale], "sequencer (a new run of the skill)")
         self.skills.enable(call)
-        run.enabled[call] = None
+        self.holders[instance] = (run, call)
+        run.enabled[call] = node
         self.trace.emit("skill-enabled", skill=term_to_str(call), id=run.task.id, task=run.task.text)
+        return None
+
+    def _contest(self, held: tuple[MethodRun, Compound], run: MethodRun, call: Compound) -> tuple[str, str] | None:
+        """Another live task holds the instance ``call`` needs: refuse ``run`` (its outcome) or preempt."""
+        holder_run, holder_call = held
+        holder, newcomer = holder_run.task, run.task
+        if holder.priority > newcomer.priority:
+            self.trace.emit("skill-preempted", skill=term_to_str(call), outcome=":busy", id=newcomer.id,
+                            task=newcomer.text, winner_id=holder.id, winner=holder.text)
+            return ":busy", (f"skill {term_to_str(holder_call)} is held by [{holder.id}] {holder.text}, "
+                             f"whose priority {holder.priority:g} is higher than {newcomer.priority:g}")
+        self.trace.emit("skill-preempted", skill=term_to_str(holder_call), outcome=":preempted", id=holder.id,
+                        task=holder.text, winner_id=newcomer.id, winner=newcomer.text)
+        holder_run.preempt(holder_call, f"preempted by [{newcomer.id}] {newcomer.text}, "
+                                        f"which enabled {term_to_str(call)}")
         return None
 
     def disable_skill(self, run: MethodRun, call: Compound) -> None:
         """Disable a skill a method enabled (nothing if it did not or already did)."""
         if call in run.enabled:
             del run.enabled[call]
+            instance = self.skills.instance(call)
+            if self.holders.get(instance) == (run, call):
+                del self.holders[instance]
             self.skills.disable(call)
             self.trace.emit("skill-disabled", skill=term_to_str(call), id=run.task.id, task=run.task.text)
 

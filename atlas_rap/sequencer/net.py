@@ -16,8 +16,9 @@ of nodes mirroring the method's body (LANGUAGE.md §2.2-§2.4):
   ``assert``/``retract`` step; a :class:`PrimitiveNode` a ``primitive`` body.
 
 Nodes report upward: a part that ends well calls ``parent.child_done``; a
-step that ends with ``:fail`` or ``:timeout`` fails the whole method
-(``MethodRun.fail``), which halts every live node. Bindings made by a
+step that ends with a failure outcome (``:fail``, ``:timeout``, and for a
+skill taken by another task ``:preempted`` or ``:busy``) fails the whole
+method (``MethodRun.fail``), which halts every live node. Bindings made by a
 ``wait-for`` join the method's bindings, so later steps can use them.
 Every skill a method enabled is disabled when the method ends, however it
 ends: no skill is ever left running by a dead method.
@@ -36,8 +37,11 @@ if TYPE_CHECKING:
     from atlas_rap.sequencer.interpreter import Sequencer
     from atlas_rap.sequencer.timers import Timer
 
-FAILURE_OUTCOMES = frozenset({":fail", ":timeout"})
-"""Step outcomes that fail the method; every other outcome counts as success."""
+FAILURE_OUTCOMES = frozenset({":fail", ":timeout", ":preempted", ":busy"})
+"""Step outcomes that fail the method; every other outcome counts as success.
+
+``:preempted``: another task took the skill this step ran; ``:busy``: the
+skill was held by a task of higher priority (``Sequencer.enable_skill``)."""
 
 HALTED_OUTCOME = ":halted"
 """The outcome recorded for a monitor halted by ``until-end``."""
@@ -61,7 +65,7 @@ class MethodRun:
         self.number = number
         self.subst = subst
         self.live = True
-        self.enabled: dict[Compound, None] = {}
+        self.enabled: dict[Compound, Node] = {}  # each skill call enabled, and the node that enabled it
         self.labels: dict[str, StepNode] = {}
         self.root = _build(method.body, self, self)
         for node in self.labels.values():
@@ -97,6 +101,14 @@ class MethodRun:
         if self.live:
             self._stop()
 
+    def preempt(self, call: Compound, reason: str) -> None:
+        """Another task took the skill ``call``: the step that runs it ends ``:preempted``."""
+        node = self.enabled.get(call)
+        if node is None or not self.live:
+            self.seq.disable_skill(self, call)
+            return
+        node.preempted(call, reason)
+
     def _stop(self) -> None:
         self.live = False
         self.root.halt()
@@ -128,6 +140,10 @@ class Node:
 
     def waiting_for(self) -> list[str]:
         return []
+
+    def preempted(self, call: Compound, reason: str) -> None:
+        """Another task took the skill ``call`` this node enabled (only skill-running nodes do)."""
+        self.run.seq.disable_skill(self.run, call)
 
 
 class SequenceNode(Node):
@@ -425,10 +441,11 @@ class StepNode(_Leaf):
             self.child = seq.spawn(call, run.task, self)
             entries = []
         elif seq.is_skill(call):
-            problem = seq.enable_skill(run, call)
-            if problem is not None:
+            refused = seq.enable_skill(run, call, self)
+            if refused is not None:
                 self.state = "done"
-                self.record(":fail", problem)
+                if run.live:
+                    self.record(*refused)
                 return
             self.skill = call
             entries = [(Compound("done", (call, _OUTCOME)), None, None, f"skill {term_to_str(call)}")]
@@ -513,6 +530,12 @@ class StepNode(_Leaf):
             self._release(None, "its method was halted")
         self.state = "done"
 
+    def preempted(self, call: Compound, reason: str) -> None:
+        if self.state != "running" or call != self.skill:
+            super().preempted(call, reason)
+            return
+        self._finish(":preempted", "the skill was taken by another task", Failure(f"skill {term_to_str(call)}", reason))
+
     def waiting_for(self) -> list[str]:
         if self.state == "blocked":
             return [f"{self.describe()}: waiting for an earlier step (for)"]
@@ -554,9 +577,10 @@ class PrimitiveNode(_Leaf):
             self.index += 1
             if isinstance(action, ast.Enable):
                 for skill in action.skills:
-                    problem = seq.enable_skill(run, substitute(skill, run.subst))
-                    if problem is not None:
-                        self.record(":fail", problem)
+                    refused = seq.enable_skill(run, substitute(skill, run.subst), self)  # type: ignore[arg-type]
+                    if refused is not None:
+                        if run.live:
+                            self.record(*refused)
                         return
             elif isinstance(action, ast.Disable):
                 calls = list(run.enabled) if action.above else [substitute(s, run.subst) for s in action.skills]
@@ -576,6 +600,12 @@ class PrimitiveNode(_Leaf):
         if self.group is not None:
             self.group.cancel()
         self.index = len(self.actions)
+
+    def preempted(self, call: Compound, reason: str) -> None:
+        if self.group is not None:
+            self.group.cancel()
+        self.index = len(self.actions)
+        self.record(":preempted", f"skill {term_to_str(call)} {reason}")
 
     def waiting_for(self) -> list[str]:
         return self.group.describe() if self.group is not None else []

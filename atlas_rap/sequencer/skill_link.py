@@ -15,13 +15,20 @@ physics; the skill manager of the simulator implements it with a world.
 Keeping the link this small is what lets the skill manager run elsewhere
 later (DESIGN.md §7).
 
-A skill is one instance: enabling a skill call that is already enabled
-starts it again with those arguments.
+A skill *instance* is what runs as one and can serve one task at a time
+(:meth:`SkillLink.instance`): for the stock skills of a world, one per skill
+name (there is one robot base to drive, one ``navigate-to``); for virtual
+skills, one per call (scripts share nothing). Enabling an instance that is
+already enabled starts it again with the new arguments. The sequencer gives
+instances owners: the task that enabled one holds it until its step ends,
+and a second live task that enables it takes it or is refused by priority
+(``Sequencer.enable_skill``). Always-on skills (the safety reflex, monitors,
+the map builder) are not offered to tasks at all, so nobody owns them.
 """
 
 from __future__ import annotations
 
-from typing import Iterable, Protocol
+from typing import Hashable, Iterable, Protocol
 
 from atlas_rap.logic import Compound, Memory
 from atlas_rap.sequencer.timers import Timers
@@ -33,8 +40,13 @@ class SkillHost(Protocol):
     timers: Timers
     memory: Memory
 
-    def change(self, changes: Iterable[tuple[str, Compound]], source: str) -> None:
-        """Assert or retract facts (``('assert', fact)``), running memory rules and waking waiters."""
+    def change(self, changes: Iterable[tuple[str, Compound]], source: str, *,
+               skill: Compound | None = None) -> None:
+        """Assert or retract facts (``('assert', fact)``), running memory rules and waking waiters.
+
+        ``skill`` is the skill call whose work these changes are (a finish, a
+        script line), so a failure they cause is charged to the task that runs it.
+        """
 
 
 class SkillLink(Protocol):
@@ -48,6 +60,9 @@ class SkillLink(Protocol):
 
     def produces(self) -> set[str]:
         """Predicates the skills' events may assert (``done`` is always among them)."""
+
+    def instance(self, call: Compound) -> Hashable:
+        """The instance ``call`` runs on: two calls with the same instance cannot run for two tasks at once."""
 
     def enable(self, call: Compound) -> None:
         """Turn the skill ``call`` (name and ground arguments) on."""
@@ -86,6 +101,9 @@ class CombinedSkills:
                 return link
         raise KeyError(call.functor)
 
+    def instance(self, call: Compound) -> Hashable:
+        return self._link(call).instance(call)
+
     def enable(self, call: Compound) -> None:
         self._link(call).enable(call)
 
@@ -104,6 +122,9 @@ class NoSkills:
 
     def produces(self) -> set[str]:
         return {"done"}
+
+    def instance(self, call: Compound) -> Hashable:
+        return call
 
     def enable(self, call: Compound) -> None:
         raise KeyError(call.functor)

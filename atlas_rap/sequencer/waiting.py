@@ -63,7 +63,7 @@ class WaitIndex:
     """Waiters filed by the changes that could wake them."""
 
     def __init__(self, relations: Mapping[str, Sequence[Relation]] | None = None) -> None:
-        self.relations = relations or {}
+        self.relations = relations if relations is not None else {}
         self._on_assert: dict[Key, dict[Waiter, None]] = {}
         self._on_retract: dict[tuple[str, int], dict[Waiter, None]] = {}
         self._on_everything: dict[Waiter, None] = {}

@@ -116,6 +116,10 @@ class SkillManager:
             found.update(skill.events)
         return found
 
+    def instance(self, call: Compound) -> str:
+        """A skill is one instance whatever its arguments: there is one robot to drive."""
+        return call.functor
+
     def enable(self, call: Compound) -> None:
         skill = self.catalog[call.functor]
         if skill.always_on:
@@ -173,7 +177,7 @@ class SkillManager:
             changes.append(("assert", Compound("why", (call, String(reason)))))
         changes.append(("assert", Compound("done", (call, outcome))))
         if self.host is not None:
-            self.host.change(changes, f"skill {_text(call)}")
+            self.host.change(changes, f"skill {_text(call)}", skill=call)
 
     def _clear_outputs(self, skill: Skill) -> None:
         for key in skill.outputs:

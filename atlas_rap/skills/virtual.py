@@ -62,6 +62,10 @@ class VirtualSkills:
         """The skill calls enabled now, in the order they were enabled."""
         return list(self._running)
 
+    def instance(self, call: Compound) -> Compound:
+        """Each call is an instance of its own: scripts share no state."""
+        return call
+
     def enable(self, call: Compound) -> None:
         host = self._host
         assert host is not None, "connect() the skills to a sequencer first"
@@ -93,7 +97,7 @@ class VirtualSkills:
             else:
                 changes.append((action.kind, substitute(action.fact, bindings)))
         source = f"skill {term_to_str(call)}"
-        return host.timers.after(line.delay, lambda: host.change(changes, source))
+        return host.timers.after(line.delay, lambda: host.change(changes, source, skill=call))
 
 
 def skill_names(definitions: Iterable[ast.VirtualSkillDef]) -> dict[str, set[int]]:
