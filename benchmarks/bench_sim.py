@@ -57,12 +57,12 @@ def drive(with_sonar: bool) -> tuple[float, float, int]:
 
 def run_stack() -> tuple[float, float, bool]:
     """Run deliver.rap in-process with the whole stack; (wall seconds, simulated seconds, ok)."""
-    from atlas_rap.layers.setup import WorldSetup
+    from atlas_rap.layers import MissionEngine
 
-    setup = WorldSetup(WORLD, seed=0)
-    mission = setup.load_mission(MISSION)
+    engine = MissionEngine(WORLD, seed=0)
+    engine.load_file(MISSION, require_post=True)
     start = time.perf_counter()
-    result = mission.run(until=600, driver=setup.executive)
+    result = engine.run_mission(600)
     return time.perf_counter() - start, result.time, result.ok
 
 

@@ -18,8 +18,9 @@ from pathlib import Path
 from typing import Any
 
 from atlas_rap.lang import parse_term
+from atlas_rap.layers import MissionEngine
 from atlas_rap.logic import term_to_str
-from atlas_rap.sequencer import Trace, agenda_tree, load_mission, tree_text
+from atlas_rap.sequencer import Trace, agenda_tree, tree_text
 
 LIBRARY = Path(__file__).resolve().parents[1] / "rap_library" / "space-station.rap"
 """The shipped 3T space-station RAPs, for ``(include "...")``."""
@@ -27,6 +28,13 @@ LIBRARY = Path(__file__).resolve().parents[1] / "rap_library" / "space-station.r
 INCLUDE_LIBRARY = f'(include "{LIBRARY}")'
 
 LAST_RECORDS = 30
+
+
+def load_mission(path: Path | str, trace: Trace | None = None) -> MissionEngine:
+    """A mission loaded as `atlas run --world none` loads it (virtual skills, no world), not yet run."""
+    engine = MissionEngine(default_world="none", trace=trace)
+    engine.load_file(path, require_post=True)
+    return engine
 
 
 def show(record: dict[str, Any]) -> str:
@@ -41,7 +49,7 @@ class Scenario:
     def __init__(self, path: Path, until: float) -> None:
         self.path = path
         self.mission = load_mission(path, trace=Trace(keep=True))
-        self.result = self.mission.run(until=until)
+        self.result = self.mission.run_mission(until)
         self.records: list[dict[str, Any]] = self.mission.trace.records
 
     # -- the trace -----------------------------------------------------------

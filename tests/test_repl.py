@@ -43,8 +43,9 @@ def test_an_error_mid_session_is_reported_and_the_next_form_still_runs(tmp_path:
     done = repl(script, cwd=tmp_path)
     assert_no_traceback(done)
     assert done.returncode == 1  # some submissions failed
-    assert "error: unbalanced '(': this list is never closed" in done.stdout
-    assert "no RAP or skill frobnicate with 0 argument(s)" in done.stdout
+    assert "error: unbalanced '(': this list is never closed" in done.stderr  # errors go to stderr
+    assert "'frobnicate' is neither a RAP nor a skill" in done.stderr
+    assert "error" not in done.stdout
     assert "✓ [1] (greet carol) succeeded" in done.stdout
     assert done.stdout.rstrip().endswith("yes")
 

@@ -86,7 +86,7 @@ def test_typing_at_the_prompt_with_a_trace_line_appearing_above_it(terminal: Ter
 
     terminal.type(":run 100000")
     terminal.keys("Enter")
-    time.sleep(1.0)  # let the run start: Ctrl-C at the prompt would only clear the line
+    terminal.wait_for("running 100000 s of simulated time")  # the run has started: Ctrl-C now stops it
     terminal.keys("C-c")
     terminal.wait_for("interrupted at")
     terminal.type(":agenda")

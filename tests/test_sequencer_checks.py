@@ -2,28 +2,13 @@
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import pytest
-
-from atlas_rap.errors import SourceError
-from atlas_rap.lang import load
-from atlas_rap.sequencer.checks import check_program
-from atlas_rap.skills.virtual import VirtualSkills
+from scenario import load_mission
 from source_problems import at
 
+from atlas_rap.errors import SourceError
+
 SKILL = "(define-virtual-skill (beep ?n) (after 1 (finish :succeed)))\n"
-
-
-def load_mission(path):
-    """Load a mission file and check it as a mission loader does (skills: its virtual
-    skills; it must post something): SourceError if any error, else its warnings."""
-    program = load(path)
-    skills = VirtualSkills.from_program(program)
-    problems = check_program(program, skills.skills(), skills.produces(), require_post=True)
-    if any(problem.severity == "error" for problem in problems):
-        raise SourceError(problems)
-    return SimpleNamespace(warnings=problems)
 
 
 def load_problems(tmp_path, text: str):

@@ -128,8 +128,9 @@ def test_cancelling_a_task_halts_its_subtasks_and_disables_every_skill_they_enab
 
 
 def test_reloading_a_file_replaces_raps_rules_and_skills_and_a_bad_file_changes_nothing(tmp_path):
+    from scenario import load_mission
+
     from atlas_rap.errors import SourceError
-    from atlas_rap.sequencer import load_mission
 
     mission_file = tmp_path / "m.rap"
     mission_file.write_text(
@@ -142,12 +143,11 @@ def test_reloading_a_file_replaces_raps_rules_and_skills_and_a_bad_file_changes_
                      "(define-rap (alarm) (method quiet (task-net (beep))))\n", encoding="utf-8")
     broken = tmp_path / "broken.rap"
     broken.write_text("(define-rap (alarm) (method (task-net (boop))))\n", encoding="utf-8")
-    mission.start()
     mission.sequencer.settle()  # the alarm runs its first method with the failing beep
     with pytest.raises(SourceError, match="'boop' is neither a RAP nor a skill"):
         mission.reload(broken)
-    assert mission.reload(fixed) == ["alarm", "beep"]
-    result = mission.run()
+    assert mission.reload(fixed).names == ["alarm", "beep"]
+    result = mission.run_mission()
     assert result.ok
     (alarm,) = result.tasks
     assert alarm.last_method == "quiet" and alarm.attempts == 2

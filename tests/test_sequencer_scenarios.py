@@ -457,7 +457,7 @@ def test_parent_fails_cleanly_when_a_child_fails(tmp_path):
             later = [r for r in s.records[s.records.index(on):]
                      if r["event"] == "skill-disabled" and r["skill"] == on["skill"]]
             assert later and later[0]["id"] == on["id"], f"{on['skill']} was never disabled"
-        assert not s.mission.skills.running()
+        assert not s.mission.virtual.running() and not s.mission.sequencer.holders
         for task in s.all_tasks():
             assert task.status in ("failed", "halted"), task
         assert "running" not in s.tree and "pending" not in s.tree

@@ -23,8 +23,8 @@ def test_deliver_goes_from_the_lab_down_the_corridor_into_the_office_and_back():
     assert arrivals == ["(at robot lab)", "(at robot corridor)", "(at robot office)",
                         "(at robot corridor)", "(at robot lab)"]
     assert "(delivered mail office)" in run.facts("fact-asserted")
-    x, y, _ = run.setup.simulation.pose
-    assert run.setup.world.place_at(x, y) == "lab"
+    x, y, _ = run.mission.simulation.pose
+    assert run.mission.world.place_at(x, y) == "lab"
     enabled = [r["skill"] for r in run.records if r["event"] == "skill-enabled"]
     assert sorted(enabled) == sorted(r["skill"] for r in run.records if r["event"] == "skill-disabled")
 
@@ -65,7 +65,7 @@ def test_an_openable_closed_door_is_opened_by_the_open_the_door_method(tmp_path)
     assert run.result.ok, run.explain()
     methods = [r["method"] for r in run.records if r["event"] == "method-selected" and r["task"] == "(go-to office)"]
     assert methods == ["drive", "open-the-door"]
-    assert run.setup.simulation.doors_open["office-door"]
+    assert run.mission.simulation.doors_open["office-door"]
     assert "(at robot storeroom)" not in run.facts("fact-asserted")
 
 
@@ -76,8 +76,8 @@ PLACES = [(world, place) for world in shipped_worlds() for place in load_world(w
 def test_the_robot_reaches_each_named_place_of_each_shipped_world_from_its_start(tmp_path, world, place):
     run = run_in_world(go_to_mission(tmp_path, place, world=world))
     assert run.result.ok, run.explain()
-    x, y, _ = run.setup.simulation.pose
-    assert run.setup.world.places[place].contains(x, y)
+    x, y, _ = run.mission.simulation.pose
+    assert run.mission.world.places[place].contains(x, y)
 
 
 def test_a_world_made_from_a_ros_map_written_here(tmp_path):
@@ -101,13 +101,13 @@ def test_a_world_made_from_a_ros_map_written_here(tmp_path):
     assert len(world.walls) >= 6
     run = run_in_world(go_to_mission(tmp_path, "east", world=str(tmp_path / "two-rooms.yaml")))
     assert run.result.ok, run.explain()
-    assert run.setup.simulation.pose[0] > 4.2
+    assert run.mission.simulation.pose[0] > 4.2
 
 
 def test_the_same_world_mission_and_seed_give_the_same_trace():
     first, second = run_in_world(DELIVER, seed=3), run_in_world(DELIVER, seed=3)
     assert json.dumps(first.records) == json.dumps(second.records)
-    assert first.setup.simulation.path == second.setup.simulation.path
+    assert first.mission.simulation.path == second.mission.simulation.path
 
 
 def test_atlas_run_renders_the_run_and_writes_its_trace_even_when_it_fails(tmp_path):

@@ -30,14 +30,14 @@ def mission(tmp_path, body: str, extra: str = "") -> str:
 def test_move_to_a_point_in_free_space_gets_there(tmp_path):
     run = run_in_world(mission(tmp_path, "(task-net (move-to 3 3))"))
     assert run.result.ok, run.explain()
-    x, y, _ = run.setup.simulation.pose
+    x, y, _ = run.mission.simulation.pose
     assert math.dist((x, y), (3, 3)) < 0.25
 
 
 def test_move_to_a_point_behind_a_wall_stops_short_of_it_and_reports_blocked(tmp_path):
     # (5, 1) is behind the inner wall; steering straight at it runs into the wall
     run = run_in_world(mission(tmp_path, "(task-net (move-to 5 1))"))
-    sim = run.setup.simulation
+    sim = run.mission.simulation
     assert not run.result.ok
     assert "(blocked robot move-to)" in run.facts("fact-asserted")
     assert "no progress toward (5, 1)" in run.result.tasks[0].failure.root().reason
@@ -48,14 +48,14 @@ def test_move_to_a_point_behind_a_wall_stops_short_of_it_and_reports_blocked(tmp
 def test_follow_route_passes_each_waypoint_round_the_wall(tmp_path):
     run = run_in_world(mission(tmp_path, "(task-net (t1 (follow-route ((3 3.5) (5 3.5) (5 1)))))"))
     assert run.result.ok, run.explain()
-    assert run.setup.world.place_at(*run.setup.simulation.pose[:2]) == "east"
+    assert run.mission.world.place_at(*run.mission.simulation.pose[:2]) == "east"
     assert "(at robot east)" in run.facts("fact-asserted")
 
 
 def test_turn_to_faces_the_heading(tmp_path):
     run = run_in_world(mission(tmp_path, "(task-net (turn-to 90))"))
     assert run.result.ok, run.explain()
-    assert abs(math.degrees(run.setup.simulation.pose[2]) - 90) < 5
+    assert abs(math.degrees(run.mission.simulation.pose[2]) - 90) < 5
 
 
 def test_wander_and_wall_follow_keep_moving_until_disabled_and_stop_then(tmp_path):
@@ -63,14 +63,14 @@ def test_wander_and_wall_follow_keep_moving_until_disabled_and_stop_then(tmp_pat
     extra = "(define-virtual-skill (pause) (after 20 (finish :succeed)))"
     run = run_in_world(mission(tmp_path, body, extra))
     assert run.result.ok, run.explain()
-    sim = run.setup.simulation
+    sim = run.mission.simulation
     travelled = sum(math.dist(a[1:3], b[1:3]) for a, b in zip(sim.path, sim.path[1:]))
     assert travelled > 3.0
     assert sim.commanded == (0.0, 0.0)  # disabled: no skill commands the wheels any more
     body = """(task-net (parallel (t1 (wall-follow left) (until-end t2)) (t2 (pause))))"""
     run = run_in_world(mission(tmp_path, body, extra))
     assert run.result.ok, run.explain()
-    assert run.setup.simulation.commanded == (0.0, 0.0)
+    assert run.mission.simulation.commanded == (0.0, 0.0)
 
 
 def reflex_output(command, front_range: float, bump=None, now: float = 0.0):

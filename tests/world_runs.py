@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from atlas_rap.layers.setup import WorldSetup
-from atlas_rap.sequencer import Mission, RunResult, Trace, agenda_tree, tree_text
+from atlas_rap.layers import MissionEngine, RunResult
+from atlas_rap.sequencer import Trace, agenda_tree, tree_text
 
 REPO = Path(__file__).resolve().parent.parent
 NAVIGATION = REPO / "rap_library" / "navigation.rap"
@@ -14,9 +14,8 @@ NAVIGATION = REPO / "rap_library" / "navigation.rap"
 
 @dataclass
 class WorldRun:
-    mission: Mission
+    mission: MissionEngine
     result: RunResult
-    setup: WorldSetup
 
     @property
     def records(self) -> list[dict]:
@@ -34,10 +33,9 @@ class WorldRun:
 
 def run_in_world(mission_file: str | Path, world: str | None = None, seed: int = 0, until: float = 600.0) -> WorldRun:
     """Load and run a mission in its world (or ``world``), keeping the whole trace."""
-    setup = WorldSetup(world, seed)
-    mission = setup.load_mission(mission_file, trace=Trace(keep=True))
-    result = mission.run(until=until, driver=setup.executive)
-    return WorldRun(mission, result, setup)
+    engine = MissionEngine(world, seed=seed, trace=Trace(keep=True))
+    engine.load_file(mission_file, require_post=True)
+    return WorldRun(engine, engine.run_mission(until))
 
 
 def go_to_mission(tmp_path: Path, *places: str, world: str | None = None) -> Path:

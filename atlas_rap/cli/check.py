@@ -7,6 +7,8 @@ from collections import Counter
 
 import click
 
+from atlas_rap.cli.console import console, secho, styles_on
+
 
 @click.command()
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
@@ -31,20 +33,20 @@ def check(files: tuple[str, ...], tree: bool, format_: bool) -> None:
             failed += 1
             for problem in exc.problems:
                 _echo_problem(problem.render())
-            click.secho(f"{path}: {_plural(len(exc.problems), 'problem')}", fg="red", err=True)
+            secho(f"{path}: {_plural(len(exc.problems), 'problem')}", fg="red", err=True)
             continue
         problems = _sequencer_problems(program) + _planner_problems(program, path)
         for problem in problems:
             _echo_problem(problem.render())
         if any(problem.severity == "error" for problem in problems):
             failed += 1
-            click.secho(f"{path}: {_plural(len(problems), 'problem')}", fg="red", err=True)
+            secho(f"{path}: {_plural(len(problems), 'problem')}", fg="red", err=True)
             continue
         counts = Counter(type(form).__name__ for form in program.forms)
         summary = ", ".join(_plural(n, _KINDS.get(kind, kind)) for kind, n in sorted(counts.items()))
         includes = len(program.files) - 1
         extra = f" (+{_plural(includes, 'included file')})" if includes else ""
-        click.secho(f"ok: {path}{extra}: {summary or 'no definitions'}", fg="green")
+        secho(f"ok: {path}{extra}: {summary or 'no definitions'}", fg="green")
         for source in program.files:
             if tree:
                 _print_tree(source)
@@ -100,14 +102,13 @@ def _plural(n: int, word: str) -> str:
 def _echo_problem(text: str) -> None:
     first, _, rest = text.partition("\n")
     location, _, message = first.partition(": ")
-    click.echo(click.style(location + ":", bold=True) + " " + click.style(message, fg="red"), err=True)
+    click.echo(click.style(location + ":", bold=True) + " " + click.style(message, fg="red"), err=True,
+               color=styles_on(err=True))
     if rest:
         click.echo(rest, err=True)
 
 
 def _print_tree(source) -> None:
-    from rich.console import Console
-
     from atlas_rap.cli.tree import ast_tree
 
-    Console().print(ast_tree(source))
+    console().print(ast_tree(source))

@@ -11,8 +11,12 @@ from __future__ import annotations
 import os
 import sys
 
+from typing import TYPE_CHECKING
+
 import click
-from rich.console import Console
+
+if TYPE_CHECKING:
+    from rich.console import Console
 
 
 def styles_on(err: bool = False) -> bool:
@@ -25,6 +29,8 @@ def styles_on(err: bool = False) -> bool:
 
 def console(err: bool = False, **options) -> Console:
     """A rich console for stdout (stderr with ``err``), styled only where :func:`styles_on` says."""
+    from rich.console import Console  # not at import: `atlas check` starts without rich
+
     styled = styles_on(err)
     options.setdefault("highlight", False)
     options.setdefault("soft_wrap", True)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from atlas_rap.cli.options import POSITIVE, OutputFile, OutputFolder
+
 
 @click.group("map")
 def map_group() -> None:
@@ -15,55 +17,70 @@ def map_group() -> None:
               help="The world to map (a shipped world's name or a world file).")
 @click.option("--mission", "mission_file", type=click.Path(dir_okay=False), metavar="MISSION.rap",
               help="What the robot does while mapping; default: visit every place of the world in turn.")
-@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False), help="Folder for the maps.")
+@click.option("--out", "out_dir", required=True, type=OutputFolder(), help="Folder for the maps.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the run.")
-@click.option("--until", type=float, default=1800.0, show_default=True, metavar="SECONDS",
+@click.option("--until", type=POSITIVE, default=1800.0, show_default=True, metavar="SECONDS",
               help="Simulated time limit.")
 def build_command(world: str, mission_file: str | None, out_dir: str, seed: int, until: float) -> None:
     """Drive the robot in a world, build an occupancy grid from its sonar, and write every level.
 
     Writes the grid (npz, ROS map) and, from it, the same levels as
-    `atlas map abstract`, even when the mission fails or is interrupted.
+    `atlas map abstract`, even when the mission fails or is interrupted
+    (Ctrl-C: the map is written, then the exit code is 130).
     """
+    import sys
     from pathlib import Path
 
     from rich.progress import Progress
 
-    from atlas_rap.layers.setup import WorldSetup
+    from atlas_rap.cli.console import console
+    from atlas_rap.errors import AtlasError
+    from atlas_rap.layers import MissionEngine
     from atlas_rap.maps.inference import InferenceGrid
     from atlas_rap.maps.levels import abstract_map, write_levels
     from atlas_rap.shipped import resolve_user_path
 
+    if world == "none":
+        raise click.UsageError("atlas map build needs a world to drive in, not 'none'")
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    setup = WorldSetup(world, seed, mapping=True)
+    engine = MissionEngine(world, seed=seed, mapping=True)
     path = resolve_user_path(mission_file) if mission_file else _tour_mission(world, out)
-    mission = setup.load_mission(path)
-    ended = "done"
+    engine.load_file(path)
+    ended = "interrupted"
     try:
-        with Progress(transient=True) as progress:
+        click.echo(f"driving in {engine.world.name} with {click.format_filename(str(path))} "
+                   f"(Ctrl-C stops and still writes the map)")
+        with Progress(transient=True, console=console(err=True)) as progress:
             bar = progress.add_task("mapping (simulated s)", total=until)
-            result = mission.run(until=until, pace=lambda t: progress.update(bar, completed=t),
-                                 driver=setup.executive)
-            ended = result.ended_by
-    except KeyboardInterrupt:
-        ended = "interrupted"
+            ended = engine.run_mission(until, pace=lambda t: progress.update(bar, completed=t)).ended_by
+    except KeyboardInterrupt:  # in the instant before or after the run itself
+        engine.halt_live("the run was interrupted")
     finally:
-        grid = setup.manager.context.beliefs["grid"]
-        poses = setup.manager.context.beliefs["poses"]
+        grid = engine.manager.context.beliefs["grid"]
+        poses = engine.manager.context.beliefs["poses"]
         grid.save_npz(out / "occupancy.npz")
         grid.to_ros_map(out / "occupancy.yaml")
-    sim, radius = setup.simulation, setup.world.robot.radius
-    quality = InferenceGrid(grid, sim.pose[:2], radius, setup.world.sonar.max_range, poses).quality()
+    sim, radius = engine.simulation, engine.world.robot.radius
+    quality = InferenceGrid(grid, sim.pose[:2], radius, engine.world.sonar.max_range, poses).quality()
     click.echo(f"mission {ended} at {sim.time:.1f} s simulated; map quality {quality:.3f}")
     p_occ = grid.probabilities()
     p_occ[~grid.updated] = float("nan")
     path_xy = [(x, y) for _, x, y, _ in sim.path]
-    result = abstract_map(p_occ, grid.frame, radius, source=f"the map of {world}")
-    places = [place.point for place in setup.world.places.values()]
+    grid_files = [out / "occupancy.npz", out / "occupancy.yaml"]
+    try:
+        result = abstract_map(p_occ, grid.frame, radius, source=f"the map of {world}")
+    except AtlasError as exc:
+        if ended != "interrupted":
+            raise
+        click.echo(f"the grid has too little in it to abstract yet: {exc}")
+        _report(None, grid_files)
+        sys.exit(130)
+    places = [place.point for place in engine.world.places.values()]
     ends = (places[0], places[-1]) if len(places) > 1 else None
-    _report(result, [out / "occupancy.npz", out / "occupancy.yaml"]
-            + write_levels(p_occ, result, out, path_xy=path_xy, title=setup.world.name, route_ends=ends))
+    _report(result, grid_files + write_levels(p_occ, result, out, path_xy=path_xy, title=engine.world.name,
+                                              route_ends=ends))
+    if ended == "interrupted":
+        sys.exit(130)
 
 
 def _tour_mission(world: str, out) -> str:
@@ -82,8 +99,9 @@ def _tour_mission(world: str, out) -> str:
 
 @map_group.command("abstract")
 @click.argument("map_yaml", metavar="MAP.yaml", type=click.Path(dir_okay=False))
-@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False), help="Folder for the levels.")
-@click.option("--robot-radius", type=float, default=0.2, show_default=True, help="Metres; the clearance routes keep.")
+@click.option("--out", "out_dir", required=True, type=OutputFolder(), help="Folder for the levels.")
+@click.option("--robot-radius", type=POSITIVE, default=0.2, show_default=True,
+              help="Metres; the clearance routes keep.")
 def abstract_command(map_yaml: str, out_dir: str, robot_radius: float) -> None:
     """Run the whole abstraction on a ROS map_server map and write every level as data and PNG.
 
@@ -100,7 +118,7 @@ def abstract_command(map_yaml: str, out_dir: str, robot_radius: float) -> None:
 
 @map_group.command("render")
 @click.argument("map_file", metavar="MAP", type=click.Path(dir_okay=False))
-@click.option("--out", "out_png", required=True, type=click.Path(dir_okay=False), help="The PNG to write.")
+@click.option("--out", "out_png", required=True, type=OutputFile(), help="The PNG to write.")
 def render_command(map_file: str, out_png: str) -> None:
     """Draw a map: a ROS map_server YAML, or a grid.npz written by `atlas map build`/`abstract`."""
     import numpy as np
@@ -123,7 +141,8 @@ def render_command(map_file: str, out_png: str) -> None:
 
 
 def _report(result, written) -> None:
-    click.echo(f"{len(result.sdt.segments)} skeleton segments, {int(result.sdt.places.max())} places, "
-               f"nodes {result.topology.kinds()}")
+    if result is not None:
+        click.echo(f"{len(result.sdt.segments)} skeleton segments, {int(result.sdt.places.max())} places, "
+                   f"nodes {result.topology.kinds()}")
     for path in written:
         click.echo(f"wrote {path}")

@@ -20,16 +20,18 @@ from typing import Iterable, Iterator, TextIO
 
 import click
 
+from atlas_rap.cli.options import POSITIVE, OutputFile, world_help
+
 
 @click.command()
 @click.argument("files", nargs=-1, metavar="[FILE...]", type=click.Path(dir_okay=False))
-@click.option("--world", metavar="W", help="A world to run in (a shipped world's name or a world file); "
-                                           "default: none (virtual skills only).")
+@click.option("--world", metavar="W",
+              help=world_help("Default: the first file's (world ...) form, else none (virtual skills only)."))
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed for the world's randomness.")
-@click.option("--trace", "trace_file", type=click.Path(dir_okay=False, writable=True), metavar="FILE",
+@click.option("--trace", "trace_file", type=OutputFile(), metavar="FILE",
               help="Write the trace as JSON lines; written when the session ends, however it ends.")
 @click.option("--verbose", "-v", is_flag=True, help="Also show task selections and skill disables.")
-@click.option("--speed", type=float, default=1.0, show_default=True,
+@click.option("--speed", type=POSITIVE, default=1.0, show_default=True,
               help="Interactive: simulated seconds per wall-clock second of the background clock.")
 def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str | None, verbose: bool,
          speed: float) -> None:
@@ -37,20 +39,22 @@ def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str |
 
     Type any top-level form (define-rap, post, include, plan, ...),
     (assert FACT), (retract FACT), a query such as (? (at robot ?where)),
-    or a command such as :agenda, :memory, :run 10. Ctrl-C stops a :run,
-    Ctrl-D ends the session. Exits 1 if any submission failed.
+    or a command such as :agenda, :memory, :run 10. FILEs load as `atlas
+    run` loads a mission, and the first file's (world ...) is the session's
+    world unless --world says otherwise. Ctrl-C stops a :run, Ctrl-D ends
+    the session (halting live tasks). Results go to stdout, errors to
+    stderr. Exits 1 if any submission failed.
     """
-    from rich.console import Console
-
+    from atlas_rap.cli.console import console
     from atlas_rap.cli.repl_session import Session
 
     interactive = sys.stdin.isatty()
-    out = Console(highlight=False, soft_wrap=True) if interactive else Console(
-        highlight=False, soft_wrap=True, force_terminal=False, no_color=True, width=200)
-    session = Session(world, seed, out=out, trace_file=trace_file, verbose=verbose)
+    width = None if interactive else 200
+    out, err = console(width=width), console(err=True, width=width)
+    session = Session(world, seed, out=out, err=err, trace_file=trace_file, verbose=verbose)
     try:
         for path in files:
-            session.submit(f'(include "{_escape(path)}")')
+            session.load_file(path)
         if interactive:
             _interactive(session, speed)
         else:
@@ -82,10 +86,6 @@ def submissions(lines: Iterable[str] | TextIO) -> Iterator[str]:
             pending = []
     if "".join(pending).strip():
         yield "".join(pending)  # unbalanced at the end: the reader says where
-
-
-def _escape(path: str) -> str:
-    return path.replace("\\", "\\\\").replace('"', '\\"')
 
 
 @contextmanager

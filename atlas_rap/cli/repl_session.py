@@ -1,7 +1,9 @@
-"""The REPL's engine: a running sequencer (and world) that typed forms and commands act on.
+"""The REPL's session: typed forms, queries and commands acting on a running mission engine.
 
 :class:`Session` is what ``atlas repl`` drives, interactively or from a
-pipe, and what tests drive directly. :meth:`Session.submit` takes one
+pipe, and what tests drive directly. Programs go to the same
+:class:`~atlas_rap.layers.engine.MissionEngine` that ``atlas run`` uses, so
+the REPL loads what ``atlas run`` loads. :meth:`Session.submit` takes one
 submission (the text typed before Enter) and returns True when it worked;
 output goes to the ``out`` console. What a submission may be:
 
@@ -15,8 +17,13 @@ output goes to the ``out`` console. What a submission may be:
 
 Choices where the issue is silent:
 
-- A submission is read and validated as a whole before any of it runs, so
-  a syntax error anywhere in it changes nothing.
+- A submission is a program like a file, loaded in one pass (so a RAP may
+  use a skill defined further down), and read, validated and checked as a
+  whole before any of it runs: an error anywhere in it changes nothing. Its
+  queries, asserts and retracts run after its program, in the order written.
+- The world: ``--world`` if given; else the first program's ``(world ...)``
+  (``atlas repl deliver.rap`` runs in deliver's world); else none. A later
+  program that names another world is an error saying so.
 - A redefined RAP replaces the old one by name and arity; a running task
   uses it at its next method choice (as ``Mission.reload``).
 - Time moves only by ``:step``, ``:run`` or, interactively, the background
@@ -25,6 +32,9 @@ Choices where the issue is silent:
 - ``(plan GOAL ...)`` plans from the current memory with the operators
   typed or included so far and posts the RAP that carries the plan out;
   ``:plan GOAL ...`` only shows the plan.
+- Results go to standard output, errors to standard error.
+- Ending the session (Ctrl-D, end of input) halts the live tasks, so their
+  skills are disabled in the trace, before the trace is written.
 - ``:save FILE`` writes memory as ``initial-memory`` and the live top-level
   tasks as ``post`` forms, with the RAPs, rules and virtual skills defined in
   the session, so ``atlas repl FILE`` (or ``include``) brings them back.
@@ -34,23 +44,14 @@ from __future__ import annotations
 
 import shlex
 import threading
-from pathlib import Path
 from typing import Callable
 
 from rich.console import Console
 
-from atlas_rap.errors import (
-    AtlasError,
-    Problem,
-    SourceError,
-    SourceLocation,
-    line_of,
-    source_lines,
-)
-from atlas_rap.lang import ast, format_node, load
-from atlas_rap.lang.loader import Program
+from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.lang import ast, format_node, load_text
 from atlas_rap.lang.reader import Forms, SList, read_text
-from atlas_rap.lang.validator import to_term, validate
+from atlas_rap.lang.validator import to_term
 from atlas_rap.logic import Compound, Term, Var, is_anonymous, substitute, term_to_str, variables
 from atlas_rap.shipped import resolve_user_path
 
@@ -62,8 +63,8 @@ COMMANDS = {
     ":run": "[SECONDS]  run SECONDS of simulated time, or until the posted tasks end (Ctrl-C stops it)",
     ":pause": "stop (or restart) the clock that runs the world in the background",
     ":reload": "FILE  load FILE again: its RAPs, rules and virtual skills replace the old ones",
-    ":skills": "the skills tasks can use, and which are running",
-    ":map": "[FILE.png]  draw the world and the robot's path (needs --world)",
+    ":skills": "the skills tasks can use, and which are running for which task",
+    ":map": "[FILE.png]  draw the world and the robot's path (needs a world)",
     ":plan": "GOAL ...  show a plan for the goals (does not run it)",
     ":save": "FILE  write memory, live tasks and session definitions to a file that loads back",
     ":help": "this list",
@@ -71,41 +72,42 @@ COMMANDS = {
 
 STEP = 0.1
 RUN_LIMIT = 3600.0
+_SPECIAL = ("?", "assert", "retract")
 
 
 class Session:
-    """A sequencer with its skills (and a simulated world with ``world``), ready for forms."""
+    """A mission engine (in a world, or none) ready for typed forms, queries and commands."""
 
     def __init__(self, world: str | None = None, seed: int = 0, *, out: Console | None = None,
-                 trace_file: str | None = None, verbose: bool = False) -> None:
+                 err: Console | None = None, trace_file: str | None = None, verbose: bool = False) -> None:
         from atlas_rap.cli.views import LiveTrace
-        from atlas_rap.layers.setup import WorldSetup
+        from atlas_rap.layers import MissionEngine, RunPicture
         from atlas_rap.sequencer import JsonlSink, Trace
-        from atlas_rap.sequencer.mission import Mission
-        from atlas_rap.skills.virtual import VirtualSkills
 
         self.out = out or Console(highlight=False, soft_wrap=True)
-        self.setup = WorldSetup(world or "none", seed)
-        empty = Program(root="<repl>", files=(), forms=())
-        self.skills = self.setup.skills_for(empty)
-        self.virtual = self.skills if isinstance(self.skills, VirtualSkills) else self.skills.links[-1]
+        self.err = err or self.out
         self.trace = Trace(keep=True)
-        self.mission = Mission(empty, self.skills, trace=self.trace)
-        self.mission.started = True
-        self.setup.start(self.mission)
-        self.sequencer = self.mission.sequencer
+        self.engine = MissionEngine(world, default_world="none", seed=seed, trace=self.trace)
         self.sink = JsonlSink(trace_file) if trace_file else None
         if self.sink is not None:
             self.trace.add_sink(self.sink)
         self.trace.add_sink(LiveTrace(self.out, verbose=verbose))
+        self.picture = RunPicture(self.engine)
         self.lock = threading.RLock()
-        self.defined: dict[str, ast.TopLevel] = {}  # session definitions, for :save
-        self.planning: list[ast.TopLevel] = []  # operators, agents, relations, initial facts
         self.lines: dict[str, list[str]] = {}
         self.submissions = 0
         self.paused = False
         self.interrupted = threading.Event()
         self.failures = 0
+
+    @property
+    def sequencer(self):
+        return self.engine.sequencer
+
+    @property
+    def skills(self):
+        self.engine.sequencer
+        return self.engine.skills
 
     # -- submissions -----------------------------------------------------
 
@@ -123,46 +125,62 @@ class Session:
             return True
         except SourceError as exc:
             for problem in exc.problems:
-                self.out.print(problem.render(), style="red", markup=False)
+                self.err.print(problem.render(), style="red", markup=False)
         except AtlasError as exc:
-            self.out.print(f"error: {exc}", style="red", markup=False)
+            self.err.print(f"error: {exc}", style="red", markup=False)
+        finally:
+            self._report_fault()
         self.failures += 1
         return False
 
+    def load_file(self, path: str) -> bool:
+        """Load a file given on the command line, as ``atlas run`` loads a mission; False on an error."""
+        return self.submit(f'(include "{_escape(str(resolve_user_path(path)))}")')
+
     def forms(self, text: str) -> None:
-        """Read and validate every form of ``text``, then run them in order."""
+        """Load the program in ``text`` in one pass, then run its queries, asserts and retracts in order."""
         self.submissions += 1
         name = f"<input {self.submissions}>"
         self.lines[name] = source_lines(text)
         data = read_text(text, name)
-        actions: list[tuple[str, object, SourceLocation]] = []
-        toplevel_items, toplevel_locs = [], []
+        specials: list[tuple[str, Term]] = []
+        items, locs = [], []
         for datum, (line, column) in zip(data, data.locs):
-            where = SourceLocation(name, line, column)
             head = datum.head if type(datum) is SList else None
             if type(head) is Var and is_anonymous(head):
                 head = "?"  # the reader reads a lone ? as an anonymous variable
-            if head in ("?", "assert", "retract"):
-                actions.append((head, self._special(datum, where, head), where))
+            if head in _SPECIAL:
+                specials.append((head, self._special(datum, SourceLocation(name, line, column), head)))
             else:
-                toplevel_items.append(datum)
-                toplevel_locs.append((line, column))
-                actions.append(("form", None, where))
-        validated = iter(validate(Forms(toplevel_items, toplevel_locs), name, text).forms)
-        for kind, value, where in actions:
-            if kind == "form":
-                form = next(validated)
-                if isinstance(form, ast.Include):
-                    program = load(resolve_user_path(form.path))
-                    self.lines.update(program.lines)
-                    for included in program.forms:
-                        self.apply(included)
-                else:
-                    self.apply(form)
-            elif kind == "?":
+                items.append(datum)
+                locs.append((line, column))
+        if items:
+            program = load_text(text, name, Forms(items, locs))
+            self.lines.update(program.lines)
+            loaded = self.engine.load(program)
+            for warning in loaded.warnings:
+                self.err.print(warning.render(), style="yellow", markup=False)
+            for plan in loaded.plans:
+                self.out.print(plan.to_text(), markup=False)
+            self._describe(program, loaded)
+        for kind, value in specials:
+            if kind == "?":
                 self.query(value)
             else:
                 self.change(kind, value)
+
+    def _describe(self, program, loaded) -> None:
+        for form in program.forms:
+            if isinstance(form, ast.RapDef):
+                self.note(f"defined RAP {term_to_str(form.head)}")
+            elif isinstance(form, ast.MemoryRuleDef):
+                self.note(f"defined memory rule {form.name}")
+            elif isinstance(form, ast.VirtualSkillDef):
+                self.note(f"defined virtual skill {term_to_str(form.head)}")
+            elif isinstance(form, (ast.Operator, ast.Agents, ast.RelationDef, ast.Initial, ast.Goals)):
+                self.note(f"noted {type(form).__name__.lower()} for the planner")
+        for task in loaded.posted:
+            self.note(f"posted [{task.id}] {task.text}")
 
     def _special(self, datum: SList, where: SourceLocation, head: str) -> Term:
         if len(datum.items) != 2:
@@ -178,76 +196,25 @@ class Session:
     def _line(self, loc: SourceLocation) -> str | None:
         return line_of(self.lines.get(loc.file, []), loc.line)
 
-    def apply(self, form: ast.TopLevel) -> None:
-        """Run one validated top-level form."""
-        seq = self.sequencer
-        if isinstance(form, ast.RapDef):
-            self._check_rap(form)
-            seq.define([form])
-            self.defined[f"rap {form.name}/{len(form.params)}"] = form
-            self.note(f"defined RAP {term_to_str(form.head)}")
-        elif isinstance(form, ast.MemoryRuleDef):
-            seq.define_rules([form.rule])
-            self.defined[f"rule {form.name}"] = form
-            self.note(f"defined memory rule {form.name}")
-        elif isinstance(form, ast.VirtualSkillDef):
-            self.virtual.define([form])
-            seq.refresh_skills()
-            self.defined[f"skill {form.name}"] = form
-            self.note(f"defined virtual skill {term_to_str(form.head)}")
-        elif isinstance(form, ast.Post):
-            self._check_task(form.task, form.loc)
-            task = seq.post(form.task, form.priority, form.deadline)
-            seq.settle()
-            self.note(f"posted [{task.id}] {task.text}")
-        elif isinstance(form, ast.InitialMemory):
-            seq.change([("assert", fact) for fact in form.facts], "repl")
-        elif isinstance(form, ast.AtTime):
-            if form.time < seq.now():
-                raise AtlasError(f"at-time {form.time:g} is in the past (the time is {seq.now():g} s)")
-            changes = [(op.kind, op.fact) for op in form.actions]
-            seq.timers.at(form.time, lambda: seq.change(changes, f"at-time {form.time:g}"))
-        elif isinstance(form, ast.PlanRequest):
-            self.plan(form.goals, execute=True, loc=form.loc)
-        elif isinstance(form, (ast.Operator, ast.Agents, ast.RelationDef, ast.Initial, ast.Goals)):
-            self.planning.append(form)
-            if isinstance(form, ast.RelationDef):
-                from atlas_rap.logic import Relation
-
-                seq.relations.setdefault(form.name, []).append(Relation(form.head, form.body))
-            self.note(f"noted {type(form).__name__.lower()} for the planner")
-        elif isinstance(form, ast.WorldDecl):
-            raise AtlasError("the world is chosen when the REPL starts: atlas repl --world W")
-
     def note(self, text: str) -> None:
         self.out.print(text, style="dim", markup=False)
 
-    def _check_rap(self, rap: ast.RapDef) -> None:
-        """The sequencer's load-time checks of a new RAP, against what is defined now."""
-        from atlas_rap.sequencer.checks import check_program
-
-        raps = {(r.name, len(r.params)): r for r in self.sequencer.library.values()}
-        raps[(rap.name, len(rap.params))] = rap
-        program = Program(root="<repl>", files=(), forms=tuple(raps.values()), lines=self.lines)
-        problems = [p for p in check_program(program, self.skills.skills(), self.skills.produces())
-                    if p.location.file == rap.loc.file and p.severity == "error"]
-        if problems:
-            raise SourceError(problems)
-
-    def _check_task(self, call: Compound, loc: SourceLocation) -> None:
-        seq = self.sequencer
-        if not seq.is_rap(call) and not seq.is_skill(call):
-            raise SourceError(Problem(f"no RAP or skill {call.functor} with {len(call.args)} argument(s)",
-                                      loc, self._line(loc), "define it with define-rap first, or see :skills"))
+    def _report_fault(self) -> None:
+        """A memory rule that broke while time passed: say so (the tasks have already failed)."""
+        fault = self.engine.take_fault()
+        if fault is not None:
+            self.err.print(f"error: the run stopped: {fault}", style="red", markup=False)
 
     # -- memory ------------------------------------------------------------
 
     def change(self, kind: str, fact: Compound) -> None:
         """Assert or retract a fact, as an event from outside (memory rules run)."""
+        self.engine.start()
         self.sequencer.change([(kind, fact)], "repl")
 
     def query(self, q: Term) -> list[dict]:
         """Print every answer of ``q`` over memory: its bindings, or yes / no."""
+        self.engine.start()
         seq = self.sequencer
         answers = list(seq.memory.query(q, None, seq.relations))
         shown = [v for v in variables(q) if not v.name.startswith("_")]
@@ -266,39 +233,26 @@ class Session:
     def advance(self, seconds: float) -> None:
         """Let ``seconds`` of simulated time pass (the world, skills, timers)."""
         with self.lock:
-            executive = self.setup.executive
-            if executive is not None:
-                executive.advance(seconds, stop=self.interrupted.is_set)
-            else:
-                seq = self.sequencer
-                until = seq.now() + seconds
-                seq.settle()
-                while not self.interrupted.is_set():
-                    due = seq.timers.next_time()
-                    if due is None or due > until:
-                        break
-                    seq.advance_to(due)
-                if not self.interrupted.is_set():
-                    seq.advance_to(until)
+            self.engine.advance(seconds, stop=self.interrupted.is_set)
+            self._report_fault()
 
     def run(self, seconds: float | None) -> None:
         """:run: for ``seconds``, or until every live top-level task has ended."""
         self.interrupted.clear()
-        seq = self.sequencer
+        engine = self.engine
         if seconds is not None:
+            self.note(f"running {seconds:g} s of simulated time (Ctrl-C stops it)")
             self.advance(seconds)
         else:
-            start = seq.now()
-            while seq.live_roots() and not self.interrupted.is_set() and seq.now() - start < RUN_LIMIT:
-                before = seq.now()
-                due = seq.timers.next_time()
-                if self.setup.executive is None and due is None:
-                    self.note("nothing more can happen: no timer is due and no event can arrive")
-                    break
-                self.advance(STEP if self.setup.executive is not None else max(due - before, 0.0) or STEP)
+            self.note("running until the posted tasks end (Ctrl-C stops it)")
+            ended = engine.run(engine.now() + RUN_LIMIT, stop=self.interrupted.is_set)
+            if ended == "stalled":
+                self.note("nothing more can happen: no timer is due and no event can arrive")
+            elif ended == "time-limit":
+                self.note(f"the posted tasks are still running after {RUN_LIMIT:g} s")
         if self.interrupted.is_set():
-            self.note(f"interrupted at {seq.now():g} s")
-        self.note(f"time {seq.now():g} s")
+            self.note(f"interrupted at {engine.now():g} s")
+        self.note(f"time {engine.now():g} s")
 
     # -- commands --------------------------------------------------------
 
@@ -355,23 +309,24 @@ class Session:
     def _reload(self, rest: str) -> None:
         if not rest:
             raise AtlasError(":reload takes a file name")
-        names = self.mission.reload(resolve_user_path(rest))
+        names = self.engine.reload(resolve_user_path(rest)).names
         self.note(f"reloaded {rest}: {', '.join(names) if names else 'nothing to replace'}")
 
     def _skills(self, rest: str) -> None:
-        running = {str(call) for call in self.virtual.running()}
-        if self.setup.manager is not None:
-            running |= {str(call) for call in self.setup.manager.running()}
         for name, arities in sorted(self.skills.skills().items()):
             self.out.print(f"{name} ({'/'.join(map(str, sorted(arities)))} args)", markup=False)
-        if running:
-            self.out.print("running: " + ", ".join(sorted(running)), markup=False)
+        held = [f"{term_to_str(call)} for [{run.task.id}] {run.task.text}"
+                for run, call in self.sequencer.holders.values()]
+        if held:
+            self.out.print("running: " + ", ".join(sorted(held)), markup=False)
 
     def _map(self, rest: str) -> None:
-        if self.setup.world is None:
-            raise AtlasError(":map needs a world: start the REPL with --world W")
-        path = rest or "repl-map.png"
-        self.setup.render(path, "atlas repl")
+        from atlas_rap.outputs import output_file
+
+        if self.engine.world_name == "none":
+            raise AtlasError(":map needs a world: start the REPL with --world W, or load a mission that names one")
+        path = output_file(shlex.split(rest)[0] if rest else "repl-map.png", ":map")
+        self.picture.render(str(path), "atlas repl")
         self.note(f"picture written to {path}")
 
     def _plan(self, rest: str) -> None:
@@ -381,18 +336,21 @@ class Session:
         goals = term.args if type(term) is Compound and term.functor == "" else ()
         if not goals or any(type(goal) is not Compound for goal in goals):
             raise AtlasError(":plan takes goals such as (at robot lab) (seen box)")
-        self.plan(tuple(goals), execute=False, loc=None)
+        self.engine.start()
+        self.out.print(self.engine.plan(tuple(goals)).to_text(), markup=False)
 
     def _save(self, rest: str) -> None:
+        from atlas_rap.outputs import output_file
+
         if not rest:
             raise AtlasError(":save takes a file name")
-        path = Path(shlex.split(rest)[0])
+        path = output_file(shlex.split(rest)[0], ":save")
         try:
             path.write_text(self.saved_text(), encoding="utf-8")
         except OSError as exc:
             raise AtlasError(f"cannot write {path}: {exc.strerror}") from None
         self.note(f"saved memory, {len(self.sequencer.live_roots())} live task(s) and "
-                  f"{len(self.defined)} definition(s) to {path}")
+                  f"{len(self.engine.definitions)} definition(s) to {path}")
 
     def _help(self, rest: str) -> None:
         self.out.print("Type a form (define-rap, post, assert, retract, include, plan, ...), "
@@ -404,7 +362,7 @@ class Session:
         """Memory, live top-level tasks and session definitions as a file that loads back."""
         seq = self.sequencer
         lines = [f";; saved by atlas repl at {seq.now():g} s simulated", ""]
-        lines += [format_node(form) for form in self.defined.values()]
+        lines += [format_node(form) for form in self.engine.definitions.values()]
         facts = [term_to_str(f) for f in seq.memory]
         if facts:
             lines.append("(initial-memory\n  " + "\n  ".join(facts) + ")")
@@ -412,36 +370,15 @@ class Session:
             lines.append(f"(post {term_to_str(task.call)})")
         return "\n".join(lines) + "\n"
 
-    # -- planning ----------------------------------------------------------
-
-    def plan(self, goals: tuple[Term, ...], execute: bool, loc: SourceLocation | None):
-        """Plan for ``goals`` from memory with the session's operators; show it, and
-        with ``execute`` post the RAP that carries it out."""
-        from atlas_rap.planner.checks import raise_problems
-        from atlas_rap.planner.execute import PLAN_TASK, plan_rap_text
-        from atlas_rap.planner.problem import problem_from_program
-        from atlas_rap.planner.solve import solve
-
-        forms = tuple(self.planning) + tuple(self.sequencer.library.values())
-        program = Program(root="<repl>", files=(), forms=forms, lines=self.lines)
-        problem = problem_from_program(program, name="<repl>").asked(goals, tuple(self.sequencer.memory), loc)
-        raise_problems(problem)
-        result = solve(problem)
-        self.out.print(result.to_text(), markup=False)
-        if result.status != "solved" or not execute:
-            return result
-        self.submissions += 1
-        name = PLAN_TASK.format(n=self.submissions)
-        text, missing = plan_rap_text(result, list(self.sequencer.library.values()), name)
-        if missing:
-            raise AtlasError("no RAP can execute plan step " + "; ".join(missing))
-        self.forms(text + f"(post ({name}))\n")
-        return result
-
     def close(self) -> None:
-        """Write the trace file, if one was asked for."""
-        if self.sink is not None:
-            self.sink.close()
+        """End the session: halt the live tasks (their skills disabled), then write the trace file."""
+        try:
+            with self.lock:
+                if self.engine.built:
+                    self.engine.halt_live("the session ended")
+        finally:
+            if self.sink is not None:
+                self.sink.close()
 
 
 def _number(text: str, usage: str, kind: Callable = float):
@@ -459,3 +396,7 @@ _COMMAND_HANDLERS: dict[str, Callable[[Session, str], None]] = {
     ":run": Session._run, ":pause": Session._pause, ":reload": Session._reload, ":skills": Session._skills,
     ":map": Session._map, ":plan": Session._plan, ":save": Session._save, ":help": Session._help,
 }
+
+
+def _escape(path: str) -> str:
+    return path.replace("\\", "\\\\").replace('"', '\\"')

@@ -7,26 +7,27 @@ import time
 
 import click
 
+from atlas_rap.cli.options import POSITIVE, OutputFile, world_help
+
+
 @click.command()
 @click.argument("mission_file", metavar="MISSION.rap", type=click.Path(dir_okay=False))
 @click.option("--world", "world", metavar="W",
-              help="World to run in: a shipped world's name (lab-corridor-office, office-building, maze, "
-                   "small-office-map), a world file, or 'none' for virtual skills and scripted events only. "
-                   "Default: the mission's (world ...) form, else lab-corridor-office.")
+              help=world_help("Default: the mission's (world ...) form, else lab-corridor-office."))
 @click.option("--seed", type=int, default=0, show_default=True,
               help="Seed for every random choice of the run (same files and seed, same trace).")
-@click.option("--trace", "trace_file", type=click.Path(dir_okay=False, writable=True), metavar="FILE",
+@click.option("--trace", "trace_file", type=OutputFile(), metavar="FILE",
               help="Write the trace as JSON lines (LANGUAGE.md §2.8), even if the run fails or is interrupted.")
 @click.option("--quiet", "-q", is_flag=True, help="No live trace; only warnings and the summary.")
 @click.option("--verbose", "-v", is_flag=True, help="Also show task selections and skill disables.")
-@click.option("--until", type=float, default=3600.0, show_default=True, metavar="SECONDS",
+@click.option("--until", type=POSITIVE, default=3600.0, show_default=True, metavar="SECONDS",
               help="Simulated time limit; tasks still running then fail.")
 @click.option("--realtime", is_flag=True, help="Pace simulated time to the wall clock.")
 @click.option("--agenda", "show_agenda", is_flag=True, help="Print the task tree at the end.")
 @click.option("--memory", "show_memory", is_flag=True, help="Print memory at the end.")
 @click.option("--map", "topology_file", type=click.Path(dir_okay=False, exists=True), metavar="TOPOLOGY.json",
               help="A topological map built from sonar (atlas map build): navigate-to plans its routes on it.")
-@click.option("--render", type=click.Path(dir_okay=False, writable=True), metavar="OUT.png",
+@click.option("--render", type=OutputFile(), metavar="OUT.png",
               help="Draw the world, the robot's path, the places and where each task started and ended.")
 def run(mission_file: str, world: str | None, seed: int, trace_file: str | None, quiet: bool, verbose: bool,
         until: float, realtime: bool, show_agenda: bool, show_memory: bool, topology_file: str | None,
@@ -37,47 +38,44 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     summary gives the chain of failures down to the skill or event that
     caused it) or the input is bad, 130 when interrupted.
     """
-    from rich.console import Console
-
+    from atlas_rap.cli.console import console
     from atlas_rap.cli.views import LiveTrace, memory_table, summary, task_tree
     from atlas_rap.errors import AtlasError
-    from atlas_rap.layers.setup import WorldSetup
-    from atlas_rap.sequencer import JsonlSink, Trace, agenda_tree
-    from atlas_rap.sequencer.mission import RunResult, wall_clock_pacer
+    from atlas_rap.layers import MissionEngine, RunPicture, wall_clock_pacer
+    from atlas_rap.sequencer import JsonlSink, agenda_tree
     from atlas_rap.shipped import resolve_user_path
 
-    out = Console(highlight=False, soft_wrap=True)
-    err = Console(stderr=True, highlight=False, soft_wrap=True)
-    setup = WorldSetup(world, seed, topology=topology_file)
-    mission = setup.load_mission(resolve_user_path(mission_file), trace=Trace())
-    for warning in mission.warnings:
-        err.print(warning.render(), style="yellow", markup=False)
-    if render and setup.world is None:
-        raise AtlasError("--render needs a world; this run has none (--world none)")
-    if render:
-        mission.trace.add_sink(setup.task_events)
+    out, err = console(), console(err=True)
+    engine = MissionEngine(world, seed=seed, topology=topology_file)
+    picture = RunPicture(engine) if render else None
     sink = JsonlSink(trace_file) if trace_file else None
     if sink is not None:
-        mission.trace.add_sink(sink)
+        engine.trace.add_sink(sink)
     if not quiet:
-        mission.trace.add_sink(LiveTrace(out, verbose=verbose))
+        engine.trace.add_sink(LiveTrace(out, verbose=verbose))
+    try:
+        loaded = engine.load_file(resolve_user_path(mission_file), require_post=True)
+    except BaseException:
+        if sink is not None:
+            sink.close()
+        raise
+    for warning in loaded.warnings:
+        err.print(warning.render(), style="yellow", markup=False)
+    if render and engine.world is None:
+        raise AtlasError("--render needs a world; this run has none (--world none)")
     started = time.perf_counter()
     try:
-        result = mission.run(until=until, pace=wall_clock_pacer() if realtime else None, driver=setup.executive)
-    except KeyboardInterrupt:
-        for task in mission.sequencer.live_roots():
-            mission.sequencer.halt(task, "the run was interrupted")
-        result = RunResult(list(mission.sequencer.roots), mission.sequencer.now(), "interrupted")
+        result = engine.run_mission(until, pace=wall_clock_pacer() if realtime else None)
     finally:
         if sink is not None:
             sink.close()
-        if render and setup.world is not None:
-            setup.render(render, click.format_filename(mission_file))
+        if picture is not None:
+            picture.render(render, click.format_filename(mission_file))
     name = click.format_filename(mission_file)
     if show_agenda:
-        out.print(task_tree(agenda_tree(mission.sequencer)))
+        out.print(task_tree(agenda_tree(engine.sequencer)))
     if show_memory:
-        out.print(memory_table(mission.sequencer.memory))
+        out.print(memory_table(engine.sequencer.memory))
     for line in summary(result, name, time.perf_counter() - started):
         out.print(line)
     if trace_file:

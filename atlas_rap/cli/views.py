@@ -12,6 +12,8 @@ from rich.text import Text
 from rich.tree import Tree
 
 from atlas_rap.sequencer.introspect import STATUS_MARKS, TaskView, describe
+from atlas_rap.sequencer.net import FAILURE_OUTCOMES
+from atlas_rap.sequencer.task import Failure
 
 _STATUS_STYLES = {"pending": "dim", "running": "cyan", "succeeded": "green", "failed": "red", "halted": "yellow"}
 
@@ -61,7 +63,7 @@ class LiveTrace:
         if event == "task-halted":
             return text.append(f"{indent}⊘ {who} halted: {record['reason']}", style="yellow")
         if event == "step-outcome":
-            failed = record["outcome"] in (":fail", ":timeout")
+            failed = record["outcome"] in FAILURE_OUTCOMES
             why = f": {record['reason']}" if "reason" in record else ""
             return text.append(f"{indent}  → {record['step']} {record['outcome']}{why}",
                                style="red" if failed else "dim")
@@ -69,6 +71,12 @@ class LiveTrace:
             return text.append(f"{indent}  ⚙ enable {record['skill']}", style="magenta")
         if event == "skill-disabled":
             return text.append(f"{indent}  ⚙ disable {record['skill']}", style="dim") if self.verbose else None
+        if event == "skill-preempted":
+            verb = "took" if record["outcome"] == ":preempted" else "keeps"
+            return text.append(f"{indent}  ⚠ [{record['winner_id']}] {record['winner']} {verb} {record['skill']} "
+                               f"from {who} ({record['outcome']})", style="yellow")
+        if event == "memory-error":
+            return text.append(f"  ✗ memory error on {record['fact']}: {record['error']}", style="bold red")
         if event in ("fact-asserted", "fact-retracted"):
             sign = "+" if event == "fact-asserted" else "-"
             by = f"  ({record['by']})" if "by" in record else ""
@@ -107,17 +115,59 @@ def summary(result, mission_name: str, wall_seconds: float) -> list[Text]:
     """Lines that say how the run ended: each posted task and, for failures, the chain of causes."""
     done = sum(task.status == "succeeded" for task in result.tasks)
     ending = {"done": "", "stalled": " (stalled: nothing more could happen)",
-              "time-limit": " (time limit reached)", "interrupted": " (interrupted)"}[result.ended_by]
+              "time-limit": " (time limit reached)", "interrupted": " (interrupted)",
+              "error": " (stopped by a memory error)"}[result.ended_by]
     style = "bold green" if result.ok else "bold red"
     lines = [Text(f"{mission_name}: {done} of {len(result.tasks)} posted tasks succeeded in "
                   f"{result.time:g} s simulated ({wall_seconds:.2f} s wall){ending}", style=style)]
+    lines += [Text(f"  {note}", style="red") for note in result.notes]
     for task in result.tasks:
         mark = STATUS_MARKS[task.status]
         when = f" at {task.ended:g} s" if task.ended is not None else ""
         lines.append(Text(f"  {mark} {task.text} {task.status}{when}", style=_STATUS_STYLES[task.status]))
         if task.failure is not None:
-            first, *causes = task.failure.chain()
-            lines.append(Text(f"      {first.reason}", style="red"))
-            for depth, failure in enumerate(causes, 1):
-                lines.append(Text("      " + "  " * depth + f"{failure.what}: {failure.reason}", style="red"))
+            lines += [Text("      " + line, style="red") for line in failure_lines(task.failure)]
     return lines
+
+
+FOLD_AFTER = 2
+"""Repeats of a stretch of a failure chain shown before the rest of the run is folded."""
+
+
+def failure_lines(failure: Failure) -> list[str]:
+    """A failure chain as indented lines, outermost first, for people.
+
+    A chain that repeats itself (a RAP that calls itself without end) is
+    folded: its root cause comes first, then the first repeats, then one
+    line such as ``… 60 more levels of (loop) …``, then the innermost levels.
+    """
+    first, *causes = failure.chain()
+    levels = [(0, first.reason)] + [(depth, f"{f.what}: {f.reason}") for depth, f in enumerate(causes, 1)]
+    period, start, repeats = _repetition([(f.what, f.reason) for f in causes])
+    if repeats <= FOLD_AFTER + 1:
+        return ["  " * depth + text for depth, text in levels]
+    root = failure.root()
+    head = levels[:1 + start + period * FOLD_AFTER]
+    folded = repeats - FOLD_AFTER - 1
+    tail = levels[1 + start + period * (repeats - 1):]
+    depth = head[-1][0]
+    what = causes[start].what if causes[start].what.startswith("(") else first.what
+    lines = [f"cause: {root.what}: {root.reason}"]
+    lines += ["  " * d + text for d, text in head]
+    lines.append("  " * (depth + 1) + f"… {folded} more level{'s' if folded != 1 else ''} of {what} …")
+    lines += ["  " * (depth + 1 + i) + text for i, (_, text) in enumerate(tail, 1)]
+    return lines
+
+
+def _repetition(items: list[tuple[str, str]]) -> tuple[int, int, int]:
+    """The longest run of one repeated stretch in ``items``: (period, start, repeats)."""
+    best = (1, 0, 1)
+    for period in range(1, 7):
+        for start in range(0, min(period, len(items))):
+            repeats = 1
+            while (start + period * (repeats + 1) <= len(items)
+                   and items[start + period * repeats:start + period * (repeats + 1)] == items[start:start + period]):
+                repeats += 1
+            if repeats * period > best[2] * best[0]:
+                best = (period, start, repeats)
+    return best

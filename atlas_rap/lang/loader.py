@@ -9,6 +9,10 @@ that makes them, and every problem of every file collected into one
 The forms of an included file stand where its ``include`` stands (depth
 first), so definitions read in the order a person reads the files. A second
 ``include`` of a file already loaded adds nothing.
+
+:func:`load_text` loads text that a person typed (the REPL) the same way,
+as a program of its own; its includes are relative to the working
+directory, falling back on the shipped files (``rap_library/...``).
 """
 
 from __future__ import annotations
@@ -18,9 +22,10 @@ from pathlib import Path
 
 from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
 from atlas_rap.lang import ast
-from atlas_rap.lang.reader import read_file, read_text
+from atlas_rap.lang.reader import Forms, read_file, read_text
 from atlas_rap.lang.validator import to_term, validate, validate_partial
 from atlas_rap.logic import Term
+from atlas_rap.shipped import resolve_user_path
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,15 +96,18 @@ def load(path: str | Path) -> Program:
     loader = _Loader()
     root = Path(path)
     loader.visit(root, [])
-    if loader.problems:
-        raise SourceError(loader.problems)
-    files = tuple(loader.files[key] for key in loader.order)
-    program = Program(root=_display(root), files=files, forms=_expand(_display(root), loader.files),
-                      lines=loader.lines)
-    _check_unique_definitions(program, loader)
-    if loader.problems:
-        raise SourceError(loader.problems)
-    return program
+    return loader.program(_display(root))
+
+
+def load_text(text: str, name: str = "<input>", forms: Forms | None = None) -> Program:
+    """Load typed source (named ``name``, e.g. ``"<input 3>"``) and what it includes, as :func:`load` does.
+
+    ``forms``: the top-level forms of ``text`` to load, already read (a caller
+    that handles some forms itself, as the REPL does its queries); default all.
+    """
+    loader = _Loader()
+    loader.visit_text(text, name, forms)
+    return loader.program(name)
 
 
 def _display(path: Path) -> str:
@@ -112,6 +120,8 @@ def _display(path: Path) -> str:
 
 
 def _resolve(including: str, target: str) -> Path:
+    if including.startswith("<"):  # typed text: relative to the working directory, or a shipped file
+        return resolve_user_path(target).resolve()
     return (Path(including).resolve().parent / target).resolve()
 
 
@@ -126,6 +136,27 @@ class _Loader:
     def source_line(self, loc: SourceLocation) -> str | None:
         return line_of(self.lines.get(loc.file, []), loc.line)
 
+    def program(self, root: str) -> Program:
+        """The loaded program rooted at ``root``; raises every problem found."""
+        if self.problems:
+            raise SourceError(self.problems)
+        files = tuple(self.files[key] for key in self.order)
+        program = Program(root=root, files=files, forms=_expand(root, self.files), lines=self.lines)
+        _check_unique_definitions(program, self)
+        if self.problems:
+            raise SourceError(self.problems)
+        return program
+
+    def visit_text(self, text: str, name: str, forms: Forms | None = None) -> None:
+        if forms is None:
+            try:
+                forms = read_text(text, name)
+            except SourceError as exc:
+                self.lines[name] = source_lines(text)
+                self.problems.extend(exc.problems)
+                return
+        self._add(name, forms, text, [])
+
     def visit(self, path: Path, chain: list[tuple[str, ast.Include]]) -> None:
         name = _display(path)
         if name in self.files or name in self.failed:
@@ -136,6 +167,9 @@ class _Loader:
             self.failed.add(name)
             self.problems.extend(exc.problems)
             return
+        self._add(name, forms, text, chain)
+
+    def _add(self, name: str, forms, text: str, chain: list[tuple[str, ast.Include]]) -> None:
         self.lines[name] = source_lines(text)
         source, problems = validate_partial(forms, name, text)
         self.problems.extend(problems)
@@ -157,9 +191,11 @@ class _Loader:
                 "remove one of these includes; each file needs to be included only once"))
             return
         if not target.is_file():
+            where = ("the working directory" if source.path.startswith("<")
+                     else "the file that includes them")
             self.problems.append(Problem(
                 f"included file not found: {form.path} (looked for {target_name})", form.loc,
-                self.source_line(form.loc), "include paths are relative to the file that includes them"))
+                self.source_line(form.loc), f"include paths are relative to {where}"))
             return
         self.visit(target, chain + [(source.path, form)])
 

@@ -1,0 +1,475 @@
+"""The mission engine: one running system that programs are loaded into, for `atlas run` and `atlas repl` alike.
+
+A :class:`MissionEngine` is a sequencer with its skills, in a simulated world
+or in none, on one clock. A mission file (``atlas run``), a file given to the
+REPL, and a submission typed at the REPL's prompt are all *programs*, and
+:meth:`MissionEngine.load` loads each the same way, in one pass, so a RAP
+may use a virtual skill or RAP defined further down:
+
+1. its ``(world ...)`` form chooses the world, if none runs yet (a path is
+   relative to the file); ``--world`` overrides every such form, and a
+   program naming another world than the one running is a located error;
+2. its ``(plan GOAL ...)`` requests are planned (the planner is imported only
+   then) from memory, the program's ``initial``/``initial-memory`` facts and
+   the operators loaded so far, and replaced by RAPs that carry them out;
+3. it is checked whole, against the skills and the RAPs, rules and virtual
+   skills defined before it; any error and nothing of it takes effect;
+4. its definitions take effect: virtual skills, RAPs, memory rules,
+   relations, planning operators; each replaces an earlier definition of the
+   same name (a running task uses a new RAP at its next method choice);
+5. the world starts, once: its prior map (places, doors) goes into memory;
+6. its ``initial-memory`` facts, ``at-time`` events (absolute simulated
+   times, refused when past) and ``post``\\ s take effect, in that order.
+
+Time then moves with :meth:`run` (until the posted tasks end), :meth:`advance`
+(a while, tasks or not) or :meth:`run_mission` (``atlas run``: run, then fail
+what is still running at the end; Ctrl-C halts the live tasks). The world's
+skills and the program's virtual skills serve the sequencer side by side.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation
+from atlas_rap.lang import ast, load, load_text
+from atlas_rap.lang.loader import Program
+from atlas_rap.layers.executive import Driver, Executive, Pace, Rates, Stop, VirtualExecutive
+from atlas_rap.logic import Compound, Relation, Term, term_to_str
+from atlas_rap.sequencer import Sequencer, Task, Trace
+from atlas_rap.sequencer.checks import check_program
+from atlas_rap.sequencer.introspect import waiting_for
+from atlas_rap.sequencer.skill_link import CombinedSkills
+from atlas_rap.sequencer.task import SUCCEEDED
+from atlas_rap.skills.virtual import VirtualSkills, skill_names
+
+DEFAULT_WORLD = "lab-corridor-office"
+"""The world of an ``atlas run`` mission that names none: the seed's lab, corridor and office."""
+
+DEFAULT_TIME_LIMIT = 3600.0
+"""Simulated seconds a mission may run before its remaining tasks fail (``--until``)."""
+
+PLAN_TIMEOUT = 60.0
+"""CPU seconds the planner may take for one ``(plan GOAL ...)``."""
+
+_PLANNING_FORMS = (ast.Operator, ast.Agents, ast.RelationDef, ast.Initial, ast.Goals)
+
+
+@dataclass
+class RunResult:
+    """How a run ended: the posted tasks (with their outcomes), the time, and why it stopped.
+
+    ``ended_by``: ``done`` (every posted task ended), ``stalled`` (nothing more
+    could happen), ``time-limit``, ``interrupted`` (Ctrl-C) or ``error`` (a
+    memory rule broke; ``notes`` says how).
+    """
+
+    tasks: list[Task]
+    time: float
+    ended_by: str = "done"
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """True when every posted task succeeded."""
+        return bool(self.tasks) and all(task.status == SUCCEEDED for task in self.tasks)
+
+
+@dataclass
+class Loaded:
+    """What loading one program did: the names it defined, the tasks it posted, the plans it made."""
+
+    names: list[str] = field(default_factory=list)
+    posted: list[Task] = field(default_factory=list)
+    plans: list[Any] = field(default_factory=list)
+    warnings: list[Problem] = field(default_factory=list)
+
+
+class MissionEngine:
+    """One running system (world or none, skills, sequencer) that programs are loaded into.
+
+    ``world``: the world flag (a shipped world's name, a world file, or
+    ``none``), which overrides the programs' ``(world ...)`` forms;
+    ``default_world`` is used when neither says (``atlas run``: the lab,
+    ``atlas repl``: none). ``topology`` is a topological map file for
+    ``navigate-to``; ``mapping`` adds the map-builder skill.
+    """
+
+    def __init__(self, world: str | None = None, *, default_world: str = DEFAULT_WORLD, seed: int = 0,
+                 trace: Trace | None = None, topology: str | None = None, mapping: bool = False,
+                 rates: Rates = Rates()) -> None:
+        self.world_flag = world
+        self.default_world = default_world
+        self.seed = seed
+        self.trace = trace if trace is not None else Trace()
+        self.topology = topology
+        self.mapping = mapping
+        self.rates = rates
+        self.world: Any = None
+        self.world_file: Path | None = None
+        self.simulation: Any = None
+        self.manager: Any = None
+        self.virtual = VirtualSkills()
+        self.skills: Any = None
+        self._sequencer: Sequencer | None = None
+        self.driver: Driver | None = None
+        self.started = False
+        self.warnings: list[Problem] = []
+        self.definitions: dict[tuple[str, str, int], ast.TopLevel] = {}
+        self.planning: list[ast.TopLevel] = []
+        self.lines: dict[str, list[str]] = {}
+        self.files: set[str] = set()
+        self.plans_made = 0
+
+    # -- the running system ----------------------------------------------------
+
+    @property
+    def sequencer(self) -> Sequencer:
+        """The sequencer; asking for it before any program chose a world builds the default one."""
+        if self._sequencer is None:
+            self._build(self.world_flag or self.default_world)
+        return self._sequencer  # type: ignore[return-value]
+
+    @property
+    def built(self) -> bool:
+        """True once the world (or none) is chosen and the sequencer exists."""
+        return self._sequencer is not None
+
+    def take_fault(self) -> str | None:
+        """Why memory rules stopped the run, if they did since the last call (then forgotten)."""
+        if self._sequencer is None:
+            return None
+        fault, self._sequencer.fault = self._sequencer.fault, None
+        return fault
+
+    @property
+    def world_name(self) -> str:
+        """The running world, as people name it (``none`` for virtual skills only)."""
+        self.sequencer
+        return self.world.name if self.world is not None else "none"
+
+    def start(self) -> None:
+        """Start the world once: the prior map (places, doors) goes into memory."""
+        seq = self.sequencer
+        if self.started:
+            return
+        self.started = True
+        if self.world is not None:
+            from atlas_rap.sim.prior import prior_facts
+
+            seq.change([("assert", fact) for fact in prior_facts(self.world)], "world")
+
+    def _build(self, chosen: str, form: ast.WorldDecl | None = None, line: str | None = None) -> None:
+        """Make the world (unless ``none``), its skills beside the virtual ones, and the sequencer."""
+        if chosen == "none":
+            if self.topology is not None:
+                raise AtlasError("--map needs a world; this run has none (--world none)")
+            self.skills = self.virtual
+            self._sequencer = Sequencer(skills=self.skills, trace=self.trace)
+            self.driver = VirtualExecutive(self._sequencer)
+            return
+        from atlas_rap.sim.physics import Simulation
+        from atlas_rap.sim.world import load_world, world_path
+        from atlas_rap.skills.stock import stock_manager
+
+        try:
+            self.world_file = world_path(chosen).resolve()
+            self.world = load_world(chosen)
+        except SourceError:
+            raise
+        except AtlasError as exc:
+            if form is None:
+                raise
+            raise _located(exc, form, line) from None
+        self.simulation = Simulation(self.world, seed=self.seed, dt=1.0 / self.rates.physics)
+        self.manager = stock_manager(self.world, self.simulation, self.simulation.rng, mapping=self.mapping)
+        if self.topology is not None:
+            from atlas_rap.maps.topology import Topology
+            from atlas_rap.skills.navigation import TOPOLOGY
+
+            self.manager.context.beliefs[TOPOLOGY] = Topology.from_json(self.topology)
+        self.skills = CombinedSkills(self.manager, self.virtual)
+        self._sequencer = Sequencer(skills=self.skills, trace=self.trace)
+        self.driver = Executive(self.simulation, self.manager, self._sequencer, self.rates)
+
+    def _choose_world(self, program: Program) -> None:
+        """Step 1 of :meth:`load`: the program's ``(world ...)`` chooses, or must match, the world."""
+        forms = program.of_type(ast.WorldDecl)
+        form = forms[-1] if forms else None
+        if self.world_flag is not None or form is None:
+            self.sequencer
+            return
+        chosen = _world_choice(form)
+        if self._sequencer is None:
+            self._build(chosen, form, program.source_line(form.loc))
+        elif not self._is_running(chosen):
+            raise SourceError(Problem(
+                f"this session runs {'with no world' if self.world is None else 'in ' + self.world.name}; "
+                f"this file names the world '{form.world}'", form.loc, program.source_line(form.loc),
+                f"start a session in that world (atlas repl --world {form.world}), or remove the (world ...) form"))
+
+    def _is_running(self, chosen: str) -> bool:
+        if chosen == "none" or self.world is None:
+            return chosen == "none" and self.world is None
+        from atlas_rap.sim.world import world_path
+
+        try:
+            return world_path(chosen).resolve() == self.world_file
+        except AtlasError:
+            return False
+
+    # -- loading programs ---------------------------------------------------------
+
+    def load_file(self, path: str | Path, *, require_post: bool = False) -> Loaded:
+        """Load a mission or RAP file (and what it includes); see :meth:`load`."""
+        return self.load(load(path), require_post=require_post)
+
+    def load_text(self, text: str, name: str, forms=None) -> Loaded:
+        """Load typed source as a program of its own (the REPL); see :meth:`load`."""
+        return self.load(load_text(text, name, forms))
+
+    def reload(self, path: str | Path) -> Loaded:
+        """Load a file again for its definitions only: RAPs, rules, virtual skills and
+        relations replace the old ones by name. Posts, initial memory, ``at-time``
+        and ``plan`` forms are ignored: reloading changes what the robot knows how
+        to do, not what it is doing. On an error nothing changes."""
+        return self.load(load(path), definitions_only=True)
+
+    def load(self, program: Program, *, require_post: bool = False, definitions_only: bool = False) -> Loaded:
+        """Load one program in one pass (the six steps of the module docstring).
+
+        ``require_post``: a program that posts nothing is an error (``atlas
+        run``). Raises :class:`SourceError` with every problem; then nothing
+        of the program has taken effect.
+        """
+        self._choose_world(program)
+        loaded = Loaded()
+        if program.of_type(ast.PlanRequest) and not definitions_only:
+            program, loaded.plans = self._carry_out_plans(program)
+        loaded.warnings = self._check(program, require_post and not definitions_only)
+        self.warnings += loaded.warnings
+        loaded.names = self._define(program)
+        self.start()
+        if not definitions_only:
+            loaded.posted = self._act(program)
+        return loaded
+
+    def _check(self, program: Program, require_post: bool) -> list[Problem]:
+        """Step 3: the sequencer's load-time checks of ``program`` beside what is defined; the warnings."""
+        seq = self.sequencer
+        new_skills = program.of_type(ast.VirtualSkillDef)
+        skills = {name: set(arities) for name, arities in self.skills.skills().items()}
+        for name, arities in skill_names(new_skills).items():
+            skills[name] = skills.get(name, set()) | arities
+        produces = self.skills.produces() | VirtualSkills(new_skills).produces()
+        produces |= {fact.functor for fact in seq.memory}
+        redefined = {_definition_key(form) for form in program.forms}
+        earlier = tuple(form for key, form in self.definitions.items() if key not in redefined)
+        combined = dataclasses.replace(program, forms=earlier + program.forms, lines={**self.lines, **program.lines})
+        mine = {source.path for source in program.files} | {program.root}
+        problems = [p for p in check_program(combined, skills, produces, require_post=require_post)
+                    if p.location.file in mine or p.location.file not in self.files]
+        for event in program.of_type(ast.AtTime):
+            if event.time < seq.now():
+                problems.append(Problem(f"at-time {event.time:g} is in the past (the time is {seq.now():g} s)",
+                                        event.loc, program.source_line(event.loc),
+                                        "at-time takes an absolute simulated time; give a later one"))
+        if any(problem.severity == "error" for problem in problems):
+            raise SourceError(sorted(problems, key=lambda p: p.severity != "error"))
+        return problems
+
+    def _define(self, program: Program) -> list[str]:
+        """Step 4: the program's definitions take effect; the names defined."""
+        seq = self.sequencer
+        self.lines.update(program.lines)
+        self.files |= {source.path for source in program.files} | {program.root}
+        new_skills = program.of_type(ast.VirtualSkillDef)
+        if new_skills:
+            self.virtual.define(new_skills)
+            seq.refresh_skills()
+        raps = program.of_type(ast.RapDef)
+        seq.define(raps)
+        rules = program.of_type(ast.MemoryRuleDef)
+        seq.define_rules([form.rule for form in rules])
+        relations: dict[str, list[Relation]] = {}
+        for form in program.of_type(ast.RelationDef):
+            relations.setdefault(form.name, []).append(Relation(form.head, form.body))
+        seq.define_relations(relations)
+        for name in relations:  # a program's clauses of a relation replace the earlier ones
+            self.definitions = {key: form for key, form in self.definitions.items()
+                                if key[:2] != ("RelationDef", name)}
+        for form in program.forms:
+            key = _definition_key(form)
+            if key is not None:
+                self.definitions.pop(key, None)
+                self.definitions[key] = form
+        self.planning = [form for form in self.planning if not _replaced(form, program)]
+        self.planning += [form for form in program.forms if isinstance(form, _PLANNING_FORMS)]
+        return [rap.name for rap in raps] + [form.name for form in rules] + [skill.name for skill in new_skills]
+
+    def _act(self, program: Program) -> list[Task]:
+        """Step 6: initial memory, at-time events and posts, in that order; the tasks posted."""
+        seq = self.sequencer
+        for form in program.of_type(ast.InitialMemory):
+            seq.change([("assert", fact) for fact in form.facts], "initial-memory")
+            fault = self.take_fault()
+            if fault is not None:
+                raise AtlasError(f"{program.root}: the initial memory broke a memory rule: {fault}")
+        for event in program.of_type(ast.AtTime):
+            changes = [(op.kind, op.fact) for op in event.actions]
+            seq.timers.at(event.time, lambda changes=changes, t=event.time: seq.change(changes, f"at-time {t:g}"))
+        return [seq.post(post.task, post.priority, post.deadline) for post in program.of_type(ast.Post)]
+
+    # -- planning ----------------------------------------------------------------------
+
+    def plan(self, goals: tuple[Term, ...], loc: SourceLocation | None = None, program: Program | None = None,
+             facts: tuple[Compound, ...] = ()):
+        """A plan for ``goals`` from memory and ``facts``, with the operators, agents, relations
+        and ``initial`` facts loaded so far (and those of ``program``, being loaded)."""
+        from atlas_rap.planner.checks import raise_problems
+        from atlas_rap.planner.problem import problem_from_program
+        from atlas_rap.planner.solve import solve
+
+        forms = [form for form in self.planning if program is None or not _replaced(form, program)]
+        if program is not None:
+            forms += [form for form in program.forms if isinstance(form, _PLANNING_FORMS)]
+        lines = {**self.lines, **(program.lines if program is not None else {})}
+        problem_program = Program(root=program.root if program is not None else "<plan>", files=(),
+                                  forms=tuple(forms), lines=lines)
+        base = problem_from_program(problem_program, name=problem_program.root)
+        problem = base.asked(goals, base.initial + tuple(self.sequencer.memory) + facts, loc)
+        raise_problems(problem)
+        return solve(problem, timeout=PLAN_TIMEOUT)
+
+    def _carry_out_plans(self, program: Program) -> tuple[Program, list]:
+        """Step 2: each ``(plan GOAL ...)`` of ``program`` planned now and replaced by a
+        generated RAP that carries the plan out and a post of it (``planner.execute``)."""
+        from atlas_rap.lang import parse_text
+        from atlas_rap.planner.execute import PLAN_TASK, plan_rap_text
+
+        facts = tuple(f for form in program.of_type(ast.InitialMemory) for f in form.facts)
+        raps = list({(r.name, len(r.params)): r for r in
+                     list(self.sequencer.library.values()) + program.of_type(ast.RapDef)}.values())
+        replaced: dict[int, list] = {}
+        plans, problems = [], []
+        for request in program.of_type(ast.PlanRequest):
+            line = program.source_line(request.loc)
+            try:
+                plan = self.plan(request.goals, request.loc, program, facts)
+            except SourceError as exc:
+                problems += exc.problems
+                continue
+            plans.append(plan)
+            if plan.status != "solved":
+                goals = " ".join(term_to_str(g) for g in request.goals)
+                reason = f" ({plan.reason})" if plan.reason else ""
+                problems.append(Problem(f"no plan for {goals}: {plan.status}{reason}", request.loc, line,
+                                        "check the initial facts and the operators that achieve these goals "
+                                        "with `atlas plan`"))
+                continue
+            self.plans_made += 1
+            name = PLAN_TASK.format(n=self.plans_made)
+            text, missing = plan_rap_text(plan, raps, name)
+            problems += [Problem(f"plan step {step}: no RAP can execute it", request.loc, line,
+                                 "write a RAP whose succeed clause unifies with the step's purpose, "
+                                 "or a RAP of the step's name") for step in missing]
+            if missing:
+                continue
+            rap = parse_text(text, f"<plan {self.plans_made}>").forms[0]
+            replaced[id(request)] = [rap, ast.Post(task=Compound(name, ()), loc=request.loc)]
+        if problems:
+            raise SourceError(problems)
+        forms = tuple(new for form in program.forms for new in replaced.get(id(form), [form]))
+        initial = [f for form in self.planning + program.of_type(ast.Initial) if isinstance(form, ast.Initial)
+                   for f in form.facts]
+        memory = self.sequencer.memory
+        believed = [f for f in dict.fromkeys(initial) if f not in memory and f not in set(facts)]
+        if believed:  # the planner's initial facts are what the robot believes too
+            forms = (ast.InitialMemory(facts=tuple(believed), loc=program.of_type(ast.PlanRequest)[0].loc),) + forms
+        return dataclasses.replace(program, forms=forms), plans
+
+    # -- time ---------------------------------------------------------------------------
+
+    def now(self) -> float:
+        """The simulated time, in seconds."""
+        return self.sequencer.now()
+
+    def run(self, until: float = DEFAULT_TIME_LIMIT, *, pace: Pace | None = None, stop: Stop | None = None) -> str:
+        """Run until every posted task has ended; how it stopped (see :class:`RunResult`,
+        and ``stopped`` when ``stop()`` said so). Tasks still running are left running."""
+        self.start()
+        ended = self.driver.run(until, pace, stop)  # type: ignore[union-attr]
+        return "error" if self.sequencer.fault is not None else ended
+
+    def advance(self, seconds: float, *, pace: Pace | None = None, stop: Stop | None = None) -> None:
+        """Let ``seconds`` of simulated time pass (world, skills, timers), tasks or not."""
+        self.start()
+        self.driver.advance(seconds, pace, stop)  # type: ignore[union-attr]
+
+    def run_mission(self, until: float = DEFAULT_TIME_LIMIT, *, pace: Pace | None = None) -> RunResult:
+        """``atlas run``: run until the posted tasks end, then fail the tasks still running,
+        saying what they waited for. Ctrl-C halts the live tasks (their skills disabled)."""
+        try:
+            ended = self.run(until, pace=pace)
+        except KeyboardInterrupt:
+            self.halt_live("the run was interrupted")
+            ended = "interrupted"
+        return self.finish(ended, until)
+
+    def finish(self, ended_by: str, until: float = DEFAULT_TIME_LIMIT) -> RunResult:
+        """The result of a run that ended by ``ended_by``; tasks still live fail, saying why."""
+        seq = self.sequencer
+        fault = self.take_fault()
+        result = RunResult(list(seq.roots), seq.now(), ended_by, [fault] if fault else [])
+        for task in seq.live_roots():
+            waits = waiting_for(task)
+            waiting = f"; it was waiting for {', '.join(waits)}" if waits else ""
+            if ended_by == "stalled":
+                why = f"nothing more can happen (no timer is due and no event can arrive){waiting}"
+            else:
+                why = f"still running at the time limit of {until:g} s{waiting}"
+            seq.cancel(task, why)
+        return result
+
+    def halt_live(self, why: str) -> list[Task]:
+        """Halt every live posted task (and disable every skill they enabled); the tasks halted."""
+        seq = self.sequencer
+        live = seq.live_roots()
+        for task in live:
+            seq.halt(task, why)
+        return live
+
+
+def _world_choice(form: ast.WorldDecl) -> str:
+    """The world a ``(world ...)`` form names; a path is relative to the file it is written in."""
+    world = form.world
+    if ("/" in world or world.endswith((".yaml", ".yml"))) and not form.loc.file.startswith("<"):
+        return str(Path(form.loc.file).resolve().parent / world)
+    return world
+
+
+def _located(exc: AtlasError, form: ast.WorldDecl, line: str | None) -> SourceError:
+    """An error about the world a form names, as a problem located at the form."""
+    first, *rest = str(exc).split("\n")
+    hint = "; ".join(text.strip() for text in rest) or None
+    return SourceError(Problem(first, form.loc, line, hint))
+
+
+def _definition_key(form: ast.TopLevel) -> tuple[str, str, int] | None:
+    """What a definition replaces: RAPs and virtual skills by name and arity, rules by name."""
+    if isinstance(form, (ast.RapDef, ast.VirtualSkillDef)):
+        return (type(form).__name__, form.name, len(form.head.args))
+    if isinstance(form, ast.MemoryRuleDef):
+        return ("MemoryRuleDef", form.name, 0)
+    if isinstance(form, ast.RelationDef):
+        return ("RelationDef", form.name, id(form))
+    return None
+
+
+def _replaced(form: ast.TopLevel, program: Program) -> bool:
+    """An earlier planning form that ``program`` replaces: an operator of the same name."""
+    return isinstance(form, ast.Operator) and any(
+        isinstance(new, ast.Operator) and new.name == form.name for new in program.forms)

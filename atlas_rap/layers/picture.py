@@ -1,0 +1,69 @@
+"""The picture of a run: an observer that watches the trace, then draws the world and the robot's path.
+
+Attach one to an engine before it runs, render it when you like (also after
+a failed or interrupted run)::
+
+    picture = RunPicture(engine)
+    engine.run_mission(until)
+    picture.render("run.png", "deliver.rap")
+
+It marks where each task at most one level below a posted one started
+(first selection) and ended, on the robot's path.
+"""
+
+from __future__ import annotations
+
+from bisect import bisect_left
+from typing import Any
+
+from atlas_rap.errors import AtlasError
+
+_KINDS = {"task-selected": "started", "task-succeeded": "succeeded", "task-failed": "failed"}
+
+
+class RunPicture:
+    """A trace sink keeping the task marks, and the drawing of the run."""
+
+    def __init__(self, engine: Any) -> None:
+        self.engine = engine
+        self.events: list[dict] = []
+        self.depth: dict[int, int] = {}
+        engine.trace.add_sink(self)
+
+    def __call__(self, record: dict) -> None:
+        event = record["event"]
+        if event == "task-posted":
+            parent = record.get("parent")
+            self.depth[record["id"]] = self.depth.get(parent, 0) + 1 if parent is not None else 0
+        elif event in _KINDS and self.depth.get(record["id"], 9) <= 1:
+            self.events.append(record)
+
+    def render(self, out_png: str, title: str) -> None:
+        """Draw the run so far: world, doors as they are, obstacles, path, task marks."""
+        from atlas_rap.sim.render import render_run
+
+        engine = self.engine
+        if engine.world is None:
+            raise AtlasError("a picture of the run needs a world; this run has none (--world none)")
+        sim = engine.simulation
+        render_run(engine.world, out_png, path=sim.path, doors_open=sim.doors_open, obstacles=sim.obstacles(),
+                   task_marks=self.marks(), title=f"{title}, seed {engine.seed}")
+
+    def marks(self) -> list:
+        """Where each marked task started (first selection) and ended, on the robot's path."""
+        from atlas_rap.sim.render import TaskMark
+
+        path = self.engine.simulation.path
+        times = [p[0] for p in path]
+        marks, started = [], set()
+        for record in self.events:
+            kind = _KINDS[record["event"]]
+            if kind == "started":
+                if record["id"] in started:
+                    continue
+                started.add(record["id"])
+            if not path:
+                break
+            _, x, y, _ = path[min(bisect_left(times, record["t"]), len(path) - 1)]
+            marks.append(TaskMark(record["t"], x, y, record["task"], kind))
+        return marks
