@@ -246,3 +246,18 @@ def runs(task: GroundTask, actions: Sequence[GroundAction]) -> bool:
             return False
         state = task.apply(action, state)
     return task.is_goal(state)
+
+
+# The person may take the wrench and leave it in any room: one event, however
+# many rooms (its groundings differ only in a variable of the effects).
+TOOL_TAKEN = """\
+(operator go :purpose (at ?r ?to) :agent ?r :preconditions ((at ?r ?from) (room ?to))
+  :effects ((at ?r ?to) (not (at ?r ?from))))
+(operator pick-up :purpose (holding ?r ?t) :agent ?r :preconditions ((at ?r ?room) (tool-in ?t ?room))
+  :effects ((holding ?r ?t) (not (tool-in ?t ?room))))
+(operator person-takes-tool :agent ?p :preconditions ((tool-in ?t ?room))
+  :effects ((not (tool-in ?t ?room)) (tool-left-in ?t ?elsewhere)) :uncontrolled t :probability 0.2)
+(agents (controlled robot) (uncontrolled person))
+(initial (at robot hall) (room hall) (room workshop) (room office) (room store) (tool-in wrench workshop))
+(goals (holding robot wrench))
+"""

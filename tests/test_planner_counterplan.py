@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 from pddl_problems import SHARED_PDDL, tireworld_problem
 from planner_cases import (
+    TOOL_TAKEN,
     door_problem,
     linearisations,
     load_problem,
@@ -260,19 +261,6 @@ def test_fond_triangle_tireworld_is_solved_with_no_risk(name: str) -> None:
     if not (TRIANGLE / "domain.pddl").exists() or not (TRIANGLE / f"{name}.pddl").exists():
         pytest.skip(f"the FOND triangle-tireworld benchmark is not at {TRIANGLE}")
     check_tireworld(load_pddl(TRIANGLE / "domain.pddl", TRIANGLE / f"{name}.pddl"))
-
-
-TOOL_TAKEN = """\
-(operator go :purpose (at ?r ?to) :agent ?r :preconditions ((at ?r ?from) (room ?to))
-  :effects ((at ?r ?to) (not (at ?r ?from))))
-(operator pick-up :purpose (holding ?r ?t) :agent ?r :preconditions ((at ?r ?room) (tool-in ?t ?room))
-  :effects ((holding ?r ?t) (not (tool-in ?t ?room))))
-(operator person-takes-tool :agent ?p :preconditions ((tool-in ?t ?room))
-  :effects ((not (tool-in ?t ?room)) (tool-left-in ?t ?elsewhere)) :uncontrolled t :probability 0.2)
-(agents (controlled robot) (uncontrolled person))
-(initial (at robot hall) (room hall) (room workshop) (room office) (room store) (tool-in wrench workshop))
-(goals (holding robot wrench))
-"""
 
 
 def test_an_uncontrolled_action_counts_once_whatever_the_values_of_its_effects_only_variables(tmp_path: Path) -> None:

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from cli_process import REPO, assert_no_traceback, atlas
 from matplotlib.image import imread
-from planner_cases import write_ap
+from planner_cases import TOOL_TAKEN, write_ap
 
 OPERATORS = REPO / "operators"
 
@@ -28,21 +28,6 @@ DOOR_OPEN = "(door-open lab-door)"
 TOOL_IN = "(tool-in wrench tool-cabinet)"
 
 THREAT_RGB = (0xc9, 0x2a, 0x2a)  # how render.py draws a threat left
-
-# The person may take the wrench and leave it in any room: one event, however
-# many rooms (its groundings differ only in a variable of the effects).
-TOOL_TAKEN = """\
-(operator go :purpose (at ?r ?to) :agent ?r :preconditions ((at ?r ?from) (room ?to))
-  :effects ((at ?r ?to) (not (at ?r ?from))))
-(operator pick-up :purpose (holding ?r ?t) :agent ?r :preconditions ((at ?r ?room) (tool-in ?t ?room))
-  :effects ((holding ?r ?t) (not (tool-in ?t ?room))))
-(operator person-takes-tool :agent ?p :preconditions ((tool-in ?t ?room))
-  :effects ((not (tool-in ?t ?room)) (tool-left-in ?t ?elsewhere)) :uncontrolled t :probability 0.2)
-(agents (controlled robot) (uncontrolled person))
-(initial (at robot hall) (room hall) (room workshop) (room office) (room store) (tool-in wrench workshop))
-(goals (holding robot wrench))
-"""
-
 
 def plan_operators(*args: str) -> subprocess.CompletedProcess:
     done = atlas("plan", *args, cwd=OPERATORS)

@@ -22,17 +22,18 @@ pytestmark = pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is no
 class Terminal:
     """A detached tmux session running one command, read with capture-pane."""
 
-    def __init__(self, command: str, cwd: Path) -> None:
+    def __init__(self, command: str, cwd: Path, **extra_env: str) -> None:
         self.name = f"atlas-{uuid.uuid4().hex[:8]}"
         env = {"PYTHONPATH": str(REPO), "ATLAS_RAP_DATA_DIR": str(cwd / "data"), "TERM": "xterm-256color",
-               "PATH": os.environ.get("PATH", "/usr/bin:/bin")}
+               "PATH": os.environ.get("PATH", "/usr/bin:/bin"), **extra_env}
         exports = " ".join(f"{k}='{v}'" for k, v in env.items())
         subprocess.run(["tmux", "new-session", "-d", "-s", self.name, "-x", "120", "-y", "40",
                         f"cd '{cwd}' && env {exports} {command}; echo EXITED $?; sleep 30"], check=True)
 
-    def screen(self) -> str:
-        return subprocess.run(["tmux", "capture-pane", "-p", "-t", self.name], capture_output=True,
-                              text=True).stdout
+    def screen(self, styles: bool = False) -> str:
+        """What the terminal shows; with ``styles``, its colour and style codes too."""
+        return subprocess.run(["tmux", "capture-pane", "-p", *(["-e"] if styles else []), "-t", self.name],
+                              capture_output=True, text=True).stdout
 
     def keys(self, *keys: str) -> None:
         subprocess.run(["tmux", "send-keys", "-t", self.name, *keys], check=True)
@@ -97,3 +98,18 @@ def test_typing_at_the_prompt_with_a_trace_line_appearing_above_it(terminal: Ter
     terminal.wait_for("EXITED 0")
     records = [json.loads(line) for line in (tmp_path / "run.jsonl").read_text(encoding="utf-8").splitlines()]
     assert any(r["event"] == "task-succeeded" and r["task"] == "(greet alice)" for r in records)
+
+
+@pytest.mark.parametrize("no_color", [False, True], ids=["colour", "NO_COLOR"])
+def test_no_colour_or_style_at_the_prompt_when_no_color_is_set(tmp_path: Path, no_color: bool) -> None:
+    env = {"NO_COLOR": "1"} if no_color else {}
+    term = Terminal(f"{sys.executable} -m atlas_rap repl", tmp_path, **env)
+    try:
+        term.wait_for("atlas>")
+        term.type("(define-rap (x) (method (task-net (wait-for (t)))))")
+        term.keys("Enter")
+        term.wait_for("defined RAP (x)")
+        styled = term.screen(styles=True)
+        assert ("\x1b[" in styled) is not no_color, styled
+    finally:
+        term.close()

@@ -422,19 +422,23 @@ def make_prompt_session(
     Enter submits when ``is_complete`` holds for the whole input, and
     otherwise inserts a newline with Lisp indentation; Escape Enter always
     submits. The prompt is ``atlas> `` and continuation lines show
-    ``  ...> ``. Input is coloured by ``SexpLexer`` with ``REPL_STYLE``;
+    ``  ...> ``. Input is coloured by ``SexpLexer`` with ``REPL_STYLE``
+    (not under ``NO_COLOR``, ``cli/console.py``);
     Tab completes with ``completer`` (no completion while typing). History
     goes to ``history_file`` when given, else stays in memory. ``input`` and
     ``output`` go to ``PromptSession`` unchanged (tests pass a pipe input and
     ``DummyOutput``).
     """
+    from atlas_rap.cli.console import styles_on
+
     history: History = _FileHistory(str(history_file)) if history_file is not None else InMemoryHistory()
+    styled = styles_on()
     return PromptSession(
         message=[("class:prompt", PROMPT)],
         multiline=True,
         prompt_continuation=_continuation,
-        lexer=SexpLexer(),
-        style=REPL_STYLE,
+        lexer=SexpLexer() if styled else None,
+        style=REPL_STYLE if styled else Style([]),
         history=history,
         completer=completer,
         complete_while_typing=False,
