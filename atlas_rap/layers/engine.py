@@ -148,7 +148,8 @@ class MissionEngine:
     @property
     def world_name(self) -> str:
         """The running world, as people name it (``none`` for virtual skills only)."""
-        self.sequencer
+        if not self.built:
+            self._build(self.world_flag or self.default_world)
         return self.world.name if self.world is not None else "none"
 
     def start(self) -> None:
@@ -464,12 +465,14 @@ def _definition_key(form: ast.TopLevel) -> tuple[str, str, int] | None:
         return (type(form).__name__, form.name, len(form.head.args))
     if isinstance(form, ast.MemoryRuleDef):
         return ("MemoryRuleDef", form.name, 0)
-    if isinstance(form, ast.RelationDef):
+    if isinstance(form, ast.RelationDef):  # each clause its own entry; _define drops a redefined relation's
         return ("RelationDef", form.name, id(form))
     return None
 
 
 def _replaced(form: ast.TopLevel, program: Program) -> bool:
-    """An earlier planning form that ``program`` replaces: an operator of the same name."""
-    return isinstance(form, ast.Operator) and any(
-        isinstance(new, ast.Operator) and new.name == form.name for new in program.forms)
+    """An earlier planning form that ``program`` replaces: an operator, or a relation's
+    clauses, of the same name."""
+    kind = type(form)
+    return kind in (ast.Operator, ast.RelationDef) and any(
+        type(new) is kind and new.name == form.name for new in program.forms)
