@@ -12,6 +12,7 @@ from scipy import ndimage
 
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.render import (
+    MapSheet,
     render_distance_transform,
     render_edges,
     render_grid,
@@ -183,6 +184,68 @@ def test_same_inputs_same_bytes(pictures, tmp_path):
     for name, png in again.items():
         assert png.read_bytes() == pictures[name].read_bytes(), name
     assert b"matplotlib" not in pictures["grid"].read_bytes().lower()
+
+
+def test_pictures_on_one_sheet_are_the_pictures_drawn_alone(pictures, tmp_path):
+    """A shared MapSheet (as write_levels uses) changes nothing: same bytes, in any order, drawn twice."""
+    p = two_rooms()
+    occupied_edges, empty_edges = edge_masks(p)
+    with MapSheet(FRAME) as sheet:
+        for round_ in range(2):
+            d = tmp_path / str(round_)
+            again = {
+                "topology_route": render_topology(graph(), FRAME, d / "t.png", background=p, route=ROUTE,
+                                                  sheet=sheet),
+                "places": render_places(place_labels(p), FRAME, d / "p.png", names={1: "hall", 2: "office", 3: "door"},
+                                        background=p, sheet=sheet),
+                "edges": render_edges(occupied_edges, empty_edges, FRAME, d / "e.png", sheet=sheet),
+                "grid": render_grid(p, FRAME, d / "g.png", title="two rooms", path_xy=_path(), sheet=sheet),
+                "dt": render_distance_transform(distance_transform(p), FRAME, d / "d.png", sheet=sheet),
+                "sdt": render_stochastic_sdt(skeleton_probability(), FRAME, d / "s.png", background=p, sheet=sheet),
+                "polygons": render_polygons(polygons(), FRAME, d / "y.png", background=p, sheet=sheet),
+                "route": render_route(p, FRAME, WAYPOINTS, d / "r.png", sheet=sheet),
+            }
+            for name, png in again.items():
+                assert png.read_bytes() == pictures[name].read_bytes(), (round_, name)
+    with MapSheet(GridFrame(10, 10, 0.1)) as other, pytest.raises(ValueError, match="sheet is for"):
+        render_grid(p, FRAME, tmp_path / "x.png", sheet=other)
+    with pytest.raises(RuntimeError, match="closed"):
+        render_grid(p, FRAME, tmp_path / "x.png", sheet=sheet)
+
+
+def test_a_title_longer_than_the_sheet_still_shows_whole(pictures, tmp_path):
+    title = "a title that runs on and on " * 12
+    out = render_grid(two_rooms(), FRAME, tmp_path / "long.png", title=title)
+    img, usual = _rgb(out), _rgb(pictures["grid_bare"])
+    assert img.shape[1] > usual.shape[1] + 800  # the picture grew to hold it...
+    assert (img[:60, -60:].min(axis=2) < 0.5).any()  # ...and its end is drawn near the right edge
+
+
+def test_a_picture_draws_few_artists_however_big_the_graph(tmp_path, monkeypatch):
+    """Nodes, edges, letters and names go in a handful of collections, not one artist each."""
+    frame = GridFrame(200, 200, 0.05)
+    g = nx.Graph()
+    for i in range(20):
+        for j in range(20):
+            g.add_node((i, j), xy=frame.cell_to_world(5 + 10 * i, 5 + 10 * j), kind="XTL"[(i + j) % 3])
+            if i:
+                g.add_edge((i - 1, j), (i, j), probability=0.5, cells=[(5 + 10 * i - 5, 5 + 10 * j)])
+            if j:
+                g.add_edge((i, j - 1), (i, j))
+    labels = np.repeat(np.repeat(np.arange(1, 101).reshape(10, 10), 20, axis=0), 20, axis=1)
+    counts = []
+    end = MapSheet._end
+
+    def counting(sheet):  # the picture's own artists, just drawn
+        counts.append(len([a for a in sheet.ax.get_children() if a not in sheet._static]))
+        end(sheet)
+
+    monkeypatch.setattr(MapSheet, "_end", counting)
+    render_topology(g, frame, tmp_path / "big_graph.png", background=np.zeros(frame.shape))
+    render_places(labels, frame, tmp_path / "many_places.png")
+    assert g.number_of_nodes() == 400
+    # 2 titles, 2 edge collections, 3 node kinds, 2 letter collections, the legend; titles, names (2), no legend
+    assert counts == [10, 4]
 
 
 def test_grid_is_upright_in_metres_and_unknown_is_not_free(pictures):
