@@ -28,19 +28,9 @@ From an occupancy grid ``p_occ`` (NaN = unknown) placed by a
    ``cost = -log P = sum -log(p_i) ds_i / 2r`` adds along routes (the most
    probable route is the cheapest) and a long corridor is not penalised
    cell by cell for evidence that neighbouring cells share.
-5. **places** (:func:`places`) -- rooms and corridors (a corridor is split
-   only where it narrows, not at its junctions): the free space
-   cut at the skeleton's critical points (Thrun 1998) -- points where the
-   clearance along a segment dips well below the clearance on both sides
-   (a door or a narrowing; ``door_ratio``) -- and labelled by connected
-   components. Why not a watershed of -DT from well-separated DT maxima:
-   it is the same idea (regions meet at the DT's saddles, i.e. at doors),
-   but it floods every cell: on the 2000 x 2000 benchmark plan
-   ``peak_local_max`` + ``watershed`` take 1.6 s where the skeleton and
-   the DT themselves take 1.4 s, and the markers' spacing splits corridors
-   arbitrarily. The critical points are found on the skeleton's few pixels
-   and the labelling is one ``ndimage.label`` (0.02 s). The pipeline
-   therefore finds places after the segments, not before.
+5. **places** -- rooms and corridors, found on the skeleton's critical
+   points and cut along the doorways in the walls
+   (:mod:`atlas_rap.maps.rooms`, with settings in metres).
 6. **topology** -- :class:`atlas_rap.maps.topology.Topology`.
 
 :func:`abstract` runs the whole pipeline and returns every level.
@@ -60,11 +50,12 @@ from atlas_rap.maps.frame import GridFrame
 
 if TYPE_CHECKING:
     from atlas_rap.maps.geometry import GeometricMap
+    from atlas_rap.maps.rooms import RoomSettings
     from atlas_rap.maps.topology import Topology
 
 __all__ = [
     "SDT", "Abstraction", "SkeletonSegment", "SkeletonTrace", "abstract", "cell_support", "distance_transform",
-    "free_space", "places", "segment_costs", "skeleton", "trace_skeleton",
+    "free_space", "segment_costs", "skeleton", "trace_skeleton",
 ]
 
 UNKNOWN_SUPPORT = 0.5
@@ -401,104 +392,6 @@ def segment_costs(support: np.ndarray, cells: np.ndarray, offsets: np.ndarray, r
     return length, np.maximum(cost, 0.0)
 
 
-# -- places -------------------------------------------------------------------------
-
-def _critical_points(profile: np.ndarray, door_ratio: float, min_dip: float) -> list[int]:
-    """Indices along a clearance profile where it dips to a door: ``d <= door_ratio * min(max left, max right)``."""
-    if profile.size < 3:
-        return []
-    left = np.maximum.accumulate(profile)
-    right = np.maximum.accumulate(profile[::-1])[::-1]
-    side = np.minimum(left, right)
-    dip = (profile <= door_ratio * side) & (side - profile >= min_dip)
-    if not dip.any():
-        return []
-    edges = np.diff(np.concatenate([[0], dip.view(np.int8), [0]]))
-    points = []
-    for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
-        run = profile[a:b]
-        lowest = np.flatnonzero(run == run.min())
-        points.append(int(a + lowest[len(lowest) // 2]))  # the middle of the narrowest stretch
-    return points
-
-
-def places(dt: np.ndarray, free_mask: np.ndarray, frame: GridFrame, paths: list[np.ndarray] | None = None, *,
-           door_ratio: float = 0.7, min_dip: float | None = None, clearance: float = 0.0) -> np.ndarray:
-    """Places (rooms, and corridors split where they narrow): int labels, 0 off the places, 1..N on them.
-
-    The free space is cut at the critical points of the skeleton ``paths``
-    (each an ordered (n, 2) array of (row, col), e.g. the topology's edges;
-    by default the skeleton of the cells with ``dt > clearance``, traced):
-    points where the clearance along a path is at most ``door_ratio`` times
-    the highest clearance reached on both sides of it, and at least
-    ``min_dip`` metres (default 2 cells) below it. At each, the free cells
-    within a disc of the clearance plus 1.5 cells (those connected to the
-    point inside it) are cut out, the rest is labelled (4-connected
-    ``ndimage.label``), the regions the paths do not touch are dropped
-    (label 0: free space too narrow for the skeleton, or cut off), and the
-    cut cells are given back to the place they touch, grown from both sides
-    of the door so the boundary falls at the narrowest line.
-    """
-    free = np.asarray(free_mask, dtype=bool)
-    height, width = free.shape
-    res = frame.resolution
-    if paths is None:
-        trace = trace_skeleton(skeleton(dt, free, clearance), dt)
-        paths = [trace.cells(i) for i in range(len(trace.seg_u))]
-    dip = (2 * res if min_dip is None else min_dip) / res
-    cut = np.zeros_like(free)
-    boxes = []
-    for cells in paths:
-        if len(cells) < 3:
-            continue
-        profile = dt[cells[:, 0], cells[:, 1]] / res
-        for i in _critical_points(profile, door_ratio, dip):
-            r, c = int(cells[i, 0]), int(cells[i, 1])
-            radius = profile[i] + 1.5
-            k = int(math.ceil(radius))
-            r0, r1, c0, c1 = max(0, r - k), min(height, r + k + 1), max(0, c - k), min(width, c + k + 1)
-            yy, xx = np.ogrid[r0 - r:r1 - r, c0 - c:c1 - c]
-            disc = (yy * yy + xx * xx <= radius * radius) & free[r0:r1, c0:c1]
-            local, _ = ndimage.label(disc)
-            if local[r - r0, c - c0]:
-                cut[r0:r1, c0:c1] |= local == local[r - r0, c - c0]
-                boxes.append((r0, r1, c0, c1))
-    labels, count = ndimage.label(free & ~cut)
-    # Keep the regions the paths run through, numbered in raster order.
-    if paths:
-        all_cells = np.concatenate([np.asarray(p).reshape(-1, 2) for p in paths])
-        touched = np.unique(labels[all_cells[:, 0], all_cells[:, 1]])
-    else:
-        touched = np.zeros(0, dtype=labels.dtype)
-    touched = touched[touched > 0]
-    lut = np.zeros(count + 1, dtype=np.int32)
-    lut[touched] = np.arange(1, touched.size + 1, dtype=np.int32)
-    labels = lut[labels]
-    if cut.any():
-        _fill_cuts(labels, cut)
-    return labels
-
-
-def _fill_cuts(labels: np.ndarray, cut: np.ndarray) -> None:
-    """Grow the labels into the cut cells, one 4-connected ring at a time, from every side at once."""
-    height, width = labels.shape
-    todo = np.flatnonzero(cut.ravel())
-    flat = labels.ravel()
-    rows, cols = np.divmod(todo, width)
-    while todo.size:
-        best = np.zeros(todo.size, dtype=labels.dtype)
-        for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-            r, c = rows + dr, cols + dc
-            inside = (r >= 0) & (r < height) & (c >= 0) & (c < width)
-            values = np.where(inside, flat[np.where(inside, r * width + c, 0)], 0)
-            np.maximum(best, values, out=best)
-        grown = best > 0
-        if not grown.any():
-            break
-        flat[todo[grown]] = best[grown]
-        todo, rows, cols = todo[~grown], rows[~grown], cols[~grown]
-
-
 # -- the whole pipeline ---------------------------------------------------------------
 
 @dataclass(frozen=True, eq=False)
@@ -563,13 +456,15 @@ class Abstraction:
 
 
 def abstract(p_occ: np.ndarray, frame: GridFrame, robot_radius: float = 0.2, free_below: float = 0.5, *,
-             door_ratio: float = 0.7, spur_ratio: float = 1.0, merge_cells: float = 3.0,
-             geometry: bool = False) -> Abstraction:
+             rooms: RoomSettings | None = None, reachable: np.ndarray | None = None, spur_ratio: float = 1.0,
+             merge_cells: float = 3.0, geometry: bool = False) -> Abstraction:
     """Run the whole pipeline on ``p_occ`` (NaN = unknown): free space, DT, skeleton, segments, places, topology.
 
     ``robot_radius`` (metres) is the clearance the skeleton keeps and the
     half-width of the band each segment's probability is computed over.
-    ``door_ratio`` is :func:`places`' criterion; ``spur_ratio`` and
+    ``rooms`` are the settings of the places (doors, room sizes;
+    :mod:`atlas_rap.maps.rooms`), ``reachable`` the cells a robot that
+    mapped the space could reach (None on a drawn map); ``spur_ratio`` and
     ``merge_cells`` are :func:`atlas_rap.maps.topology.build_topology`'s.
     With ``geometry`` the geometric map (edges, polygons;
     :func:`atlas_rap.maps.geometry.geometric_map`) is computed too.
@@ -579,12 +474,17 @@ def abstract(p_occ: np.ndarray, frame: GridFrame, robot_radius: float = 0.2, fre
     p = np.asarray(p_occ)
     if p.shape != frame.shape:
         raise ValueError(f"p_occ has shape {p.shape}, but the frame is {frame.height} x {frame.width}")
+    from atlas_rap.maps.rooms import RoomSettings
+
     free = free_space(p, free_below)
     dt = distance_transform(free, frame)
     skel = skeleton(dt, free, robot_radius)
+    if reachable is not None:
+        skel &= reachable
     trace = trace_skeleton(skel, dt)
     topology = build_topology(trace, dt, p, frame, robot_radius=robot_radius, spur_ratio=spur_ratio,
-                              merge_cells=merge_cells, free=free, door_ratio=door_ratio)
+                              merge_cells=merge_cells, free=free, reachable=reachable,
+                              rooms=rooms or RoomSettings())
     geo = None
     if geometry:
         from atlas_rap.maps.geometry import geometric_map

@@ -52,7 +52,8 @@ import numpy as np
 
 from atlas_rap.errors import AtlasError
 from atlas_rap.maps.frame import GridFrame
-from atlas_rap.maps.sdt import SkeletonSegment, SkeletonTrace, cell_support, places, segment_costs
+from atlas_rap.maps.rooms import RoomSettings, segment_rooms
+from atlas_rap.maps.sdt import SkeletonSegment, SkeletonTrace, cell_support, segment_costs
 
 __all__ = ["GraphRoute", "Topology", "build_topology", "RISK"]
 
@@ -181,12 +182,16 @@ class _Skeleton:
 
 def build_topology(trace: SkeletonTrace, dt: np.ndarray, p_occ: np.ndarray, frame: GridFrame, *,
                    robot_radius: float = 0.2, spur_ratio: float = 1.0, merge_cells: float = 3.0,
-                   free: np.ndarray | None = None, door_ratio: float = 0.7) -> Topology:
+                   free: np.ndarray | None = None, reachable: np.ndarray | None = None,
+                   rooms: RoomSettings = RoomSettings()) -> Topology:
     """The :class:`Topology` of a traced skeleton (see the module docstring for the simplification).
 
     ``dt`` is the distance transform in metres, ``p_occ`` the occupancy
-    grid (for the edges' probabilities), ``free`` the free mask (for the
-    places and for line-of-sight checks in routes; default ``dt > 0``).
+    grid (for the edges' probabilities and the walls the places are cut
+    along), ``free`` the free mask (for the places and for line-of-sight
+    checks in routes; default ``dt > 0``), ``reachable`` the cells a robot
+    that mapped the space could reach (:func:`atlas_rap.maps.rooms.segment_rooms`),
+    ``rooms`` what the building's doors and rooms are like.
     """
     res = frame.resolution
     free = dt > 0 if free is None else np.asarray(free, dtype=bool)
@@ -209,7 +214,10 @@ def build_topology(trace: SkeletonTrace, dt: np.ndarray, p_occ: np.ndarray, fram
     support = cell_support(p_occ, all_cells, band)
     diameter = 2 * robot_radius if robot_radius > 0 else res  # as in Topology.route
     length, cost = segment_costs(support, all_cells, offsets, res, diameter)
-    labels = places(dt, free, frame, cells_of, door_ratio=door_ratio)
+    with np.errstate(invalid="ignore"):
+        occupied = np.asarray(p_occ) >= 0.5
+    labels, _ = segment_rooms(free, occupied, dt, res, cells_of, robot_radius=robot_radius, reachable=reachable,
+                              settings=rooms)
 
     # Node ids in raster order of their cells.
     alive = sorted(sk.adj, key=lambda n: (int(node_cells[n, 0]), int(node_cells[n, 1])))
@@ -336,25 +344,66 @@ class Topology:
                 best, where = n, d
         return best
 
-    def name_places(self, places_xy: Mapping[str, Sequence[float]]) -> dict[int, str]:
-        """Name the places that contain the given points (name -> world x, y); returns label -> name."""
-        for name, xy in places_xy.items():
+    def name_places(self, places: Mapping[str, Any]) -> dict[int, str]:
+        """Name the map's places after the world's; returns label -> name.
+
+        ``places`` maps a name to a region (a polygon: a sequence of world
+        (x, y) points) or to a point. A region names the place that covers
+        most of it (more than half of the region's cells on places), and
+        each place takes the name of the region that covers most of it, so
+        two rooms merged into one place give it one name, not two. A point
+        names the place it lies in, unless a region named that place
+        already. Without the label array (a topology read from JSON) a
+        region is known by its first point.
+        """
+        regions = {name: where for name, where in places.items() if _is_polygon(where)}
+        claims: dict[int, tuple[float, str]] = {}
+        if regions and self.place_labels is not None:
+            for name, polygon in regions.items():
+                label, share, cover = self._covering_place(polygon)
+                if label and share > 0.5 and cover > claims.get(label, (0.0, ""))[0]:
+                    claims[label] = (cover, name)
+        for name, where in places.items():
+            xy = where[0] if _is_polygon(where) else where
+            if name in regions and self.place_labels is not None:
+                continue
             label = self.place_at(xy)
-            if label:
-                self.place_names[label] = name
+            if label and label not in claims:
+                claims[label] = (0.0, name)
+        self.place_names.update({label: name for label, (_, name) in claims.items()})
         return dict(self.place_names)
+
+    def _covering_place(self, polygon: Sequence[Sequence[float]]) -> tuple[int, float, float]:
+        """The place that covers most of a world polygon: its label, the share of the polygon's
+        cells it covers, and the share of the place's cells inside the polygon."""
+        from skimage.draw import polygon as fill
+
+        labels = self.place_labels
+        xy = np.asarray(polygon, dtype=float)
+        rows, cols = self.frame.world_to_cell(xy[:, 0], xy[:, 1])
+        rr, cc = fill(np.asarray(rows, dtype=float), np.asarray(cols, dtype=float), labels.shape)
+        if rr.size == 0:
+            return 0, 0.0, 0.0
+        inside = labels[rr, cc]
+        counts = np.bincount(inside, minlength=1)
+        counts[0] = 0
+        label = int(np.argmax(counts))
+        if counts[label] == 0:
+            return 0, 0.0, 0.0
+        size = int((labels == label).sum())
+        return label, counts[label] / rr.size, counts[label] / max(size, 1)
 
     def place_name(self, label: int) -> str:
         return self.place_names.get(label, f"place{label}")
 
-    def facts(self, places_xy: Mapping[str, Sequence[float]] | None = None) -> list[tuple[str, ...]]:
+    def facts(self, places: Mapping[str, Any] | None = None) -> list[tuple[str, ...]]:
         """``("place", name)`` for every place, ``("connected", a, b)`` (a < b) for places an edge crosses between.
 
-        ``places_xy`` (name -> world point) names the places first (see
-        :meth:`name_places`); the others are ``place<label>``.
+        ``places`` (name -> world region or point) names the places first
+        (see :meth:`name_places`); the others are ``place<label>``.
         """
-        if places_xy:
-            self.name_places(places_xy)
+        if places:
+            self.name_places(places)
         out: list[tuple[str, ...]] = [("place", self.place_name(p)) for p in self.place_ids()]
         pairs: set[tuple[str, str]] = set()
         for u, v, d in self.graph.edges(data=True):
@@ -589,22 +638,32 @@ class Topology:
 
     def to_dict(self) -> dict[str, Any]:
         """The topology as plain JSON data (the grids ``free`` and ``place_labels`` are not included)."""
-        f = self.frame
+        return self._data(plain=True)
+
+    def _data(self, *, plain: bool) -> dict[str, Any]:
+        """:meth:`to_dict`'s data; unless ``plain`` the attributes' tuples stay tuples (``json`` writes a
+        tuple as a list, and in C: :meth:`to_json` then spends no Python work per cell)."""
+        nodes = sorted(self.graph.nodes(data=True))
+        edges = sorted(self.graph.edges(data=True), key=lambda e: (min(e[:2]), max(e[:2])))
         return {
             "format": FORMAT, "version": VERSION,
-            "frame": {"height": f.height, "width": f.width, "resolution": f.resolution, "origin": list(f.origin)},
+            "frame": self._frame_data(),
             "robot_radius": self.robot_radius,
             "place_names": {str(k): v for k, v in sorted(self.place_names.items())},
-            "nodes": [{"id": n, **{k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}}
-                      for n, d in sorted(self.graph.nodes(data=True))],
-            "edges": [{"u": u, "v": v, **{k: _plain(v) for k, v in d.items()}}
-                      for u, v, d in sorted(self.graph.edges(data=True), key=lambda e: (min(e[:2]), max(e[:2])))],
+            "nodes": [{"id": n, **{k: list(v) if isinstance(v, tuple) else v for k, v in d.items()}} for n, d in nodes]
+            if plain else [{"id": n, **d} for n, d in nodes],
+            "edges": [{"u": u, "v": v, **{k: _plain(v) for k, v in d.items()}} for u, v, d in edges]
+            if plain else [{"u": u, "v": v, **d} for u, v, d in edges],
         }
+
+    def _frame_data(self) -> dict[str, Any]:
+        f = self.frame
+        return {"height": f.height, "width": f.width, "resolution": f.resolution, "origin": list(f.origin)}
 
     def to_json(self, path: str | Path) -> Path:
         """Write the graph (nodes, edges with their cells, the frame) as JSON; return the path."""
         out = Path(path)
-        out.write_text(json.dumps(self.to_dict(), separators=(",", ":")), encoding="utf-8")
+        out.write_text(json.dumps(self._data(plain=False), separators=(",", ":")), encoding="utf-8")
         return out
 
     @classmethod
@@ -623,7 +682,7 @@ class Topology:
         for edge in data["edges"]:
             attrs = dict(edge)
             u, v = attrs.pop("u"), attrs.pop("v")
-            attrs["cells"] = tuple(tuple(c) for c in attrs["cells"])
+            attrs["cells"] = tuple(map(tuple, attrs["cells"]))
             attrs["places"] = tuple(attrs["places"])
             attrs["support"] = tuple(attrs["support"])
             graph.add_edge(u, v, **attrs)
@@ -640,24 +699,85 @@ class Topology:
                              f"atlas map build --out DIR, then use DIR/topology.json") from None
 
     def to_graphml(self, path: str | Path) -> Path:
-        """Write the graph as GraphML (networkx): tuples become scalars (row, col, x, y) or JSON strings."""
+        """Write the graph as GraphML (networkx): tuples become scalars (row, col, x, y) or JSON strings.
+
+        The file is the one ``networkx.write_graphml`` writes, byte for byte,
+        but written straight out (:func:`_write_graphml`) rather than through
+        an ElementTree of every attribute.
+        """
         flat = nx.Graph()
         for n, d in self.graph.nodes(data=True):
             attrs = {k: v for k, v in d.items() if k not in ("cell", "xy")}
             attrs.update(row=d["cell"][0], col=d["cell"][1], x=d["xy"][0], y=d["xy"][1],
                          name=self.place_name(d["place"]) if d["place"] else "")
             flat.add_node(n, **attrs)
-        for u, v, d in self.graph.edges(data=True):
-            attrs = {k: (json.dumps(_plain(val), separators=(",", ":")) if isinstance(val, (tuple, list)) else val)
+        for u, v, d in self.graph.edges(data=True):  # cells, support, places: one JSON string each
+            attrs = {k: (json.dumps(val, separators=(",", ":")) if isinstance(val, (tuple, list)) else val)
                      for k, val in d.items()}
             flat.add_edge(u, v, **attrs)
-        flat.graph.update(frame=json.dumps(self.to_dict()["frame"]), robot_radius=self.robot_radius)
-        out = Path(path)
-        nx.write_graphml(flat, out)
-        return out
+        flat.graph.update(frame=json.dumps(self._frame_data()), robot_radius=self.robot_radius)
+        return _write_graphml(flat, Path(path))
+
+
+def _write_graphml(graph: nx.Graph, out: Path) -> Path:
+    """Write an undirected ``graph`` as ``networkx.write_graphml`` does (same keys, types, order and layout).
+
+    Key ids are given in the order attributes are met (the graph's, then
+    each node's, then each edge's), one key per name, type and scope, and
+    listed last first, as networkx lists them.
+    """
+    from xml.sax.saxutils import escape
+
+    from networkx.readwrite.graphml import GraphMLWriter
+
+    xml_type = GraphMLWriter().xml_type  # networkx's own table of Python type -> GraphML type
+    quote = {'"': "&quot;", "\r": "&#13;", "\n": "&#10;", "\t": "&#09;"}
+    keys: dict[tuple[str, str, str], str] = {}
+
+    def data(scope: str, attrs: Mapping[str, Any], indent: str) -> list[str]:
+        lines = []
+        for name, value in attrs.items():
+            name = str(name)
+            kind = type(value)
+            if kind not in xml_type:
+                raise nx.NetworkXError(f"GraphML writer does not support {kind} as data values.")
+            key = keys.setdefault((name, xml_type[kind], scope), f"d{len(keys)}")
+            lines.append(f'{indent}<data key="{key}">{escape(str(value))}</data>')
+        return lines
+
+    def element(tag: str, ids: str, attrs: Mapping[str, Any]) -> list[str]:
+        inner = data(tag, attrs, "      ")
+        if not inner:
+            return [f"    <{tag} {ids} />"]
+        return [f"    <{tag} {ids}>", *inner, f"    </{tag}>"]
+
+    graph_data = data("graph", {k: v for k, v in graph.graph.items() if k not in ("node_default", "edge_default")},
+                      "    ")
+    body: list[str] = []
+    for n, attrs in graph.nodes(data=True):
+        body += element("node", f'id="{escape(str(n), quote)}"', attrs)
+    for u, v, attrs in graph.edges(data=True):
+        body += element("edge", f'source="{escape(str(u), quote)}" target="{escape(str(v), quote)}"', attrs)
+    key_lines = [f'  <key id="{key}" for="{scope}" attr.name="{escape(name, quote)}" attr.type="{kind}" />'
+                 for (name, kind, scope), key in reversed(keys.items())]
+    edge_default = "directed" if graph.is_directed() else "undirected"
+    root = ('<graphml xmlns="http://graphml.graphdrawing.org/xmlns" '
+            'xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" '
+            'xsi:schemaLocation="http://graphml.graphdrawing.org/xmlns '
+            'http://graphml.graphdrawing.org/xmlns/1.0/graphml.xsd">')
+    lines = ["<?xml version='1.0' encoding='utf-8'?>", root, *key_lines, f'  <graph edgedefault="{edge_default}">',
+             *body, *graph_data, "  </graph>", "</graphml>"]
+    out.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return out
+
+
+def _is_polygon(where: Any) -> bool:
+    """Whether a place is given as a polygon (points) rather than as one point."""
+    return len(where) >= 3 and all(isinstance(p, (tuple, list, np.ndarray)) for p in where)
 
 
 def _plain(value: Any) -> Any:
+    """``value`` with its tuples, at any depth, as lists (JSON data)."""
     if isinstance(value, (tuple, list)):
-        return [_plain(v) for v in value]
+        return [_plain(v) if isinstance(v, (tuple, list)) else v for v in value]
     return value
