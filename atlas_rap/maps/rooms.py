@@ -19,7 +19,7 @@ built from sonar:
    minimum, at most ``door_ratio`` times the clearance reached on both
    sides, and the free gap there is as wide as a door of the building
    (``door_width``).
-3. **Doorways** (:func:`doorway`): the critical line through the point, from
+3. **Doorways** (:func:`doorways`): the critical line through the point, from
    its nearest obstacle cell to the nearest one on the other side, must be
    a gap *in a wall*: a thin wall goes on, in line with the gap, beyond
    one of its ends (``jamb_length`` of occupied cells), and a wall or a
@@ -40,7 +40,8 @@ built from sonar:
    not a room of its own and joins it.
 
 :func:`segment_rooms` runs the whole of it and returns the label image (0
-off the places, 1..N in raster order of their first cell).
+off the places, 1..N in raster order of the first cell of each place's
+part the robot's centre can reach).
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["Doorway", "RoomSettings", "door_candidates", "doorway", "merge_regions", "region_borders",
+__all__ = ["Doorway", "RoomSettings", "door_candidates", "doorways", "merge_regions", "region_borders",
            "segment_rooms"]
 
 
@@ -105,134 +106,146 @@ def door_candidates(paths: Sequence[np.ndarray], dt: np.ndarray, resolution: flo
     points: the middle of its narrowest stretch, then the middles of its
     other local minima, narrowest first (a door next to a narrowing made
     by furniture is only a minimum of its own within the same dip).
+    Vectorised over all the paths at once.
     """
+    paths = [cells for cells in paths if len(cells) >= 3]
+    if not paths:
+        return []
+    cells = np.concatenate(paths)
+    sizes = np.array([len(c) for c in paths])
+    path = np.repeat(np.arange(len(paths)), sizes)
+    profile = dt[cells[:, 0], cells[:, 1]].astype(np.float64)
+    # running maxima that start again at each path: each path rides on a base above the previous ones
+    base = path * (float(profile.max()) + 1.0)
+    left = np.maximum.accumulate(profile + base) - base
+    right = (np.maximum.accumulate((profile - base)[::-1]) + base[::-1])[::-1]
     lo, hi = settings.door_width
+    width = 2 * profile + resolution
+    dip = (profile <= settings.door_ratio * np.minimum(left, right)) & (width >= lo) & (width <= hi)
+    if not dip.any():
+        return []
+    # dips: runs of ``dip`` within one path
+    new_run = dip & np.concatenate([[True], ~dip[:-1] | (path[1:] != path[:-1])])
+    run = np.cumsum(new_run) - 1
+    # flat stretches of equal clearance within a run, and which of them are lower than both neighbours
+    idx = np.flatnonzero(dip)
+    r, v = run[idx], profile[idx]
+    starts = np.flatnonzero(np.concatenate([[True], (r[1:] != r[:-1]) | (v[1:] != v[:-1])]))
+    stops = np.concatenate([starts[1:], [idx.size]])
+    sr, sv = r[starts], v[starts]
+    lower_left = np.concatenate([[True], (sr[1:] != sr[:-1]) | (sv[1:] < sv[:-1])])
+    lower_right = np.concatenate([(sr[:-1] != sr[1:]) | (sv[:-1] < sv[1:]), [True]])
+    keep = np.flatnonzero(lower_left & lower_right)
+    keep = keep[np.lexsort((sv[keep], sr[keep]))]  # by dip, narrowest first
+    middle = idx[(starts[keep] + stops[keep] - 1) // 2]
     found: list[list[tuple[int, int]]] = []
-    for cells in paths:
-        if len(cells) < 3:
-            continue
-        profile = dt[cells[:, 0], cells[:, 1]]
-        left = np.maximum.accumulate(profile)
-        right = np.maximum.accumulate(profile[::-1])[::-1]
-        side = np.minimum(left, right)
-        width = 2 * profile + resolution
-        dip = (profile <= settings.door_ratio * side) & (width >= lo) & (width <= hi)
-        if not dip.any():
-            continue
-        edges = np.diff(np.concatenate([[0], dip.view(np.int8), [0]]))
-        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
-            points = [a + i for i in _minima(profile[a:b])]
-            found.append([(int(cells[i, 0]), int(cells[i, 1])) for i in points])
+    last = -1
+    for dip_id, (row, col) in zip(sr[keep].tolist(), cells[middle].tolist()):
+        if dip_id != last:
+            found.append([])
+            last = dip_id
+        found[-1].append((row, col))
     return found
 
 
-def _minima(run: np.ndarray) -> list[int]:
-    """The middles of the flat stretches of ``run`` lower than their neighbours, narrowest first."""
-    change = np.flatnonzero(np.diff(run)) + 1
-    starts = np.concatenate([[0], change])
-    stops = np.concatenate([change, [run.size]])
-    values = run[starts]
-    lower_left = np.concatenate([[True], values[1:] < values[:-1]])
-    lower_right = np.concatenate([values[:-1] < values[1:], [True]])
-    keep = np.flatnonzero(lower_left & lower_right)
-    keep = keep[np.argsort(values[keep], kind="stable")]
-    return [int((starts[k] + stops[k] - 1) // 2) for k in keep]
+def doorways(points: np.ndarray, nearest: np.ndarray, walls: np.ndarray, resolution: float,
+             settings: RoomSettings = RoomSettings()) -> list[Doorway | None]:
+    """The doorway at each door candidate (``points``, (N, 2) cells), or None where the gap is no door.
 
-
-def doorway(point: tuple[int, int], free: np.ndarray, occupied: np.ndarray, dt_cells: float, resolution: float,
-            settings: RoomSettings = RoomSettings()) -> Doorway | None:
-    """The doorway at a door candidate, or None when the gap there is not a gap in a wall.
-
-    ``free`` and ``occupied`` are masks (a cell may be neither: unknown);
-    ``dt_cells`` the clearance at ``point`` in cells. See the module
-    docstring, step 3: a thin wall going on in line beyond one end and a
-    wall or a corner at the other.
+    ``nearest`` is the nearest obstacle cell of every cell ((2, H, W) rows
+    and columns: the feature transform the distance transform was computed
+    with), ``walls`` the cells that count as wall. See the module docstring,
+    step 3: the critical line runs from the point's nearest obstacle to the
+    nearest obstacle on the other side (within 45 degrees of straight
+    across), its free width is a door's, a thin wall goes on in line beyond
+    one end and a wall or a corner is at the other. Vectorised over all the
+    candidates of a map at once.
     """
-    r, c = point
-    height, width = free.shape
-    k = int(math.ceil(dt_cells)) + 2
-    r0, r1, c0, c1 = max(0, r - k), min(height, r + k + 1), max(0, c - k), min(width, c + k + 1)
-    rows, cols = np.nonzero(~free[r0:r1, c0:c1])
-    if rows.size == 0:
-        return None
-    dr, dc = rows + (r0 - r), cols + (c0 - c)
-    dist = np.hypot(dr, dc)
-    i = int(np.argmin(dist))
-    ar, ac = dr[i], dc[i]
-    opposite = dr * ar + dc * ac < 0
-    if not opposite.any():
-        return None
-    cos = (dr * ar + dc * ac) / np.maximum(dist * dist[i], 1e-9)
-    score = np.where(opposite & (cos < -0.7), dist, np.inf)  # across the point: within ~45 degrees of straight
-    j = int(np.argmin(score))
-    if not np.isfinite(score[j]):
-        return None
-    a = (r + int(ar), c + int(ac))
-    b = (r + int(dr[j]), c + int(dc[j]))
-    span = math.hypot(a[0] - b[0], a[1] - b[1])
+    points = np.asarray(points, dtype=np.int64).reshape(-1, 2)
+    if not len(points):
+        return []
+    height, width = walls.shape
+    a = nearest[:, points[:, 0], points[:, 1]].T.astype(np.int64)
+    beyond = np.rint(points + 0.5 * (points - a)).astype(np.int64)  # closer to the other side than to ``a``
+    beyond[:, 0] = np.clip(beyond[:, 0], 0, height - 1)
+    beyond[:, 1] = np.clip(beyond[:, 1], 0, width - 1)
+    b = nearest[:, beyond[:, 0], beyond[:, 1]].T.astype(np.int64)
+    to_a, to_b = (a - points).astype(float), (b - points).astype(float)
+    norms = np.hypot(*to_a.T) * np.hypot(*to_b.T)
+    straight = (to_a * to_b).sum(axis=1) < -0.7 * np.maximum(norms, 1e-9)
+    span = np.hypot(*(a - b).T.astype(float))
     gap = (span - 1) * resolution
     lo, hi = settings.door_width
-    if not lo <= gap <= hi:
-        return None
-    u = ((a[0] - b[0]) / span, (a[1] - b[1]) / span)
+    ok = straight & (gap >= lo) & (gap <= hi)
+    u = (a - b) / np.maximum(span, 1e-9)[:, None]
     steps = max(2, int(round(settings.jamb_length / resolution)))
     thick = max(1, int(round(settings.wall_thickness / resolution)))
-    jambs = [_jamb(end, direction, occupied, steps, thick, settings.jamb_fill)
-             for end, direction in ((a, u), (b, (-u[0], -u[1])))]
-    if not (jambs[0] == "wall" and jambs[1] != "" or jambs[1] == "wall" and jambs[0] != ""):
-        return None
-    return Doorway((r, c), a, b, gap)
+    jamb_a = _jambs(a, u, walls, steps, thick, settings.jamb_fill)
+    jamb_b = _jambs(b, -u, walls, steps, thick, settings.jamb_fill)
+    ok &= ((jamb_a == _WALL) & (jamb_b != _NONE)) | ((jamb_b == _WALL) & (jamb_a != _NONE))
+    return [Doorway((int(p[0]), int(p[1])), (int(x[0]), int(x[1])), (int(y[0]), int(y[1])), float(g)) if good
+            else None for p, x, y, g, good in zip(points, a, b, gap, ok)]
 
 
-def _jamb(end: tuple[int, int], direction: tuple[float, float], occupied: np.ndarray, steps: int, thick: int,
-          fill: float) -> str:
-    """What the obstacle at one end of a doorway is.
+_NONE, _ACROSS, _WALL = 0, 1, 2
 
-    ``"wall"``: a wall goes on beyond the end, in line with the doorway
-    (``direction`` points away from the gap), and it is thin: somewhere
+
+def _jambs(ends: np.ndarray, directions: np.ndarray, walls: np.ndarray, steps: int, thick: int,
+           fill: float) -> np.ndarray:
+    """What the obstacle at each end of a doorway is: ``_WALL``, ``_ACROSS`` or ``_NONE``.
+
+    ``_WALL``: a wall goes on beyond the end, in line with the doorway
+    (``directions`` point away from the gap), and it is thin: somewhere
     along the first ``steps`` cells, across the line, it is at most
     ``thick`` cells deep (a wall met at a T or a corner just past the jamb
-    is thick only there). ``"across"``: something runs across the line at
-    the end (a wall the doorway meets at a corner, or furniture). ``""``:
-    neither. A door is a gap with a wall at one end at least and a wall or
-    a corner at the other; a gap between a desk and a wall has neither end
-    a thin wall in line with it.
-
-    Steps count a cell on the line or either next to it across the line, so
-    a wall drawn one cell thick and a little askew, or seen by the sonar
-    with small holes, still goes on.
+    is thick only there). ``_ACROSS``: something runs across the line at
+    the end (a wall the doorway meets at a corner, or furniture). A door is
+    a gap with a wall at one end at least and a wall or a corner at the
+    other; a gap between a desk and a wall has neither end a thin wall in
+    line with it. Steps count a cell on the line or either next to it
+    across the line, so a wall drawn one cell thick and a little askew, or
+    seen by the sonar with small holes, still goes on.
     """
-    ur, uc = direction
-    nr, nc = -uc, ur
-    t = np.arange(1, steps + 1, dtype=float)[:, None]
-    band = np.array([-1.0, 0.0, 1.0])[None, :]
-    line = _sample(occupied, end[0] + ur * t + nr * band, end[1] + uc * t + nc * band)
-    if line.any(axis=1).mean() >= fill and line[:, 1].any():
-        deep = np.arange(1, thick + 2, dtype=float)[None, :]
-        depth = 1 + sum(_first_false(_sample(occupied, end[0] + ur * t + sign * nr * deep,
-                                             end[1] + uc * t + sign * nc * deep)) for sign in (1.0, -1.0))
-        if depth[line[:, 1]].min() <= thick:
-            return "wall"
-    for sign in (1.0, -1.0):
-        run = _sample(occupied, end[0] + sign * nr * t + ur * band, end[1] + sign * nc * t + uc * band)
-        if run.any(axis=1).mean() >= fill:
-            return "across"
-    return ""
+    n = len(ends)
+    u = directions.astype(float)
+    normal = np.stack([-u[:, 1], u[:, 0]], axis=1)
+    t = np.arange(1, steps + 1, dtype=float)
+    band = np.array([-1.0, 0.0, 1.0])
+
+    def sample(origin: np.ndarray, along: np.ndarray, across: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+        # walls at origin + along * t + across * offset: (n, steps, len(offsets))
+        pts = origin[:, None, None, :] + along[:, None, None, :] * t[None, :, None, None] \
+            + across[:, None, None, :] * offsets[None, None, :, None]
+        return _sample(walls, pts[..., 0], pts[..., 1])
+
+    line = sample(ends.astype(float), u, normal, band)
+    in_line = line.any(axis=2).mean(axis=1) >= fill
+    on_line = line[:, :, 1]
+    deep = np.arange(1, thick + 2, dtype=float)
+    depth = 1 + _first_false(sample(ends.astype(float), u, normal, deep)) \
+        + _first_false(sample(ends.astype(float), u, -normal, deep))
+    thinnest = np.where(on_line, depth, thick + 1).min(axis=1)
+    kind = np.full(n, _NONE, dtype=np.int8)
+    across = (sample(ends.astype(float), normal, u, band).any(axis=2).mean(axis=1) >= fill) | \
+        (sample(ends.astype(float), -normal, u, band).any(axis=2).mean(axis=1) >= fill)
+    kind[across] = _ACROSS
+    kind[in_line & on_line.any(axis=1) & (thinnest <= thick)] = _WALL
+    return kind
 
 
-def _sample(occupied: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """``occupied`` at the nearest cells of (rows, cols), False off the grid."""
-    height, width = occupied.shape
+def _sample(walls: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """``walls`` at the nearest cells of (rows, cols), False off the grid."""
+    height, width = walls.shape
     rr, cc = np.rint(rows).astype(np.int64), np.rint(cols).astype(np.int64)
     inside = (rr >= 0) & (rr < height) & (cc >= 0) & (cc < width)
     out = np.zeros(rr.shape, dtype=bool)
-    out[inside] = occupied[rr[inside], cc[inside]]
+    out[inside] = walls[rr[inside], cc[inside]]
     return out
 
 
 def _first_false(rows: np.ndarray) -> np.ndarray:
-    """For each row of a boolean array, how many True come before its first False."""
-    return np.where(rows.all(axis=1), rows.shape[1], rows.argmin(axis=1))
+    """Along the last axis of a boolean array, how many True come before the first False."""
+    return np.where(rows.all(axis=-1), rows.shape[-1], rows.argmin(axis=-1))
 
 
 def _line_cells(a: tuple[int, int], b: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -323,19 +336,24 @@ def merge_regions(labels: np.ndarray, resolution: float, settings: RoomSettings 
         while parent[root] != root:
             root = parent[root]
         parent[i] = root
-    lut = np.zeros(count + 1, dtype=np.int32)
+    # Number the places by their first member: labels from ``ndimage.label`` are in raster order.
+    first = np.full(count + 1, count + 1, dtype=np.int64)
+    np.minimum.at(first, parent, np.arange(count + 1))
     roots = np.flatnonzero(alive)
-    lut[roots] = np.arange(1, roots.size + 1, dtype=np.int32)
+    lut = np.zeros(count + 1, dtype=np.int32)
+    lut[roots[np.argsort(first[roots], kind="stable")]] = np.arange(1, roots.size + 1, dtype=np.int32)
     return lut[parent][labels]
 
 
-def segment_rooms(free: np.ndarray, occupied: np.ndarray, dt: np.ndarray, resolution: float,
+def segment_rooms(free: np.ndarray, occupied: np.ndarray, dt: np.ndarray, nearest: np.ndarray, resolution: float,
                   paths: Sequence[np.ndarray], *, robot_radius: float = 0.2, reachable: np.ndarray | None = None,
                   settings: RoomSettings = RoomSettings()) -> tuple[np.ndarray, list[Doorway]]:
     """The places of a map as a label image (0 off the places), and the doorways between them.
 
     ``free`` and ``occupied`` are masks of the grid (unknown cells are
-    neither), ``dt`` the distance transform of ``free`` in metres,
+    neither), ``dt`` the distance transform of ``free`` in metres and
+    ``nearest`` its feature transform (the nearest non-free cell of each
+    cell, :func:`atlas_rap.maps.sdt.distance_transform` with ``nearest``),
     ``paths`` the skeleton as ordered (n, 2) cells (the topology's edges),
     ``reachable`` the cells a robot that mapped the space could reach (None:
     every free cell). See the module docstring for the steps.
@@ -345,15 +363,17 @@ def segment_rooms(free: np.ndarray, occupied: np.ndarray, dt: np.ndarray, resolu
     cspace = dt > robot_radius
     if reachable is not None:
         cspace &= reachable
+    dips = door_candidates(paths, dt, resolution, settings)
+    flat = np.array([point for points in dips for point in points], dtype=np.int64).reshape(-1, 2)
+    found = iter(doorways(flat, nearest, occupied, resolution, settings))
     doors: list[Doorway] = []
-    for points in door_candidates(paths, dt, resolution, settings):
-        for r, c in points:  # the first point of a dip that is a doorway is the dip's door
-            if not cspace[r, c]:
-                continue
-            door = doorway((r, c), free, occupied, dt[r, c] / resolution, resolution, settings)
-            if door is not None:
-                doors.append(door)
-                break
+    for points in dips:  # the first point of a dip that is a doorway (in the robot's space) is its door
+        door = None
+        for (r, c), candidate in zip(points, found):
+            if door is None and candidate is not None and cspace[r, c]:
+                door = candidate
+        if door is not None:
+            doors.append(door)
     cut = np.zeros_like(free)
     for door in doors:
         rr, cc = _line_cells(door.a, door.b)
@@ -372,9 +392,8 @@ def segment_rooms(free: np.ndarray, occupied: np.ndarray, dt: np.ndarray, resolu
         one, two = _side_cells(door, cspace, cut, reach)
         if one is not None and two is not None and labels[one] and labels[two] and labels[one] != labels[two]:
             separating.append(door)
-    _grow(labels, free & (labels == 0))
-    labels = merge_regions(labels, resolution, settings)
-    return _raster_order(labels), separating
+    _grow(labels, free & (labels == 0), nearest, robot_radius / resolution)
+    return merge_regions(labels, resolution, settings), separating
 
 
 def _walls(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:
@@ -393,12 +412,29 @@ def _walls(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:
     return occupied
 
 
-def _grow(labels: np.ndarray, todo_mask: np.ndarray) -> None:
-    """Give the cells of ``todo_mask`` to the labels they touch, one 4-connected ring at a time, from all at once."""
+def _grow(labels: np.ndarray, todo_mask: np.ndarray, nearest: np.ndarray, radius_cells: float) -> None:
+    """Give the free cells of ``todo_mask`` (near the walls, where the robot's centre cannot be) to regions.
+
+    A cell takes the region the robot's centre reaches by stepping straight
+    away from the cell's nearest obstacle (one vectorised look-up); the few
+    cells that leaves (in corners) take the labels they touch, one
+    4-connected ring at a time, from all the regions at once.
+    """
     height, width = labels.shape
-    todo = np.flatnonzero(todo_mask.ravel())
     flat = labels.ravel()
-    rows, cols = np.divmod(todo, width)
+    rows, cols = (axis.astype(np.int32) for axis in np.nonzero(todo_mask))
+    away_r = (rows - nearest[0][rows, cols]).astype(np.float32)
+    away_c = (cols - nearest[1][rows, cols]).astype(np.float32)
+    gap = np.maximum(np.hypot(away_r, away_c), np.float32(1e-6))
+    step = (np.float32(radius_cells + 1.5) - gap) / gap
+    tr = np.clip(np.rint(rows + away_r * step), 0, height - 1).astype(np.int64)
+    tc = np.clip(np.rint(cols + away_c * step), 0, width - 1).astype(np.int64)
+    found = flat[tr * width + tc]
+    hit = found > 0
+    todo = rows.astype(np.int64) * width + cols
+    flat[todo[hit]] = found[hit]
+    miss = ~hit
+    todo, rows, cols = todo[miss], rows[miss].astype(np.int64), cols[miss].astype(np.int64)
     while todo.size:
         best = np.zeros(todo.size, dtype=labels.dtype)
         for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1)):
@@ -411,14 +447,3 @@ def _grow(labels: np.ndarray, todo_mask: np.ndarray) -> None:
             break
         flat[todo[grown]] = best[grown]
         todo, rows, cols = todo[~grown], rows[~grown], cols[~grown]
-
-
-def _raster_order(labels: np.ndarray) -> np.ndarray:
-    """Labels renumbered 1..N in raster order of each region's first cell."""
-    flat = labels.ravel()
-    ids, first = np.unique(flat, return_index=True)
-    keep = ids > 0
-    ids, first = ids[keep], first[keep]
-    lut = np.zeros(int(flat.max()) + 1 if flat.size else 1, dtype=np.int32)
-    lut[ids[np.argsort(first)]] = np.arange(1, ids.size + 1, dtype=np.int32)
-    return lut[labels]

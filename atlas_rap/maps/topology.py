@@ -53,7 +53,7 @@ import numpy as np
 from atlas_rap.errors import AtlasError
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.rooms import RoomSettings, segment_rooms
-from atlas_rap.maps.sdt import SkeletonSegment, SkeletonTrace, cell_support, segment_costs
+from atlas_rap.maps.sdt import SkeletonSegment, SkeletonTrace, cell_support, distance_transform, segment_costs
 
 __all__ = ["GraphRoute", "Topology", "build_topology", "RISK"]
 
@@ -182,14 +182,16 @@ class _Skeleton:
 
 def build_topology(trace: SkeletonTrace, dt: np.ndarray, p_occ: np.ndarray, frame: GridFrame, *,
                    robot_radius: float = 0.2, spur_ratio: float = 1.0, merge_cells: float = 3.0,
-                   free: np.ndarray | None = None, reachable: np.ndarray | None = None,
-                   rooms: RoomSettings = RoomSettings()) -> Topology:
+                   free: np.ndarray | None = None, nearest: np.ndarray | None = None,
+                   reachable: np.ndarray | None = None, rooms: RoomSettings = RoomSettings()) -> Topology:
     """The :class:`Topology` of a traced skeleton (see the module docstring for the simplification).
 
     ``dt`` is the distance transform in metres, ``p_occ`` the occupancy
     grid (for the edges' probabilities and the walls the places are cut
     along), ``free`` the free mask (for the places and for line-of-sight
-    checks in routes; default ``dt > 0``), ``reachable`` the cells a robot
+    checks in routes; default ``dt > 0``), ``nearest`` the feature
+    transform of ``free`` (:func:`atlas_rap.maps.sdt.distance_transform`;
+    computed here when not given), ``reachable`` the cells a robot
     that mapped the space could reach (:func:`atlas_rap.maps.rooms.segment_rooms`),
     ``rooms`` what the building's doors and rooms are like.
     """
@@ -216,8 +218,10 @@ def build_topology(trace: SkeletonTrace, dt: np.ndarray, p_occ: np.ndarray, fram
     length, cost = segment_costs(support, all_cells, offsets, res, diameter)
     with np.errstate(invalid="ignore"):
         occupied = np.asarray(p_occ) >= 0.5
-    labels, _ = segment_rooms(free, occupied, dt, res, cells_of, robot_radius=robot_radius, reachable=reachable,
-                              settings=rooms)
+    if nearest is None:
+        nearest = distance_transform(free, frame, nearest=True)[1]
+    labels, _ = segment_rooms(free, occupied, dt, nearest, res, cells_of, robot_radius=robot_radius,
+                              reachable=reachable, settings=rooms)
 
     # Node ids in raster order of their cells.
     alive = sorted(sk.adj, key=lambda n: (int(node_cells[n, 0]), int(node_cells[n, 1])))
@@ -230,18 +234,24 @@ def build_topology(trace: SkeletonTrace, dt: np.ndarray, p_occ: np.ndarray, fram
         kind = "X" if branches >= 4 else "T" if branches == 3 else "L"
         graph.add_node(new_id[n], kind=kind, branches=branches, cell=(r, c), xy=(x, y),
                        clearance=float(dt[r, c]), place=int(labels[r, c]))
+    # Python values of every edge at once (one conversion each, not one per edge).
+    cell_pairs = list(map(tuple, all_cells.tolist()))
+    support_values = support.tolist()
+    on_place = labels[all_cells[:, 0], all_cells[:, 1]] if len(all_cells) else np.zeros(0, dtype=labels.dtype)
+    place_values = on_place.tolist()
+    bounds = offsets.tolist()
+    lengths, costs = length.tolist(), cost.tolist()
     for k, e in enumerate(ids):
         u, v = new_id[sk.edges[e][0]], new_id[sk.edges[e][1]]
-        if graph.has_edge(u, v) and graph.edges[u, v]["cost"] <= cost[k]:
+        if graph.has_edge(u, v) and graph.edges[u, v]["cost"] <= costs[k]:
             continue
-        cells = cells_of[k]
-        crossed = labels[cells[:, 0], cells[:, 1]]
-        crossed = crossed[crossed > 0]
-        if crossed.size:
-            crossed = crossed[np.concatenate([[True], crossed[1:] != crossed[:-1]])]
-        graph.add_edge(u, v, length=float(length[k]), probability=float(math.exp(-cost[k])), cost=float(cost[k]),
-                       head=u, cells=tuple(map(tuple, cells.tolist())),
-                       support=tuple(support[offsets[k]:offsets[k + 1]].tolist()), places=tuple(crossed.tolist()))
+        lo, hi = bounds[k], bounds[k + 1]
+        crossed: list[int] = []
+        for label in place_values[lo:hi]:  # the places along the edge, each run once
+            if label and (not crossed or crossed[-1] != label):
+                crossed.append(label)
+        graph.add_edge(u, v, length=lengths[k], probability=math.exp(-costs[k]), cost=costs[k], head=u,
+                       cells=tuple(cell_pairs[lo:hi]), support=tuple(support_values[lo:hi]), places=tuple(crossed))
     return Topology(graph, frame, robot_radius=robot_radius, free=free, place_labels=labels)
 
 
