@@ -12,6 +12,27 @@ def map_group() -> None:
     """Occupancy grids and their abstractions: build, abstract, render."""
 
 
+def room_options(command):
+    """The options that say what the building's doors, rooms and walls are like (``RoomSettings``)."""
+    command = click.option("--wall-thickness", type=POSITIVE, default=None, metavar="M",
+                           help="Walls are at most this thick (default 0.35 m); thicker is furniture.")(command)
+    command = click.option("--min-room-area", type=POSITIVE, default=None, metavar="M2",
+                           help="Places smaller than this join a neighbour (default 2 m²).")(command)
+    return click.option("--door-width", type=(POSITIVE, POSITIVE), default=None, metavar="MIN MAX",
+                        help="The free width of the building's doorways (default 0.55 1.6 m).")(command)
+
+
+def _room_settings(door_width, min_room_area, wall_thickness):
+    from dataclasses import replace
+
+    from atlas_rap.maps.rooms import RoomSettings
+
+    if door_width is not None and door_width[0] >= door_width[1]:
+        raise click.BadParameter("MIN must be below MAX", param_hint="--door-width")
+    given = {"door_width": door_width, "min_room_area": min_room_area, "wall_thickness": wall_thickness}
+    return replace(RoomSettings(), **{k: v for k, v in given.items() if v is not None})
+
+
 @map_group.command("build")
 @click.option("--world", "world", default="lab-corridor-office", show_default=True, metavar="W",
               help="The world to map (a shipped world's name or a world file).")
@@ -21,12 +42,16 @@ def map_group() -> None:
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the run.")
 @click.option("--until", type=POSITIVE, default=1800.0, show_default=True, metavar="SECONDS",
               help="Simulated time limit.")
-def build_command(world: str, mission_file: str | None, out_dir: str, seed: int, until: float) -> None:
+@room_options
+def build_command(world: str, mission_file: str | None, out_dir: str, seed: int, until: float,
+                  door_width, min_room_area, wall_thickness) -> None:
     """Drive the robot in a world, build an occupancy grid from its sonar, and write every level.
 
     Writes the grid (npz, ROS map) and, from it, the same levels as
     `atlas map abstract`, even when the mission fails or is interrupted
-    (Ctrl-C: the map is written, then the exit code is 130).
+    (Ctrl-C: the map is written, then the exit code is 130). Places and the
+    topology cover only the space the robot could reach, and take the names
+    of the world's places.
     """
     import sys
     from pathlib import Path
@@ -61,14 +86,17 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
         grid.save_npz(out / "occupancy.npz")
         grid.to_ros_map(out / "occupancy.yaml")
     sim, radius = engine.simulation, engine.world.robot.radius
-    quality = InferenceGrid(grid, sim.pose[:2], radius, engine.world.sonar.max_range, poses).quality()
+    inference = InferenceGrid(grid, sim.pose[:2], radius, engine.world.sonar.max_range, poses)
+    quality = inference.quality()
     click.echo(f"mission {ended} at {sim.time:.1f} s simulated; map quality {quality:.3f}")
     p_occ = grid.probabilities()
     p_occ[~grid.updated] = float("nan")
     path_xy = [(x, y) for _, x, y, _ in sim.path]
     grid_files = [out / "occupancy.npz", out / "occupancy.yaml"]
     try:
-        result = abstract_map(p_occ, grid.frame, radius, source=f"the map of {world}")
+        result = abstract_map(p_occ, grid.frame, radius, source=f"the map of {world}",
+                              rooms=_room_settings(door_width, min_room_area, wall_thickness),
+                              reachable=inference.reachable, places=engine.world.place_shapes())
     except AtlasError as exc:
         if ended != "interrupted":
             raise
@@ -102,17 +130,28 @@ def _tour_mission(world: str, out) -> str:
 @click.option("--out", "out_dir", required=True, type=OutputFolder(), help="Folder for the levels.")
 @click.option("--robot-radius", type=POSITIVE, default=0.2, show_default=True,
               help="Metres; the clearance routes keep.")
-def abstract_command(map_yaml: str, out_dir: str, robot_radius: float) -> None:
+@click.option("--world", metavar="W", help="A world whose named places name the map's places "
+                                           "(its regions: the place covering most of one takes its name).")
+@room_options
+def abstract_command(map_yaml: str, out_dir: str, robot_radius: float, world: str | None,
+                     door_width, min_room_area, wall_thickness) -> None:
     """Run the whole abstraction on a ROS map_server map and write every level as data and PNG.
 
-    Levels: occupancy grid, edges and polygons, distance transform, places,
-    stochastic SDT, topological graph (JSON, GraphML, PNG).
+    Levels: occupancy grid, edges and polygons, distance transform, places
+    (rooms and corridors, cut at the doorways in the walls), stochastic SDT,
+    topological graph (JSON, GraphML, PNG).
     """
     from atlas_rap.maps.levels import abstract_map, write_levels
     from atlas_rap.maps.rosmap import load_ros_map
 
+    rooms = _room_settings(door_width, min_room_area, wall_thickness)
+    places = None
+    if world is not None:
+        from atlas_rap.sim.world import load_world
+
+        places = load_world(world).place_shapes()
     rosmap = load_ros_map(map_yaml)
-    result = abstract_map(rosmap.occupancy, rosmap.frame, robot_radius, source=map_yaml)
+    result = abstract_map(rosmap.occupancy, rosmap.frame, robot_radius, source=map_yaml, rooms=rooms, places=places)
     _report(result, write_levels(rosmap.occupancy, result, out_dir, title=click.format_filename(map_yaml)))
 
 

@@ -29,12 +29,15 @@ from __future__ import annotations
 import io
 import zipfile
 import zlib
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from atlas_rap.errors import AtlasError
 from atlas_rap.maps.frame import GridFrame
+from atlas_rap.maps.rooms import RoomSettings
 from atlas_rap.maps.sdt import Abstraction, abstract
 
 NPZ_COMPRESS_LEVEL = 1
@@ -44,13 +47,22 @@ two to three times faster; an array that would not shrink by a fifth (noise) is 
 
 
 def abstract_map(p_occ: np.ndarray, frame: GridFrame, robot_radius: float = 0.2, *, geometry: bool = True,
-                 source: str = "the map") -> Abstraction:
-    """The whole abstraction, or a clear error when the map has no room for the robot."""
+                 source: str = "the map", rooms: RoomSettings | None = None, reachable: np.ndarray | None = None,
+                 places: Mapping[str, Any] | None = None) -> Abstraction:
+    """The whole abstraction, or a clear error when the map has no room for the robot.
+
+    ``rooms`` are the settings of the places (doors, room sizes, walls: in
+    metres), ``reachable`` the cells a robot that mapped the space could
+    reach (maps built from sonar), ``places`` the world's named places
+    (name -> region or point) that name the map's places.
+    """
     free = np.asarray(p_occ) < 0.5
     if not free.any():
         raise AtlasError(f"{source} has no free space (no cell with an occupancy below 0.5): "
                          f"is it a map, and is its negate setting right?")
-    result = abstract(p_occ, frame, robot_radius, geometry=geometry)
+    result = abstract(p_occ, frame, robot_radius, geometry=geometry, rooms=rooms, reachable=reachable)
+    if places:
+        result.topology.name_places(places)
     if result.topology.graph.number_of_nodes() == 0:
         raise AtlasError(f"{source} has no free space wide enough for a robot of radius {robot_radius:g} m")
     return result
@@ -89,8 +101,8 @@ def write_levels(p_occ: np.ndarray, result: Abstraction, out_dir: str | Path, *,
                                                   title=prefix + "polygons", sheet=sheet))
         written.append(render.render_distance_transform(sdt.dt, frame, out / "distance-transform.png",
                                                         title=prefix + "distance transform", sheet=sheet))
-        written.append(render.render_places(sdt.places, frame, out / "places.png", background=p_occ,
-                                            title=prefix + "places", sheet=sheet))
+        written.append(render.render_places(sdt.places, frame, out / "places.png", names=topology.place_names or None,
+                                            background=p_occ, title=prefix + "places", sheet=sheet))
         written.append(render.render_stochastic_sdt(probability, frame, out / "stochastic-sdt.png",
                                                     background=p_occ, title=prefix + "stochastic SDT", sheet=sheet))
         written.append(topology.to_json(out / "topology.json"))

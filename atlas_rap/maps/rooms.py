@@ -166,13 +166,22 @@ def doorways(points: np.ndarray, nearest: np.ndarray, walls: np.ndarray, resolut
         return []
     height, width = walls.shape
     a = nearest[:, points[:, 0], points[:, 1]].T.astype(np.int64)
-    beyond = np.rint(points + 0.5 * (points - a)).astype(np.int64)  # closer to the other side than to ``a``
-    beyond[:, 0] = np.clip(beyond[:, 0], 0, height - 1)
-    beyond[:, 1] = np.clip(beyond[:, 1], 0, width - 1)
-    b = nearest[:, beyond[:, 0], beyond[:, 1]].T.astype(np.int64)
-    to_a, to_b = (a - points).astype(float), (b - points).astype(float)
-    norms = np.hypot(*to_a.T) * np.hypot(*to_b.T)
-    straight = (to_a * to_b).sum(axis=1) < -0.7 * np.maximum(norms, 1e-9)
+    to_a = (a - points).astype(float)
+    # the other side: the nearest obstacle of points past the candidate, away from ``a`` (the first that
+    # lies across the candidate from ``a``, within 45 degrees of straight, and is the closest of those)
+    b = np.zeros_like(a)
+    best = np.full(len(points), np.inf)
+    for k in (0.5, 0.75, 1.0):
+        beyond = np.rint(points - k * to_a).astype(np.int64)
+        beyond[:, 0] = np.clip(beyond[:, 0], 0, height - 1)
+        beyond[:, 1] = np.clip(beyond[:, 1], 0, width - 1)
+        other = nearest[:, beyond[:, 0], beyond[:, 1]].T.astype(np.int64)
+        to_b = (other - points).astype(float)
+        reach = np.hypot(*to_b.T)
+        across = (to_a * to_b).sum(axis=1) < -0.7 * np.maximum(np.hypot(*to_a.T) * reach, 1e-9)
+        better = across & (reach < best)
+        b[better], best[better] = other[better], reach[better]
+    straight = np.isfinite(best)
     span = np.hypot(*(a - b).T.astype(float))
     gap = (span - 1) * resolution
     lo, hi = settings.door_width
@@ -218,18 +227,20 @@ def _jambs(ends: np.ndarray, directions: np.ndarray, walls: np.ndarray, steps: i
             + across[:, None, None, :] * offsets[None, None, :, None]
         return _sample(walls, pts[..., 0], pts[..., 1])
 
-    line = sample(ends.astype(float), u, normal, band)
+    origin = ends.astype(float)
+    line = sample(origin, u, normal, band)
     in_line = line.any(axis=2).mean(axis=1) >= fill
-    on_line = line[:, :, 1]
     deep = np.arange(1, thick + 2, dtype=float)
-    depth = 1 + _first_false(sample(ends.astype(float), u, normal, deep)) \
-        + _first_false(sample(ends.astype(float), u, -normal, deep))
-    thinnest = np.where(on_line, depth, thick + 1).min(axis=1)
+    thinnest = np.full(n, thick + 1)
+    for i, offset in enumerate(band):  # how deep across the wall is, from each wall cell met along the band
+        start = origin + normal * offset
+        depth = 1 + _first_false(sample(start, u, normal, deep)) + _first_false(sample(start, u, -normal, deep))
+        thinnest = np.minimum(thinnest, np.where(line[:, :, i], depth, thick + 1).min(axis=1))
     kind = np.full(n, _NONE, dtype=np.int8)
-    across = (sample(ends.astype(float), normal, u, band).any(axis=2).mean(axis=1) >= fill) | \
-        (sample(ends.astype(float), -normal, u, band).any(axis=2).mean(axis=1) >= fill)
+    across = (sample(origin, normal, u, band).any(axis=2).mean(axis=1) >= fill) | \
+        (sample(origin, -normal, u, band).any(axis=2).mean(axis=1) >= fill)
     kind[across] = _ACROSS
-    kind[in_line & on_line.any(axis=1) & (thinnest <= thick)] = _WALL
+    kind[in_line & (thinnest <= thick)] = _WALL
     return kind
 
 

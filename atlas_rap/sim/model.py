@@ -156,6 +156,10 @@ class World:
     bounds: tuple[float, float, float, float] = (0.0, 0.0, 10.0, 10.0)
     source: str = ""
 
+    def place_shapes(self) -> dict[str, tuple[Point, ...] | Point]:
+        """Each place's region (a polygon), or its point when it has none: what names a map's places."""
+        return {name: place.region if place.region is not None else place.point for name, place in self.places.items()}
+
     def place_at(self, x: float, y: float) -> str | None:
         """The first place (in file order) that contains (x, y), or None."""
         for place in self.places.values():
