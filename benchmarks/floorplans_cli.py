@@ -1,6 +1,7 @@
 """Write one generated floor plan for people to look at: the ROS map, its ground truth and a PNG preview.
 
-Run ``python benchmarks/floorplans_cli.py --seed 3 --furniture --out DIR``; it
+Run ``python benchmarks/floorplans_cli.py --seed 3 --furniture --out DIR`` (``--hard``,
+``--clutter-corridors``: see ``generate_plan``); it
 writes ``DIR/plan-3.yaml`` + ``.pgm`` (read it with ``atlas map abstract
 DIR/plan-3.yaml --out ...``), ``plan-3-rooms.png`` / ``.json`` (the ground
 truth, see ``tests/floorplans.py``) and ``plan-3-preview.png`` (each room
@@ -36,12 +37,8 @@ def preview(plan: FloorPlan, out_png: Path) -> Path:
     rgb[plan.rooms > 0] = 0.55 + 0.45 * palette[(plan.rooms[plan.rooms > 0] - 1) % 20]
     rgb[plan.occupancy == 1] = 0.0
     rgb[np.isnan(plan.occupancy)] = 0.8
-    for item in plan.furniture:
-        r0, r1, c0, c1 = item.box
-        rgb[r0:r1, c0:c1] = (0.55, 0.35, 0.15)
-    for door in plan.doors:
-        r0, r1, c0, c1 = door.box
-        rgb[r0:r1, c0:c1] = (0.9, 0.1, 0.1)
+    rgb[plan.furniture_cells()] = (0.55, 0.35, 0.15)
+    rgb[plan.door_cells()] = (0.9, 0.1, 0.1)
     xmin, ymin, xmax, ymax = plan.frame.extent
     height, width = plan.rooms.shape
     fig, ax = plt.subplots(figsize=(max(width / 80, 6.0), height / 80 + 0.4), dpi=100)
@@ -53,8 +50,9 @@ def preview(plan: FloorPlan, out_png: Path) -> Path:
             x, y = plan.frame.cell_to_world(rows[inside], cols[inside])
             ax.text(x, y, name, ha="center", va="center", fontsize=6)
     furnished = f", {len(plan.furniture)} pieces of furniture" if plan.furniture else ""
-    ax.set_title(f"seed {plan.seed}: {plan.layout} layout, {plan.n_rooms} rooms, {len(plan.doors)} doors{furnished}",
-                 fontsize=9)
+    hard = f", hard (turned {plan.rotation:g} deg)" if plan.hard else ""
+    ax.set_title(f"seed {plan.seed}: {plan.layout} layout, {plan.n_rooms} rooms, {len(plan.doors)} doors{furnished}"
+                 f"{hard}", fontsize=9)
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     fig.tight_layout()
@@ -67,6 +65,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--furniture", action="store_true", help="add desks, tables, shelves, cabinets, pillars")
+    parser.add_argument("--hard", action="store_true",
+                        help="walls of their own thickness, doors anywhere, a turned building, map noise")
+    parser.add_argument("--clutter-corridors", action="store_true",
+                        help="benches, printers, lockers and plants along the corridors")
     parser.add_argument("--resolution", type=float, default=0.05, help="metres per cell (default 0.05)")
     parser.add_argument("--size", type=float, nargs=2, metavar=("WIDTH", "HEIGHT"),
                         help="the building's size in metres (default: drawn from the seed)")
@@ -74,7 +76,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--name", help="file name stem (default plan-SEED)")
     parser.add_argument("--score", action="store_true", help="abstract the map and score its places")
     args = parser.parse_args(argv)
-    plan = generate_plan(args.seed, furniture=args.furniture, resolution=args.resolution,
+    plan = generate_plan(args.seed, furniture=args.furniture, hard=args.hard,
+                         clutter_corridors=args.clutter_corridors, resolution=args.resolution,
                          size=tuple(args.size) if args.size else None)
     name = args.name or f"plan-{args.seed}"
     yaml = write_plan(plan, args.out, name)

@@ -5,7 +5,8 @@ Issue 13, part 2. Three things, importable by tests and benchmarks alike
 
 - :func:`generate_plan` draws a building from a seed: an occupancy grid
   (0 free, 1 occupied, NaN unknown outside the outer wall) and its rooms as
-  a label image, with names, doors and (optionally) furniture.
+  a label image, with names, doors and (optionally) furniture; ``hard``
+  plans are messier (see below).
   :func:`write_plan` saves it as a ROS map plus the ground truth.
 - :func:`world_rooms` rasterises a shipped world's named regions, so the
   worlds are ground truth too.
@@ -56,6 +57,51 @@ ranges below are checked on the images by ``tests/test_floorplans.py``):
 
 A plan is redrawn (deterministically, from the same stream) until it has
 10-40 rooms when the size is the default.
+
+**Hard plans** (``hard=True``) are the same building as the plain plan
+of the seed (the same labels, names and doors between the same rooms),
+made to look like a real drawn plan and a robot's map; the room rule is
+unchanged (the free pieces with the doors closed).
+In order, each from the plan's own "hard" random stream:
+
+6. walls of their own thickness: every side of every room and corridor
+   rectangle moves into its wall, or back from it, by a few cells drawn for
+   that side, so an inner wall is 0.1-0.3 m thick (the two sides facing
+   across it drew apart, so a wall steps where the rooms along it change)
+   and an outer wall 0.1-0.35 m (the outline stays where it was);
+7. doors redrawn in the same walls, anywhere along them: flush against an
+   end of the wall (0 m from the corner) a third of the time, 0.6 m wide one
+   time in ten, 1.3-1.6 m (double doors) one in five, else 0.7-1.2 m, and
+   0.3 m at least from any other door (flush in both walls of one corner,
+   a post stays);
+8. furniture (``furniture``; as above, in the new rooms), then the whole
+   building turned about its centre: one plan in five not at all, the
+   others by an angle drawn uniformly in +-30 degrees (``rotation``), by
+   nearest-neighbour sampling of every image at once (ground truth, doors,
+   furniture). Walls of 2 cells or more stay closed; the turn checks that
+   no two rooms, nor a room and the outside, touch even diagonally, and if
+   they would (1-cell walls, at coarse resolutions) thickens walls and door
+   gaps by one cell first. Room bits the sampling cut off become wall, and
+   the furniture next to any pocket of robot space the turn made (a sliver
+   sampled a cell narrower) is taken out, so the robot space stays one
+   piece (at 0.05 m; at 0.1 m a turned doorway may leave a 1-cell pocket);
+9. map noise: 4-12 occupied specks of 1-2 cells in open space (0.6 m
+   from anything occupied, 1 m from door gaps and each other: ``specks``,
+   ``rooms`` 0 there) and 8-24 single cells missing from the walls' faces
+   (``holes``: free, taken into the room whose face it was, with no other
+   room, door gap or unknown cell among their 8 neighbours, so no hole
+   joins two rooms and none is one a robot could pass).
+
+In a turned plan a door's and a piece of furniture's ``box`` is the
+bounding box of its cells; :meth:`FloorPlan.door_cells` and
+:meth:`FloorPlan.furniture_cells` give the cells.
+
+**Cluttered corridors** (``clutter_corridors=True``, with or without
+``hard`` and ``furniture``, from their own stream): benches, printers,
+lockers and plants against the corridors' walls (as for rooms: backed by a
+wall along their whole side, clear of doors, the corridor's robot space one
+piece reaching its doors), each leaving at least 1 m of free floor in
+front of it across the corridor.
 """
 
 from __future__ import annotations
@@ -72,7 +118,8 @@ from scipy import ndimage
 from atlas_rap.maps.frame import GridFrame
 
 __all__ = [
-    "CORRIDOR_WIDTH", "DOOR_WIDTH", "FURNITURE_SIDE", "OPEN_PLAN_AREA", "ROBOT_RADIUS", "ROOMS_PER_PLAN",
+    "CORRIDOR_CLEAR", "CORRIDOR_WIDTH", "DOOR_WIDTH", "FURNITURE_SIDE", "HARD_DOOR_WIDTH", "HARD_OUTER_THICKNESS",
+    "HARD_ROTATION", "HARD_WALL_THICKNESS", "OPEN_PLAN_AREA", "ROBOT_RADIUS", "ROOMS_PER_PLAN",
     "ROOM_AREA", "SLIVER", "WALL_THICKNESS", "Door", "FloorPlan", "Furniture", "Score", "generate_plan",
     "read_truth", "robot_space", "score", "world_room_names", "world_rooms", "write_plan",
 ]
@@ -91,6 +138,14 @@ SLIVER = (0.3, 0.9)
 """The gap some furniture leaves to a wall: too narrow to be a room, wide enough to fool a door detector."""
 ROBOT_RADIUS = 0.2
 ROOMS_PER_PLAN = (10, 40)
+HARD_WALL_THICKNESS = (0.1, 0.3)
+"""Inner walls of a ``hard`` plan, each its own (outer walls: :data:`HARD_OUTER_THICKNESS`)."""
+HARD_OUTER_THICKNESS = (0.1, 0.35)
+HARD_DOOR_WIDTH = (0.6, 1.6)
+HARD_ROTATION = 30.0
+"""Degrees either way a ``hard`` plan's building is turned (when it is turned at all)."""
+CORRIDOR_CLEAR = 1.0
+"""Metres of corridor that ``clutter_corridors`` furniture leaves free across it."""
 DEFAULT_SIZE = ((24.0, 40.0), (14.0, 26.0))
 """(long side, short side) ranges in metres of a building of the default size."""
 MIN_SIZE = (12.0, 10.0)
@@ -102,6 +157,7 @@ _MIN_BAND = 3.5  # depth of the rooms between two corridors, or a corridor and t
 _MIN_BLOCK = 4.0  # width of the rooms between two branches
 _DOOR_END = 0.15  # a door keeps this much wall at each end of the wall it is in
 _DOOR_ZONE = (1.0, 0.3)  # furniture keeps this far in front of a door, and this far either side of it
+_DOOR_APART = 0.3  # a hard plan's doors keep this far from each other
 _ATTEMPTS = 30
 
 
@@ -115,7 +171,8 @@ class Door:
     ``rooms`` the two labels it joins (smaller first); ``box`` the gap's
     cells (row0, row1, col0, col1), the wall's thickness one way and the
     width the other; ``wall`` is ``"horizontal"`` or ``"vertical"``, the
-    direction of the wall it is in.
+    direction of the wall it is in; ``corner``: flush against an end of
+    the wall (a hard plan's corner door).
     """
 
     center: tuple[float, float]
@@ -123,6 +180,7 @@ class Door:
     rooms: tuple[int, int]
     box: Rect
     wall: str
+    corner: bool = False
 
 
 @dataclass(frozen=True)
@@ -152,6 +210,15 @@ class FloorPlan:
     and ``room_kinds[i]`` (corridor, storage, office, lab, meeting-room,
     open-plan) naming label i + 1; corridors come first. Both arrays are
     read-only and have row 0 at the top (``frame`` places them).
+
+    A ``hard`` plan (see the module docstring) may be turned by
+    ``rotation`` degrees (counter-clockwise); its doors' and furniture's
+    ``box`` are then the bounding boxes of their cells in the image (a
+    door's cells are the free cells with ``rooms == 0``) and ``wall`` is the
+    wall's direction before the turn; ``furniture_mask`` holds the
+    furniture's cells then (see :meth:`furniture_cells`). ``specks`` are
+    the 1-2 cell boxes of clutter noise (occupied, ``rooms`` 0), ``holes``
+    the wall cells left out (free, in the room whose wall they were in).
     """
 
     occupancy: np.ndarray
@@ -163,10 +230,29 @@ class FloorPlan:
     furniture: tuple[Furniture, ...] = ()
     seed: int = 0
     layout: str = ""
+    hard: bool = False
+    rotation: float = 0.0
+    specks: tuple[Rect, ...] = ()
+    holes: tuple[tuple[int, int], ...] = ()
+    furniture_mask: np.ndarray | None = None
 
     @property
     def n_rooms(self) -> int:
         return len(self.room_names)
+
+    def door_cells(self) -> np.ndarray:
+        """The door gaps' cells: free, in no room."""
+        return (self.occupancy == 0) & (self.rooms == 0)
+
+    def furniture_cells(self) -> np.ndarray:
+        """The furniture's cells (its boxes, unless the plan was turned: ``furniture_mask``)."""
+        if self.furniture_mask is not None:
+            return self.furniture_mask
+        mask = np.zeros(self.rooms.shape, dtype=bool)
+        for item in self.furniture:
+            r0, r1, c0, c1 = item.box
+            mask[r0:r1, c0:c1] = True
+        return mask
 
     @property
     def free(self) -> np.ndarray:
@@ -239,6 +325,9 @@ class _Draft:
     blocks: list[Rect]
     spaces: list[_Space] = field(default_factory=list)
     doors: list[tuple[int, int, Rect, str]] = field(default_factory=list)  # space a, space b, gap, wall
+    corners: set[Rect] = field(default_factory=set)  # the gaps of doors flush against an end of their wall
+    drawn: list[tuple[list[Rect], list[Rect]]] | None = None  # each space's (rects, connectors) before a hard
+    # plan's walls moved: the outline, the labels' order and the rooms' kinds go by them (None: as they are)
 
 
 def _split_length(rng: np.random.Generator, total: int, parts: int, minimum: int) -> list[int] | None:
@@ -719,18 +808,25 @@ def _names(kinds: list[str]) -> list[str]:
     return names
 
 
-def _render(rng: np.random.Generator, u: _Units, draft: _Draft, transposed: bool, seed: int) -> FloorPlan:
-    """Carve the rooms and doors into a walled footprint, number the rooms, place the image in the world."""
+def _render(rng: np.random.Generator, u: _Units, draft: _Draft, transposed: bool, seed: int,
+            rects_out: dict[int, list[Rect]] | None = None) -> FloorPlan:
+    """Carve the rooms and doors into a walled footprint, number the rooms, place the image in the world.
+
+    ``rects_out`` (if given) receives each label's rectangles in the image.
+    """
     margin = u.cells(MARGIN)
     offset = margin + draft.outer
     canon = (draft.height + 2 * offset, draft.width + 2 * offset)
     place = _Placement(offset, canon, bool(rng.random() < 0.5), bool(rng.random() < 0.5), transposed)
     shape = place.image_shape
     spaces = [([place.rect(r) for r in s.rects], [place.rect(r) for r in s.connectors]) for s in draft.spaces]
+    # The spaces as drawn: what labels, names and the outline go by (a hard plan's walls moved since).
+    base = spaces if draft.drawn is None else [
+        ([place.rect(r) for r in rects], [place.rect(r) for r in connectors]) for rects, connectors in draft.drawn]
     # Corridors first, then rooms from the top left, as one reads a plan.
     corridors = [s for s, space in enumerate(draft.spaces) if space.kind == "corridor"]
     others = [s for s, space in enumerate(draft.spaces) if space.kind != "corridor"]
-    key = [min((r[0], r[2]) for r in rects) for rects, _ in spaces]
+    key = [min((r[0], r[2]) for r in rects) for rects, _ in base]
     order = sorted(corridors, key=lambda s: key[s]) + sorted(others, key=lambda s: key[s])
     label_of = {s: i + 1 for i, s in enumerate(order)}
     rooms = np.zeros(shape, dtype=np.int32)
@@ -739,7 +835,13 @@ def _render(rng: np.random.Generator, u: _Units, draft: _Draft, transposed: bool
     for s, (rects, connectors) in enumerate(spaces):
         for r0, r1, c0, c1 in rects + connectors:
             rooms[r0:r1, c0:c1] = label_of[s]
+    drawn = rooms if draft.drawn is None else np.zeros(shape, dtype=np.int32)
+    for s, (rects, connectors) in enumerate(base):
+        for r0, r1, c0, c1 in rects + connectors:
+            drawn[r0:r1, c0:c1] = label_of[s]
             footprint[r0 - o:r1 + o, c0 - o:c1 + o] = True
+    if rects_out is not None:
+        rects_out.update({label_of[s]: rects for s, (rects, _) in enumerate(spaces)})
     free = rooms > 0
     doors = []
     frame = GridFrame(shape[0], shape[1], u.res, (-margin * u.res, -margin * u.res, 0.0))
@@ -750,9 +852,9 @@ def _render(rng: np.random.Generator, u: _Units, draft: _Draft, transposed: bool
         wall = place.wall(wall)
         width = (c1 - c0 if wall == "horizontal" else r1 - r0) * u.res
         la, lb = sorted((label_of[a], label_of[b]))
-        doors.append(Door((round(x, 6), round(y, 6)), round(width, 6), (la, lb), box, wall))
+        doors.append(Door((round(x, 6), round(y, 6)), round(width, 6), (la, lb), box, wall, gap in draft.corners))
     occupancy = np.where(footprint, np.where(free, 0.0, 1.0), np.nan).astype(np.float32)
-    areas = np.bincount(rooms.ravel(), minlength=len(order) + 1) * u.res ** 2
+    areas = np.bincount(drawn.ravel(), minlength=len(order) + 1) * u.res ** 2
     kinds = [_kind_of(rng, draft.spaces[s], float(areas[label_of[s]])) for s in order]
     doors.sort(key=lambda d: (d.rooms, d.box))
     return FloorPlan(_frozen(occupancy), _frozen(rooms), tuple(_names(kinds)), tuple(kinds), frame,
@@ -935,10 +1037,407 @@ def _fits(box: Rect, label: int, rooms: np.ndarray, zones: np.ndarray, plan: Flo
     return True
 
 
+# -- hard plans: walls of their own thickness, doors anywhere, a turn, map noise -------------------
+
+def _facing(a: Rect, b: Rect) -> tuple[str, int, int, int, int] | None:
+    """Where rectangles a and b face each other across a gap of any width (:func:`_shared_wall`'s tuple)."""
+    for wall, (a0, a1, b0, b1), (along_a, along_b) in (
+            ("vertical", (a[2], a[3], b[2], b[3]), ((a[0], a[1]), (b[0], b[1]))),
+            ("horizontal", (a[0], a[1], b[0], b[1]), ((a[2], a[3]), (b[2], b[3])))):
+        if a1 < b0 or b1 < a0:
+            lo, hi = max(along_a[0], along_b[0]), min(along_a[1], along_b[1])
+            w0, w1 = (a1, b0) if a1 < b0 else (b1, a0)
+            return (wall, lo, hi, w0, w1) if hi > lo else None
+    return None
+
+
+def _beside(rect: Rect, gap: Rect, kind: str) -> bool:
+    """Whether ``rect`` is one of the two rectangles a door ``gap`` in a ``kind`` wall opens into."""
+    if kind == "vertical":
+        return (rect[3] == gap[2] or rect[2] == gap[3]) and rect[0] <= gap[0] and gap[1] <= rect[1]
+    return (rect[1] == gap[0] or rect[0] == gap[1]) and rect[2] <= gap[2] and gap[3] <= rect[3]
+
+
+def _hard_door_width(rng: np.random.Generator, u: _Units) -> int:
+    """A narrow door (0.6 m) one time in ten, a double door (1.3-1.6 m) one in five, else 0.7-1.2 m."""
+    kind = rng.choice(3, p=[0.1, 0.7, 0.2])
+    if kind == 0:
+        return u.cells(HARD_DOOR_WIDTH[0])
+    return u.draw(rng, 0.7, 1.2) if kind == 1 else u.draw(rng, 1.3, HARD_DOOR_WIDTH[1])
+
+
+def _vary_walls(rng: np.random.Generator, u: _Units, draft: _Draft) -> None:
+    """Give each wall its own thickness and redraw the doors (width, anywhere along the wall).
+
+    Every side of every rectangle moves into its wall (or back from it) by
+    a few cells drawn for that side: an inner wall, ``wall`` cells thick in
+    the draft, ends up 0.1-0.3 m thick (the two sides facing across it drew
+    independently, so a wall along a row of rooms steps from room to room),
+    an outer wall 0.1-0.35 m (the building's outline stays: ``drawn``
+    keeps the draft's rectangles). A side never moves back from a
+    rectangle of its own space it touches (a branch from its spine). Then
+    the open-plan connectors are redrawn across their new wall, and each
+    door is redrawn in the wall between the same two rectangles: its width
+    from :func:`_hard_door_width` (at most the wall's length), flush
+    against one end of the wall a third of the time, else anywhere, but at
+    least 0.3 m from the doors before it (so two doors flush in one corner
+    do not meet: the corner keeps a post).
+    """
+    t, o = draft.wall, draft.outer
+    wmin, wmax = u.span(*HARD_WALL_THICKNESS)
+    omax = u.span(*HARD_OUTER_THICKNESS)[1]
+    # A wall's two faces are a top (left) side and a bottom (right) side: between them they move t - wmax to
+    # t - wmin cells (the latter, bottom and right, taking the odd cell), so any wall can be wmin to wmax thick.
+    first_lo, first_hi = (t - wmax) // 2, max(0, (t - wmin) // 2)
+    inner = [(first_lo, first_hi), (t - wmax - first_lo, max(0, t - wmin - first_hi))]
+    outer = (min(0, o - omax), max(0, o - wmin))
+    spaces = draft.spaces
+    pairs = []
+    for a, b, gap, kind in draft.doors:
+        ia = next(i for i, r in enumerate(spaces[a].rects) if _beside(r, gap, kind))
+        ib = next(i for i, r in enumerate(spaces[b].rects) if _beside(r, gap, kind))
+        pairs.append((ia, ib))
+    draft.drawn = [(list(space.rects), list(space.connectors)) for space in spaces]
+    h, w = draft.height, draft.width
+    owner = np.zeros((h, w), dtype=np.int32)
+    for s, space in enumerate(spaces):
+        for r0, r1, c0, c1 in space.rects + space.connectors:
+            owner[max(r0, 0):r1, max(c0, 0):c1] = s + 1
+    d, e = max(t, o) + 1, t + 1  # how far beyond a side, and past its ends, a neighbour makes it an inner side
+    for s, space in enumerate(spaces):
+        grown = []
+        for r0, r1, c0, c1 in space.rects:
+            moves = []
+            for strip in ((r0 - d, r0, c0 - e, c1 + e), (r1, r1 + d, c0 - e, c1 + e),
+                          (r0 - e, r1 + e, c0 - d, c0), (r0 - e, r1 + e, c1, c1 + d)):
+                a0, a1, b0, b1 = strip
+                near = owner[max(a0, 0):max(a1, 0), max(b0, 0):max(b1, 0)]
+                first = (owner[max(r0 - 1, 0):max(r0, 0), c0:c1], owner[r1:r1 + 1, c0:c1],
+                         owner[r0:r1, max(c0 - 1, 0):max(c0, 0)], owner[r0:r1, c1:c1 + 1])[len(moves)]
+                lo, hi = inner[len(moves) % 2] if ((near != 0) & (near != s + 1)).any() else outer
+                if (first == s + 1).any():
+                    lo = max(lo, 0)
+                moves.append(int(rng.integers(lo, max(lo, hi) + 1)))
+            grown.append((r0 - moves[0], r1 + moves[1], c0 - moves[2], c1 + moves[3]))
+        space.rects = grown
+    boxes = [(s, r) for s, space in enumerate(spaces) for r in space.rects]
+    for i, (s, a) in enumerate(boxes):  # the rooms stay apart, by a wall of 0.1 m at least
+        for q, b in boxes[:i]:
+            gap = max(b[0] - a[1], a[0] - b[1], b[2] - a[3], a[2] - b[3])
+            assert q == s or gap >= wmin, (a, b)
+    for space in spaces:
+        if space.connectors:
+            wall = _facing(space.rects[0], space.rects[1])
+            assert wall is not None
+            space.connectors = [_wall_rect(wall)]
+    doors: list[tuple[int, int, Rect, str]] = []
+    apart = u.cells(_DOOR_APART)
+    for (a, b, _, kind), (ia, ib) in zip(draft.doors, pairs):
+        wall = _facing(spaces[a].rects[ia], spaces[b].rects[ib])
+        assert wall is not None and wall[0] == kind
+        _, lo, hi, w0, w1 = wall
+        width = min(_hard_door_width(rng, u), hi - lo)
+        if rng.random() < 1 / 3:
+            starts = [lo if rng.random() < 0.5 else hi - width]
+        else:
+            starts = [int(rng.integers(lo, hi - width + 1))]
+        starts += rng.permutation(np.arange(lo, hi - width + 1)).tolist()
+        for d0 in starts:  # two doors never meet (flush in both walls of one corner): 0.3 m of wall between
+            gap = (d0, d0 + width, w0, w1) if kind == "vertical" else (w0, w1, d0, d0 + width)
+            if all(max(g[0] - gap[1], gap[0] - g[1], g[2] - gap[3], gap[2] - g[3]) >= apart for _, _, g, _ in doors):
+                break
+        doors.append((a, b, gap, kind))
+        if d0 in (lo, hi - width):
+            draft.corners.add(gap)
+    draft.doors = doors
+
+
+_CORRIDOR_PIECES: dict[str, tuple[tuple[float, float], tuple[float, float] | None, float]] = {
+    # kind: (length along the wall, depth (None: square), odds)
+    "bench": ((1.2, 2.0), (0.4, 0.5), 0.35),
+    "printer": ((0.5, 0.8), (0.5, 0.7), 0.25),
+    "locker": ((0.8, 1.6), (0.4, 0.6), 0.25),
+    "plant": ((0.4, 0.5), None, 0.15),
+}
+
+
+def _clutter(rng: np.random.Generator, u: _Units, plan: FloorPlan, rects: dict[int, list[Rect]]) -> FloorPlan:
+    """Benches, printers, lockers and plants against the corridors' walls (``clutter_corridors``).
+
+    The rules of :func:`_furnish` (clear of doors, backed by a wall along
+    its whole side, the corridor's robot space one piece that reaches all
+    its doors), and every piece leaves at least :data:`CORRIDOR_CLEAR`
+    of free cells in front of it, across the corridor.
+    """
+    rooms, occupancy = plan.rooms.copy(), plan.occupancy.copy()
+    shape, items = rooms.shape, list(plan.furniture)
+    zones = np.zeros(shape, dtype=bool)
+    for door in plan.doors:
+        r0, r1, c0, c1 = _door_zone(door, u, shape)
+        zones[r0:r1, c0:c1] = True
+    kinds = list(_CORRIDOR_PIECES)
+    odds = np.array([v[2] for v in _CORRIDOR_PIECES.values()])
+    clear = u.cells(CORRIDOR_CLEAR)
+    areas = plan.room_areas()
+    for label in plan.corridors:
+        boxes = rects[label]
+        weights = np.array([u.area(r) for r in boxes])
+        for _ in range(min(10, int(rng.poisson(areas[label - 1] / 12.0)))):
+            for _attempt in range(8):
+                r0, r1, c0, c1 = boxes[int(rng.choice(len(boxes), p=weights / weights.sum()))]
+                kind = kinds[int(rng.choice(len(kinds), p=odds / odds.sum()))]
+                long, deep, _ = _CORRIDOR_PIECES[kind]
+                a = u.draw(rng, *long)
+                b = a if deep is None else u.draw(rng, *deep)
+                side = _SIDES[int(rng.integers(4))]
+                if side in ("left", "right"):
+                    if r1 - r0 < a or c1 - c0 < b + clear:
+                        continue
+                    top = int(rng.integers(r0, r1 - a + 1))
+                    left = c0 if side == "left" else c1 - b
+                    box = (top, top + a, left, left + b)
+                    ahead = occupancy[top:top + a, left + b:left + b + clear] if side == "left" else \
+                        occupancy[top:top + a, max(left - clear, 0):left]
+                else:
+                    if c1 - c0 < a or r1 - r0 < b + clear:
+                        continue
+                    left = int(rng.integers(c0, c1 - a + 1))
+                    top = r0 if side == "top" else r1 - b
+                    box = (top, top + b, left, left + a)
+                    ahead = occupancy[top + b:top + b + clear, left:left + a] if side == "top" else \
+                        occupancy[max(top - clear, 0):top, left:left + a]
+                drawn = (kind, box, "wall", side, 0)
+                if ahead.shape[0] * ahead.shape[1] and (ahead == 0).all() and _backed(drawn, plan) \
+                        and _fits(box, label, rooms, zones, plan, u):
+                    b0, b1, b2, b3 = box
+                    rooms[b0:b1, b2:b3] = 0
+                    occupancy[b0:b1, b2:b3] = 1.0
+                    items.append(Furniture(kind, box, label, "wall", side, 0.0))
+                    break
+    return _replace(plan, occupancy=_frozen(occupancy), rooms=_frozen(rooms), furniture=tuple(items))
+
+
+def _replace(plan: FloorPlan, **changes: Any) -> FloorPlan:
+    import dataclasses
+
+    return dataclasses.replace(plan, **changes)
+
+
+def _separated(rooms: np.ndarray, outside: np.ndarray) -> bool:
+    """Whether no two room labels, nor a room and the ``outside``, touch, not even diagonally.
+
+    (The rooms with the doors closed stay apart, and a wall stands between them and the unknown.)
+    """
+    rooms = np.where(outside, rooms.max(initial=0) + 1, rooms)
+    pieces, count = ndimage.label(rooms > 0, structure=np.ones((3, 3), dtype=bool))
+    index = np.arange(1, count + 1)
+    return bool(np.array_equal(ndimage.minimum(rooms, pieces, index), ndimage.maximum(rooms, pieces, index)))
+
+
+def _rotate(plan: FloorPlan, degrees: float, u: _Units) -> FloorPlan:
+    """The plan with its building turned ``degrees`` counter-clockwise about its centre, nearest neighbour.
+
+    Each cell of the new image takes everything (occupancy, room, door,
+    furniture) from the cell of the old one its centre falls in, so walls
+    stay at least as thick (across) as they were and, being 2 cells or
+    more, closed. When the rooms would not stay apart (walls of 1 cell, at
+    coarse resolutions) the walls and door gaps are first thickened by one
+    cell into the rooms on either side. Bits of a room that the sampling
+    cut off from it (touching it only diagonally) become wall, or part of
+    the furniture they touch (:func:`_cut_off_bits`), and furniture that
+    walls in a pocket of robot space goes (:func:`_unpocket`).
+    """
+    occ0, rooms0 = plan.occupancy, plan.rooms
+    doors0 = np.zeros(rooms0.shape, dtype=np.int32)
+    for i, door in enumerate(plan.doors):
+        r0, r1, c0, c1 = door.box
+        doors0[r0:r1, c0:c1] = i + 1
+    furn0 = np.zeros(rooms0.shape, dtype=np.int32)
+    for i, item in enumerate(plan.furniture):
+        r0, r1, c0, c1 = item.box
+        furn0[r0:r1, c0:c1] = i + 1
+    rows, cols = np.nonzero(~np.isnan(occ0))
+    cy, cx = (rows.min() + rows.max() + 1) / 2, (cols.min() + cols.max() + 1) / 2
+    cos, sin = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    corners = np.array([(x - cx, y - cy) for x in (cols.min(), cols.max() + 1) for y in (rows.min(), rows.max() + 1)])
+    xr, yr = cos * corners[:, 0] + sin * corners[:, 1], -sin * corners[:, 0] + cos * corners[:, 1]
+    margin = u.cells(MARGIN)
+    height = math.ceil(yr.max() - yr.min() - 1e-9) + 2 * margin
+    width = math.ceil(xr.max() - xr.min() - 1e-9) + 2 * margin
+    yy, xx = np.mgrid[0:height, 0:width].astype(np.float64)
+    dx, dy = xx + 0.5 - margin + xr.min(), yy + 0.5 - margin + yr.min()
+    src_c = np.floor(cos * dx - sin * dy + cx).astype(np.int64)
+    src_r = np.floor(sin * dx + cos * dy + cy).astype(np.int64)
+    inside = (src_r >= 0) & (src_r < occ0.shape[0]) & (src_c >= 0) & (src_c < occ0.shape[1])
+    src_r, src_c = np.where(inside, src_r, 0), np.where(inside, src_c, 0)
+    for thicken in (False, True):
+        occ_s, rooms_s, doors_s, furn_s = occ0, rooms0, doors0, furn0
+        if thicken:  # walls and door gaps one cell deeper into the rooms (and furniture) on each side
+            grow = ndimage.binary_dilation((occ0 == 1) & (furn0 == 0)) & ((rooms0 > 0) | (furn0 > 0))
+            furn_s = np.where(grow, 0, furn0)
+            deeper = ndimage.binary_dilation(doors0 > 0) & (rooms0 > 0) & ~grow
+            cross = ndimage.generate_binary_structure(2, 1)
+            occ_s, rooms_s = np.where(grow, np.float32(1), occ0), np.where(grow | deeper, 0, rooms0)
+            doors_s = np.where(deeper, ndimage.grey_dilation(doors0, footprint=cross), doors0)
+        occ = np.where(inside, occ_s[src_r, src_c], np.float32(np.nan)).astype(np.float32)
+        rooms = np.where(inside, rooms_s[src_r, src_c], 0).astype(np.int32)
+        if _separated(rooms, np.isnan(occ)):
+            break
+    else:  # pragma: no cover - thickened walls have always closed
+        raise RuntimeError(f"turning plan {plan.seed} by {degrees:.1f} degrees opens its walls")
+    doors = np.where(inside, doors_s[src_r, src_c], 0)
+    furn = np.where(inside, furn_s[src_r, src_c], 0)
+    kept = [True] * len(plan.furniture)
+    while True:  # cut-off bits of rooms and pockets of robot space, until there are none (or no more to do)
+        _cut_off_bits(occ, rooms, furn, plan.n_rooms)
+        gone = _unpocket(occ, rooms, furn, plan.furniture, kept, u)
+        if not gone:
+            break
+    frame = GridFrame(height, width, u.res, (-margin * u.res, -margin * u.res, 0.0))
+
+    def bbox(mask: np.ndarray) -> Rect:
+        rr, cc = np.nonzero(mask)
+        return (int(rr.min()), int(rr.max()) + 1, int(cc.min()), int(cc.max()) + 1)
+
+    new_doors = []
+    for i, door in enumerate(plan.doors):
+        mask = doors == i + 1
+        rr, cc = np.nonzero(mask)
+        x, y = frame.cell_to_world(rr.mean(), cc.mean())
+        new_doors.append(Door((round(x, 6), round(y, 6)), door.width, door.rooms, bbox(mask), door.wall,
+                              door.corner))
+    items = [Furniture(f.kind, bbox(furn == i + 1), f.room, f.placement, f.side, f.gap)
+             for i, f in enumerate(plan.furniture) if kept[i] and (furn == i + 1).any()]
+    return _replace(plan, occupancy=_frozen(occ), rooms=_frozen(rooms), frame=frame, doors=tuple(new_doors),
+                    furniture=tuple(items), rotation=float(degrees), furniture_mask=_frozen(furn > 0))
+
+
+def _cut_off_bits(occ: np.ndarray, rooms: np.ndarray, furn: np.ndarray, n_rooms: int) -> None:
+    """Make (in place) the bits of a room cut off from its largest piece occupied: part of the furniture
+    they touch (``furn``, a piece's number + 1), else of the wall."""
+    pieces, count = ndimage.label(rooms > 0)
+    if count <= n_rooms:
+        return
+    sizes = np.bincount(pieces.ravel(), minlength=count + 1)
+    sizes[0] = 0
+    labels = np.zeros(count + 1, dtype=np.int64)
+    labels[pieces.ravel()] = rooms.ravel()
+    keep = np.zeros(count + 1, dtype=bool)
+    for label in range(1, n_rooms + 1):
+        mine = np.flatnonzero(labels == label)
+        mine = mine[mine > 0]
+        if mine.size:
+            keep[mine[np.argmax(sizes[mine])]] = True
+    keep[0] = True
+    cut = ~keep[pieces]
+    occ[cut], rooms[cut] = 1.0, 0
+    furn[cut] = ndimage.grey_dilation(furn, size=(3, 3))[cut]
+
+
+def _unpocket(occ: np.ndarray, rooms: np.ndarray, furn: np.ndarray, items: tuple[Furniture, ...],
+              kept: list[bool], u: _Units) -> bool:
+    """Take out (in place) the furniture nearest each pocket of robot space the turn made; whether any went.
+
+    A sliver a robot just fits into may come out of the sampling a cell
+    narrower in places, leaving bits of robot space it cannot reach; the
+    piece of furniture nearest each such pocket goes (its cells become its
+    room's again, ``kept[i]`` False), until the robot space is one piece
+    (or no furniture stands next to the pockets left).
+    """
+    took = False
+    while items:
+        pieces, count = ndimage.label(robot_space(occ == 0, u.res))
+        if count <= 1:
+            break
+        sizes = np.bincount(pieces.ravel())
+        sizes[0] = 0
+        main = int(np.argmax(sizes))
+        present = [i for i in range(len(items)) if kept[i]]
+        if not present:
+            break
+        cells = {i: np.nonzero(furn == i + 1) for i in present}
+        dist = ndimage.distance_transform_edt((pieces == 0) | (pieces == main), return_indices=False)
+        pockets = np.zeros(count + 1, dtype=bool)
+        pockets[1:] = True
+        pockets[main] = False
+        near = ndimage.distance_transform_edt(~pockets[pieces], return_indices=True)[1]
+        owner = pieces[near[0], near[1]]  # the pocket nearest each cell
+        chosen = set()
+        reach = ROBOT_RADIUS / u.res + 2.0  # a piece this close to a pocket is what walls it in
+        for k in np.flatnonzero(pockets):
+            gaps = {j: float(np.where(owner[cells[j]] == k, dist[cells[j]], np.inf).min(initial=np.inf))
+                    for j in present}
+            i = min(present, key=gaps.__getitem__)
+            if gaps[i] <= reach:
+                chosen.add(i)
+        if not chosen:  # pockets no furniture makes (a doorway at a coarse resolution) stay
+            break
+        for i in chosen:
+            kept[i] = False
+            occ[cells[i]], rooms[cells[i]], furn[cells[i]] = 0.0, items[i].room, 0
+        took = True
+    return took
+
+
+def _add_noise(rng: np.random.Generator, u: _Units, plan: FloorPlan) -> FloorPlan:
+    """A few occupied specks in free space and a few cells missing from the walls, as in a robot's map.
+
+    Specks (4-12, of 1 or 2 cells) stand at least 0.6 m from anything
+    occupied or unknown, 1 m from a door gap and 1 m from each other; a
+    robot passes around them and through every door as before. Holes (8-24
+    single cells, never touching each other) are wall cells on a room's
+    face, with only that room, walls and furniture around them (no door,
+    other room or unknown cell among their 8 neighbours): the room takes
+    them in, so no hole joins two rooms, or lets a robot through a wall.
+    """
+    occ, rooms = plan.occupancy.copy(), plan.rooms.copy()
+    free = occ == 0
+    gaps = free & (rooms == 0)
+    furn = plan.furniture_cells()
+    clearance = ndimage.distance_transform_edt(free) * u.res
+    to_gap = ndimage.distance_transform_edt(~gaps) * u.res
+    ok = (rooms > 0) & (clearance >= 0.6) & (to_gap >= 1.0)
+    space = u.cells(1.0)
+    specks = []
+    for _ in range(int(rng.integers(4, 13))):
+        cells = np.flatnonzero(ok)
+        if not cells.size:
+            break
+        r, c = divmod(int(cells[int(rng.integers(cells.size))]), rooms.shape[1])
+        box = (r, r + 1, c, c + 1)
+        if rng.random() < 0.5:
+            box = (r, r + 1, c, c + 2) if rng.random() < 0.5 else (r, r + 2, c, c + 1)
+            if not ok[box[0]:box[1], box[2]:box[3]].all():
+                box = (r, r + 1, c, c + 1)
+        occ[box[0]:box[1], box[2]:box[3]], rooms[box[0]:box[1], box[2]:box[3]] = 1.0, 0
+        ok[max(r - space, 0):r + space + 1, max(c - space, 0):c + space + 1] = False
+        specks.append(box)
+    wall = (occ == 1) & ~furn
+    for box in specks:
+        wall[box[0]:box[1], box[2]:box[3]] = False
+    big = np.iinfo(np.int32).max
+    top = ndimage.maximum_filter(rooms, size=3, mode="constant")
+    low = ndimage.minimum_filter(np.where(rooms > 0, rooms, big), size=3, mode="constant", cval=big)
+    bad = ndimage.maximum_filter((gaps | np.isnan(occ)).astype(np.uint8), size=3, mode="constant", cval=1) > 0
+    face = ndimage.binary_dilation(rooms > 0)
+    ok = wall & face & (top > 0) & (top == low) & ~bad
+    holes = []
+    for _ in range(int(rng.integers(8, 25))):
+        cells = np.flatnonzero(ok)
+        if not cells.size:
+            break
+        r, c = divmod(int(cells[int(rng.integers(cells.size))]), rooms.shape[1])
+        occ[r, c], rooms[r, c] = 0.0, top[r, c]
+        ok[max(r - 2, 0):r + 3, max(c - 2, 0):c + 3] = False
+        holes.append((r, c))
+    return _replace(plan, occupancy=_frozen(occ), rooms=_frozen(rooms), specks=tuple(specks),
+                    holes=tuple(sorted(holes)))
+
+
 # -- the generator ---------------------------------------------------------------------------
 
-def generate_plan(seed: int, *, furniture: bool = False, resolution: float = 0.05,
-                  size: tuple[float, float] | None = None) -> FloorPlan:
+def generate_plan(seed: int, *, furniture: bool = False, hard: bool = False, clutter_corridors: bool = False,
+                  resolution: float = 0.05, size: tuple[float, float] | None = None) -> FloorPlan:
     """A floor plan drawn from ``seed``: the same seed, resolution and size always give the same plan.
 
     ``size`` is the building's (width, height) in metres (its outer wall's
@@ -947,13 +1446,23 @@ def generate_plan(seed: int, *, furniture: bool = False, resolution: float = 0.0
     building are 1 m of unknown cells; the frame puts the building's
     lower-left outer corner at world (0, 0). ``furniture`` adds clutter to
     the same building (see the module docstring).
+
+    ``hard`` makes the same building messier, as real drawn plans and robot
+    maps are: walls of their own thickness, doors anywhere (often flush in
+    a corner), narrow and double doors, the building turned up to 30
+    degrees (the lower-left corner of its bounding box at (0, 0)), specks
+    and missing wall cells. ``clutter_corridors`` puts benches, printers,
+    lockers and plants along the corridors' walls (with or without
+    ``furniture`` in the rooms). Each draws from its own random stream.
     """
     if not resolution > 0 or resolution > 0.2:
         raise ValueError(f"resolution must be in (0, 0.2] metres, not {resolution}")
     if size is not None and (max(size) < MIN_SIZE[0] or min(size) < MIN_SIZE[1]):
         raise ValueError(f"a building is at least {MIN_SIZE[0]:g} x {MIN_SIZE[1]:g} m, not {size}")
     u = _Units(float(resolution))
-    layout_rng, furniture_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(2))
+    # spawn(4)'s first two streams are spawn(2)'s: the plans of old stay as they were.
+    layout_rng, furniture_rng, hard_rng, clutter_rng = (
+        np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4))
     scale = 1.0
     for _ in range(_ATTEMPTS):
         draft, transposed = _draw_building(layout_rng, u, size, scale)
@@ -966,8 +1475,23 @@ def generate_plan(seed: int, *, furniture: bool = False, resolution: float = 0.0
         break
     else:  # pragma: no cover - the draws above have always succeeded within a few attempts
         raise RuntimeError(f"no floor plan for seed {seed} after {_ATTEMPTS} attempts")
-    plan = _render(layout_rng, u, draft, transposed, seed)
-    return _furnish(furniture_rng, u, plan) if furniture else plan
+    turn = 0.0
+    if hard:  # the turn first: it stays the seed's whatever the walls and doors draw after it
+        if hard_rng.random() >= 0.2:
+            turn = round(float(hard_rng.uniform(-HARD_ROTATION, HARD_ROTATION)), 1)
+        _vary_walls(hard_rng, u, draft)
+    rects: dict[int, list[Rect]] = {}
+    plan = _render(layout_rng, u, draft, transposed, seed, rects)
+    if furniture:
+        plan = _furnish(furniture_rng, u, plan)
+    if clutter_corridors:
+        plan = _clutter(clutter_rng, u, plan, rects)
+    if not hard:
+        return plan
+    plan = _replace(plan, hard=True)
+    if turn:
+        plan = _rotate(plan, turn, u)
+    return _add_noise(hard_rng, u, plan)
 
 
 # -- files -----------------------------------------------------------------------------------
@@ -980,7 +1504,8 @@ def write_plan(plan: FloorPlan, folder: str | Path, name: str) -> Path:
     folder/name.yaml`` read it back exactly. ``name-rooms.png`` is the
     ``rooms`` label image as a 16-bit greyscale PNG (row 0 at the top, as
     the map); ``name-rooms.json`` names the labels and lists the doors and
-    furniture (see :func:`read_truth`).
+    furniture (see :func:`read_truth`), and for a hard plan its rotation,
+    specks and holes.
     """
     import imageio.v3 as iio
 
@@ -1001,14 +1526,16 @@ def write_plan(plan: FloorPlan, folder: str | Path, name: str) -> Path:
 
 def _truth_dict(plan: FloorPlan, image: str, map_yaml: str) -> dict[str, Any]:
     areas = plan.room_areas()
-    return {
+    hard = {"hard": True, "rotation": plan.rotation, "specks": [list(b) for b in plan.specks],
+            "holes": [list(c) for c in plan.holes]} if plan.hard else {}
+    return hard | {
         "seed": plan.seed, "layout": plan.layout, "map": map_yaml, "image": image,
         "shape": list(plan.rooms.shape), "resolution": plan.frame.resolution, "origin": list(plan.frame.origin),
         "rooms": [{"label": i + 1, "name": n, "kind": k, "area": round(float(a), 4)}
                   for i, (n, k, a) in enumerate(zip(plan.room_names, plan.room_kinds, areas))],
         "doors": [{"center": list(d.center), "width": d.width, "rooms": list(d.rooms),
                    "names": [plan.room_names[r - 1] for r in d.rooms], "box": list(d.box), "wall": d.wall}
-                  for d in plan.doors],
+                  | ({"corner": d.corner} if plan.hard else {}) for d in plan.doors],
         "furniture": [{"kind": f.kind, "room": f.room, "placement": f.placement, "side": f.side, "gap": f.gap,
                        "box": list(f.box)} for f in plan.furniture],
     }

@@ -22,9 +22,10 @@ from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, load_ros_map
 from atlas_rap.shipped import shipped_worlds
 from atlas_rap.sim.world import load_world
-from floorplans import (CORRIDOR_WIDTH, DOOR_WIDTH, FURNITURE_SIDE, OPEN_PLAN_AREA, ROBOT_RADIUS, ROOM_AREA,
-                        ROOMS_PER_PLAN, SLIVER, WALL_THICKNESS, FloorPlan, generate_plan, read_truth, score,
-                        world_room_names, world_rooms, write_plan)
+from floorplans import (CORRIDOR_CLEAR, CORRIDOR_WIDTH, DOOR_WIDTH, FURNITURE_SIDE, HARD_DOOR_WIDTH,
+                        HARD_OUTER_THICKNESS, HARD_ROTATION, HARD_WALL_THICKNESS, OPEN_PLAN_AREA, ROBOT_RADIUS,
+                        ROOM_AREA, ROOMS_PER_PLAN, SLIVER, WALL_THICKNESS, FloorPlan, generate_plan, read_truth,
+                        score, world_room_names, world_rooms, write_plan)
 
 SEEDS = range(12)
 EPS = 1e-6
@@ -73,7 +74,8 @@ def furniture_mask(plan: FloorPlan) -> np.ndarray:
 
 def describe(plan: FloorPlan) -> str:
     areas = ", ".join(f"{n} {a:.1f}" for n, a in zip(plan.room_names, plan.room_areas()))
-    return f"seed {plan.seed} ({plan.layout}, {plan.rooms.shape}): {areas}"
+    hard = f", hard, turned {plan.rotation:g} deg" if plan.hard else ""
+    return f"seed {plan.seed} ({plan.layout}, {plan.rooms.shape}{hard}): {areas}"
 
 
 # -- the generator ---------------------------------------------------------------------------
@@ -288,6 +290,218 @@ def test_the_cli_writes_a_plan_and_its_preview(tmp_path: Path) -> None:
     assert cli.main(["--seed", "3", "--furniture", "--out", str(tmp_path)]) == 0
     names = {p.name for p in tmp_path.iterdir()}
     assert {"plan-3.yaml", "plan-3.pgm", "plan-3-rooms.png", "plan-3-rooms.json", "plan-3-preview.png"} <= names
+
+
+# -- hard plans --------------------------------------------------------------------------------
+
+HARD_SEEDS = range(10)  # seeds 3, 4 and 8 are not turned
+
+
+@pytest.fixture(scope="module")
+def hard_plans() -> dict[int, FloorPlan]:
+    return {seed: generate_plan(seed, hard=True) for seed in HARD_SEEDS}
+
+
+@pytest.fixture(scope="module")
+def hard_cluttered() -> dict[int, FloorPlan]:
+    return {seed: generate_plan(seed, hard=True, furniture=True, clutter_corridors=True) for seed in (0, 5, 7)}
+
+
+def straight(plans: dict[int, FloorPlan]) -> list[FloorPlan]:
+    """The plans that were not turned (their doors' boxes are their gaps)."""
+    found = [p for p in plans.values() if p.rotation == 0.0]
+    assert len(found) >= 2
+    return found
+
+
+def test_plain_plans_are_still_the_plans_of_old() -> None:
+    """Benchmarks and tests depend on the plain plans: the same arrays for the same seed as before ``hard``."""
+    import hashlib
+
+    for seed, furniture, digest in (
+            (0, False, "d231f66ac0bf904ef2945b66820941cb5b91d48005b96a0da85fcd137be29a48"),
+            (1, True, "ceae0668ed962c93541059462c4aec91b59b6508df08bdceba2da2ddc2398f2d")):
+        plan = generate_plan(seed, furniture=furniture, hard=False, clutter_corridors=False)
+        assert hashlib.sha256(plan.occupancy.tobytes() + plan.rooms.tobytes()).hexdigest() == digest
+        assert not plan.hard and plan.rotation == 0.0 and plan.specks == plan.holes == ()
+
+
+def test_hard_plans_are_drawn_from_the_seed_and_are_the_plain_plans_building(
+        hard_plans: dict[int, FloorPlan], hard_cluttered: dict[int, FloorPlan]) -> None:
+    a = generate_plan(7, hard=True, furniture=True, clutter_corridors=True)
+    b = hard_cluttered[7]
+    assert np.array_equal(a.occupancy, b.occupancy, equal_nan=True) and np.array_equal(a.rooms, b.rooms)
+    assert (a.doors, a.furniture, a.frame, a.rotation, a.specks, a.holes) == \
+        (b.doors, b.furniture, b.frame, b.rotation, b.specks, b.holes)
+    assert np.array_equal(a.furniture_cells(), b.furniture_cells())
+    for seed in (3, 7):
+        plain, hard = generate_plan(seed), hard_plans[seed]
+        assert hard.hard and hard.room_names == plain.room_names and hard.room_kinds == plain.room_kinds
+        assert sorted(d.rooms for d in hard.doors) == sorted(d.rooms for d in plain.doors)
+        assert hard.rooms.shape != plain.rooms.shape or not np.array_equal(hard.rooms, plain.rooms)
+    angles = [p.rotation for p in hard_plans.values()]
+    assert 0.0 in angles and sum(a != 0.0 for a in angles) >= len(angles) // 2
+    assert all(abs(a) <= HARD_ROTATION for a in angles) and min(angles) < 0 < max(angles)
+
+
+@pytest.mark.parametrize("which", ["clean", "cluttered"])
+def test_hard_rooms_are_the_free_space_with_the_doors_closed(
+        which: str, hard_plans: dict[int, FloorPlan], hard_cluttered: dict[int, FloorPlan]) -> None:
+    for plan in (hard_plans if which == "clean" else hard_cluttered).values():
+        rooms, free = plan.rooms, plan.occupancy == 0
+        pieces, count = ndimage.label(rooms > 0)
+        assert count == plan.n_rooms, describe(plan)
+        index = np.arange(1, count + 1)
+        assert np.array_equal(ndimage.minimum(rooms, pieces, index), ndimage.maximum(rooms, pieces, index))
+        # No two rooms touch, not even diagonally, turned or not: walls (or closed doors) lie between.
+        for a, b in ((rooms[1:], rooms[:-1]), (rooms[:, 1:], rooms[:, :-1]),
+                     (rooms[1:, 1:], rooms[:-1, :-1]), (rooms[1:, :-1], rooms[:-1, 1:])):
+            assert not ((a != b) & (a > 0) & (b > 0)).any(), describe(plan)
+        # The free cells are the rooms' and the door gaps': each gap lies in a door's box, between its rooms.
+        assert free[rooms > 0].all()
+        door_cells = plan.door_cells()
+        gaps, n_gaps = ndimage.label(door_cells)
+        assert n_gaps >= len(plan.doors)
+        for i, (rs, cs) in enumerate(ndimage.find_objects(gaps), start=1):
+            window = (slice(rs.start - 1, rs.stop + 1), slice(cs.start - 1, cs.stop + 1))
+            mask = gaps[window] == i
+            beside = set(np.unique(rooms[window][ndimage.binary_dilation(mask) & ~mask]).tolist()) - {0}
+            doors = [d for d in plan.doors if d.box[0] <= rs.start and rs.stop <= d.box[1]
+                     and d.box[2] <= cs.start and cs.stop <= d.box[3]]
+            assert any(beside <= set(d.rooms) for d in doors), (describe(plan), beside)
+        for door in plan.doors:
+            r0, r1, c0, c1 = door.box
+            assert door_cells[r0:r1, c0:c1].any()
+        # Outside: unknown, one piece, and never next to a free cell, not even diagonally.
+        unknown = np.isnan(plan.occupancy)
+        assert unknown[0].all() and unknown[-1].all() and unknown[:, 0].all() and unknown[:, -1].all()
+        assert ndimage.label(unknown)[1] == 1
+        assert not (ndimage.binary_dilation(unknown, structure=np.ones((3, 3))) & free).any()
+
+
+@pytest.mark.parametrize("which", ["clean", "cluttered"])
+def test_hard_plans_are_connected_for_a_robot_of_radius_0_2(
+        which: str, hard_plans: dict[int, FloorPlan], hard_cluttered: dict[int, FloorPlan]) -> None:
+    plans = hard_plans if which == "clean" else hard_cluttered
+    assert any(p.rotation != 0 for p in plans.values())
+    for plan in plans.values():
+        space = robot_space(plan.occupancy == 0, plan)
+        _, count = ndimage.label(space)
+        assert count == 1, describe(plan)
+        assert ndimage.maximum(space, plan.rooms, np.arange(1, plan.n_rooms + 1)).all(), describe(plan)
+
+
+def test_hard_walls_are_each_0_1_to_0_3_m_thick_outer_walls_up_to_0_35(hard_plans: dict[int, FloorPlan]) -> None:
+    inner, outer = [], []
+    for plan in straight(hard_plans):
+        res, rooms = plan.frame.resolution, plan.rooms
+        for door in plan.doors:  # across each door gap: the wall's thickness there
+            r0, r1, c0, c1 = door.box
+            line = rooms[(r0 + r1) // 2, :] if door.wall == "vertical" else rooms[:, (c0 + c1) // 2]
+            lo, hi = (c0, c1) if door.wall == "vertical" else (r0, r1)
+            assert {int(line[lo - 1]), int(line[hi])} == set(door.rooms)
+            inner.append(round((hi - lo) * res, 6))
+        occ = np.array(plan.occupancy)
+        for r, c in plan.holes:
+            occ[r, c] = 1.0
+        # Outer walls: from the unknown along each row and column, the occupied run up to a room.
+        for grid, labels in ((occ, rooms), (occ.T, rooms.T)):
+            for line, names in zip(grid, labels):
+                for cells, room in ((line, names), (line[::-1], names[::-1])):
+                    start = int(np.argmax(~np.isnan(cells)))
+                    run = int(np.argmax(cells[start:] != 1))
+                    if names.any() and room[start + run] > 0:
+                        outer.append(round(run * res, 6))
+    assert all(within(t, HARD_WALL_THICKNESS) for t in inner) and len(set(inner)) >= 4, sorted(set(inner))
+    outer = np.array(outer)
+    assert outer.min() >= HARD_OUTER_THICKNESS[0] - EPS
+    assert np.mean(outer <= HARD_OUTER_THICKNESS[1] + EPS) > 0.95  # (rows along an inner wall run on)
+    assert len(set(outer[outer <= HARD_OUTER_THICKNESS[1] + EPS].tolist())) >= 4
+    assert outer.max() > WALL_THICKNESS[1]  # thicker than a plain plan's
+
+
+def test_hard_doors_are_anywhere_often_in_a_corner_some_double_some_narrow(hard_plans: dict[int, FloorPlan]) -> None:
+    widths, flush, corners, total = [], 0, 0, 0
+    for plan in straight(hard_plans):
+        res, occ, rooms = plan.frame.resolution, plan.occupancy, plan.rooms
+        for door in plan.doors:
+            r0, r1, c0, c1 = door.box
+            if door.wall == "horizontal":
+                line, at, lo, hi = occ[(r0 + r1) // 2, :], (c0 + c1) // 2, c0, c1
+                sides = [rooms[r0 - 1, :], rooms[r1, :]]
+            else:
+                line, at, lo, hi = occ[:, (c0 + c1) // 2], (r0 + r1) // 2, r0, r1
+                sides = [rooms[:, c0 - 1], rooms[:, c1]]
+            gap = runs(line[None, :] == 0, 1)[0, at]
+            assert abs(gap * res - door.width) < EPS and line[lo - 1] == 1 and line[hi] == 1
+            widths.append(door.width)
+            # Flush in a corner: beside the door's end, on one side, the room stops (its side wall).
+            in_corner = any(side[lo] > 0 and side[lo - 1] != side[lo] or side[hi - 1] > 0 and side[hi] != side[hi - 1]
+                            for side in sides)
+            assert in_corner or not door.corner
+            total += 1
+            flush += in_corner
+            corners += door.corner
+    assert all(within(w, HARD_DOOR_WIDTH) for w in widths)
+    assert sum(w <= 0.65 for w in widths) >= 2 and sum(w >= 1.3 for w in widths) >= 4, sorted(widths)
+    assert 0.25 <= corners / total <= 0.5 and corners <= flush <= 0.7 * total, (corners, flush, total)
+
+
+def test_hard_plans_have_specks_and_wall_cells_missing(hard_plans: dict[int, FloorPlan]) -> None:
+    for plan in hard_plans.values():
+        occ, rooms, res = plan.occupancy, plan.rooms, plan.frame.resolution
+        assert 4 <= len(plan.specks) and 8 <= len(plan.holes), describe(plan)
+        to_gap = ndimage.distance_transform_edt(~plan.door_cells()) * res
+        for r0, r1, c0, c1 in plan.specks:
+            assert (r1 - r0) * (c1 - c0) <= 2
+            assert (occ[r0:r1, c0:c1] == 1).all() and (rooms[r0:r1, c0:c1] == 0).all()
+            ring = occ[r0 - 1:r1 + 1, c0 - 1:c1 + 1].copy()
+            ring[1:-1, 1:-1] = 0
+            assert (ring == 0).all()  # isolated
+            assert to_gap[r0:r1, c0:c1].min() >= 1.0 - EPS  # never in (or near) a doorway
+        cells = set(plan.holes)
+        for r, c in plan.holes:
+            assert occ[r, c] == 0 and rooms[r, c] > 0
+            around = rooms[r - 1:r + 2, c - 1:c + 2]
+            assert set(np.unique(around).tolist()) == {0, int(rooms[r, c])}  # one room's wall face
+            assert not (plan.door_cells()[r - 1:r + 2, c - 1:c + 2]).any()
+            assert not any((r + dr, c + dc) in cells for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc)
+
+
+def test_cluttered_corridors_keep_a_metre_free(hard_cluttered: dict[int, FloorPlan]) -> None:
+    bare = generate_plan(3)
+    plan = generate_plan(3, clutter_corridors=True)
+    res = plan.frame.resolution
+    corridor = [f for f in plan.furniture if f.room in plan.corridors]
+    assert len(corridor) >= 3 and {f.kind for f in corridor} <= {"bench", "printer", "locker", "plant"}
+    assert np.array_equal(plan.rooms, np.where(furniture_mask(plan), 0, bare.rooms))
+    clear = round(CORRIDOR_CLEAR / res)
+    for item in corridor:
+        r0, r1, c0, c1 = item.box
+        assert item.placement == "wall" and (bare.rooms[r0:r1, c0:c1] == item.room).all()
+        ahead = {"top": (r1, r1 + clear, c0, c1), "bottom": (r0 - clear, r0, c0, c1),
+                 "left": (r0, r1, c1, c1 + clear), "right": (r0, r1, c0 - clear, c0)}[item.side]
+        behind = {"top": (r0 - 1, r0, c0, c1), "bottom": (r1, r1 + 1, c0, c1),
+                  "left": (r0, r1, c0 - 1, c0), "right": (r0, r1, c1, c1 + 1)}[item.side]
+        assert (plan.occupancy[ahead[0]:ahead[1], ahead[2]:ahead[3]] == 0).all()  # 1 m of corridor in front
+        assert (bare.occupancy[behind[0]:behind[1], behind[2]:behind[3]] == 1).all()  # a wall behind
+    for hard in hard_cluttered.values():
+        assert any(f.room in hard.corridors for f in hard.furniture)
+        assert any(f.room not in hard.corridors for f in hard.furniture)
+
+
+def test_a_hard_plan_at_0_1_m_keeps_its_walls_closed(tmp_path: Path) -> None:
+    plan = generate_plan(0, hard=True, furniture=True, resolution=0.1)  # 1-cell walls, turned: thickened first
+    assert plan.rotation != 0.0
+    rooms = plan.rooms
+    _, count = ndimage.label(rooms > 0, structure=np.ones((3, 3)))
+    assert count == plan.n_rooms
+    unknown = np.isnan(plan.occupancy)
+    assert not (ndimage.binary_dilation(unknown, structure=np.ones((3, 3))) & (plan.occupancy == 0)).any()
+    write_plan(plan, tmp_path, "hard")
+    truth, info = read_truth(tmp_path, "hard")
+    assert np.array_equal(truth, rooms) and info["rotation"] == plan.rotation
+    assert [tuple(c) for c in info["holes"]] == list(plan.holes)
 
 
 # -- the scorer --------------------------------------------------------------------------------

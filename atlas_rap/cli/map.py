@@ -19,7 +19,7 @@ def room_options(command):
     command = click.option("--min-room-area", type=POSITIVE, default=None, metavar="M2",
                            help="Places smaller than this join a neighbour (default 2 m²).")(command)
     return click.option("--door-width", type=(POSITIVE, POSITIVE), default=None, metavar="MIN MAX",
-                        help="The free width of the building's doorways (default 0.55 1.6 m).")(command)
+                        help="The free width of the building's doorways (default 0.55 1.7 m).")(command)
 
 
 def _room_settings(door_width, min_room_area, wall_thickness):

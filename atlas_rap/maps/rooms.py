@@ -62,8 +62,9 @@ class RoomSettings:
     """What a door and a room are in the buildings mapped; lengths in metres, areas in m².
 
     - ``door_width``: the free width of a doorway, (narrowest, widest). Office
-      and laboratory doors are 0.7-1.3 m; the range is a little wider for
-      maps whose walls the sonar drew thick or thin.
+      and laboratory doors are 0.7-1.3 m, double doors up to 1.6 m; the
+      range is a little wider for maps whose walls the sonar drew thick or
+      thin. (Wider, and corridor cross-sections start to pass for doors.)
     - ``door_ratio``: a door's clearance is at most this times the clearance
       reached on both sides of it along the skeleton (a door is a narrowing).
     - ``jamb_length``: how far the wall must go on in line with a doorway,
@@ -77,7 +78,7 @@ class RoomSettings:
       perimeter with one neighbour joins it (it is part of that room).
     """
 
-    door_width: tuple[float, float] = (0.55, 1.6)
+    door_width: tuple[float, float] = (0.55, 1.7)
     door_ratio: float = 0.9
     jamb_length: float = 0.3
     jamb_fill: float = 0.6
