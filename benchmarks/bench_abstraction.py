@@ -4,7 +4,7 @@ On a synthetic floor plan of size x size cells at 0.05 m (a deterministic
 office: rows of rooms with doors on corridors, cross corridors, furniture,
 noisy probabilities and a few unknown patches), time
 
-- ``ours``: :func:`atlas_rap.maps.sdt.abstract` -- free space, DT, skeleton,
+- ``ours``: :func:`atlas_rap.maps.abstraction.abstract` -- free space, DT, skeleton,
   segments, places, topology, every edge's probability;
 - ``bare``: ``skimage.morphology.skeletonize(free)`` +
   ``scipy.ndimage.distance_transform_edt(free)`` on the same free mask;
@@ -98,8 +98,14 @@ def bench_abstraction(size: int, runs: int = 3, seed: int = 0) -> dict:
     from scipy.ndimage import distance_transform_edt
     from skimage.morphology import skeletonize
 
+    from atlas_rap.maps.abstraction import abstract
     from atlas_rap.maps.frame import GridFrame
-    from atlas_rap.maps.sdt import abstract, distance_transform, free_space, skeleton, trace_skeleton
+    from atlas_rap.maps.sdt import (
+        distance_transform,
+        free_space,
+        skeleton,
+        trace_skeleton,
+    )
     from atlas_rap.maps.topology import build_topology
 
     p = floor_plan(size, seed)

@@ -7,7 +7,7 @@ Prints one JSON object a line:
   place of their own (IoU >= 0.5), mean recall, pixel-weighted precision,
   merged and split rooms, and the worst plan (targets from issue 13: a place
   of their own >= 0.95 clean and >= 0.9 furnished, precision >= 0.95 / 0.9).
-- ``places-speed``: the whole abstraction (``atlas_rap.maps.sdt.abstract``:
+- ``places-speed``: the whole abstraction (``atlas_rap.maps.abstraction.abstract``:
   free space, DT, skeleton, topology, places) against the bare
   ``skimage.morphology.skeletonize`` + ``scipy.ndimage.distance_transform_edt``
   on the same free mask, on generated plans of about 0.25, 1, 4 and 16 million
@@ -46,7 +46,7 @@ def emit(record: dict) -> None:
 
 
 def bench_scores(plans: int) -> None:
-    from atlas_rap.maps.sdt import abstract
+    from atlas_rap.maps.abstraction import abstract
 
     for furniture in (False, True):
         owned = rooms = 0
@@ -84,7 +84,7 @@ def bench_speed(cells: list[float], runs: int) -> None:
     from scipy.ndimage import distance_transform_edt
     from skimage.morphology import skeletonize
 
-    from atlas_rap.maps.sdt import abstract
+    from atlas_rap.maps.abstraction import abstract
 
     for target in cells:
         side = math.sqrt(target) * RESOLUTION - 2.0  # the plan has 1 m of unknown round it

@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     png = preview(plan, args.out / f"{name}-preview.png")
     print(f"{yaml}\n{png}")
     if args.score:
-        from atlas_rap.maps.sdt import abstract
+        from atlas_rap.maps.abstraction import abstract
 
         result = abstract(plan.occupancy, plan.frame)
         print(json.dumps({k: v for k, v in score(result.places, plan.rooms).to_dict().items() if k != "rooms"}))

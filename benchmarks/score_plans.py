@@ -109,7 +109,7 @@ def diagnose(plan: FloorPlan, places: np.ndarray, tally: dict[str, int]) -> list
 def run(seeds: range, variants: list[str], below: float) -> dict[str, Any]:
     from collections import Counter
 
-    from atlas_rap.maps.sdt import abstract
+    from atlas_rap.maps.abstraction import abstract
 
     results: dict[str, Any] = {}
     for variant in variants:

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from floorplans import generate_plan, score
 
+from atlas_rap.maps.abstraction import abstract
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.rooms import RoomSettings
-from atlas_rap.maps.sdt import abstract
 
 RES = 0.05
 PLANS = range(12)

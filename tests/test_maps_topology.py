@@ -10,10 +10,15 @@ import numpy as np
 import pytest
 from skimage.draw import line
 
+from atlas_rap.maps.abstraction import abstract
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.geometry import geometric_map, outlines, region_edges
 from atlas_rap.maps.sdt import (
-    abstract, cell_support, distance_transform, free_space, skeleton, trace_skeleton,
+    cell_support,
+    distance_transform,
+    free_space,
+    skeleton,
+    trace_skeleton,
 )
 from atlas_rap.maps.topology import Topology
 

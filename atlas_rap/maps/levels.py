@@ -36,9 +36,9 @@ from typing import Any
 import numpy as np
 
 from atlas_rap.errors import AtlasError
+from atlas_rap.maps.abstraction import Abstraction, abstract
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.rooms import RoomSettings
-from atlas_rap.maps.sdt import Abstraction, abstract
 
 NPZ_COMPRESS_LEVEL = 1
 """zlib level of the arrays in ``grid.npz``. Level 1 is about as small as numpy's default (6) on maps and

@@ -33,14 +33,14 @@ From an occupancy grid ``p_occ`` (NaN = unknown) placed by a
    (:mod:`atlas_rap.maps.rooms`, with settings in metres).
 6. **topology** -- :class:`atlas_rap.maps.topology.Topology`.
 
-:func:`abstract` runs the whole pipeline and returns every level.
+:func:`atlas_rap.maps.abstraction.abstract` runs the whole pipeline and
+returns every level.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import ndimage, sparse
@@ -48,13 +48,8 @@ from scipy.sparse import csgraph
 
 from atlas_rap.maps.frame import GridFrame
 
-if TYPE_CHECKING:
-    from atlas_rap.maps.geometry import GeometricMap
-    from atlas_rap.maps.rooms import RoomSettings
-    from atlas_rap.maps.topology import Topology
-
 __all__ = [
-    "SDT", "Abstraction", "SkeletonSegment", "SkeletonTrace", "abstract", "cell_support", "distance_transform",
+    "SDT", "SkeletonSegment", "SkeletonTrace", "cell_support", "distance_transform",
     "free_space", "segment_costs", "skeleton", "trace_skeleton",
 ]
 
@@ -443,64 +438,3 @@ class SDT:
         for seg in sorted(self.segments, key=lambda s: -s.probability):  # the weakest segment wins a shared cell
             grid[seg.cells[:, 0], seg.cells[:, 1]] = seg.probability
         return grid
-
-
-@dataclass(frozen=True, eq=False)
-class Abstraction:
-    """Every level computed from one occupancy grid by :func:`abstract`."""
-
-    frame: GridFrame
-    free: np.ndarray
-    sdt: SDT
-    topology: Topology
-    geometry: GeometricMap | None = None
-
-    @property
-    def dt(self) -> np.ndarray:
-        return self.sdt.dt
-
-    @property
-    def skeleton(self) -> np.ndarray:
-        return self.sdt.skeleton
-
-    @property
-    def places(self) -> np.ndarray:
-        return self.sdt.places
-
-
-def abstract(p_occ: np.ndarray, frame: GridFrame, robot_radius: float = 0.2, free_below: float = 0.5, *,
-             rooms: RoomSettings | None = None, reachable: np.ndarray | None = None, spur_ratio: float = 1.0,
-             merge_cells: float = 3.0, geometry: bool = False) -> Abstraction:
-    """Run the whole pipeline on ``p_occ`` (NaN = unknown): free space, DT, skeleton, segments, places, topology.
-
-    ``robot_radius`` (metres) is the clearance the skeleton keeps and the
-    half-width of the band each segment's probability is computed over.
-    ``rooms`` are the settings of the places (doors, room sizes;
-    :mod:`atlas_rap.maps.rooms`), ``reachable`` the cells a robot that
-    mapped the space could reach (None on a drawn map); ``spur_ratio`` and
-    ``merge_cells`` are :func:`atlas_rap.maps.topology.build_topology`'s.
-    With ``geometry`` the geometric map (edges, polygons;
-    :func:`atlas_rap.maps.geometry.geometric_map`) is computed too.
-    """
-    from atlas_rap.maps.topology import build_topology
-
-    p = np.asarray(p_occ)
-    if p.shape != frame.shape:
-        raise ValueError(f"p_occ has shape {p.shape}, but the frame is {frame.height} x {frame.width}")
-    from atlas_rap.maps.rooms import RoomSettings
-
-    free = free_space(p, free_below)
-    dt, nearest = distance_transform(free, frame, nearest=True)
-    skel = skeleton(dt, free, robot_radius)
-    if reachable is not None:
-        skel &= reachable
-    trace = trace_skeleton(skel, dt)
-    topology = build_topology(trace, dt, p, frame, robot_radius=robot_radius, spur_ratio=spur_ratio,
-                              merge_cells=merge_cells, free=free, nearest=nearest, reachable=reachable,
-                              rooms=rooms or RoomSettings())
-    geo = None
-    if geometry:
-        from atlas_rap.maps.geometry import geometric_map
-
-        geo = geometric_map(p, frame, free_below=free_below)
-    return Abstraction(frame, free, SDT(dt, skel, topology.segments(), topology.place_labels), topology, geo)

@@ -53,7 +53,13 @@ import numpy as np
 from atlas_rap.errors import AtlasError
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.rooms import RoomSettings, segment_rooms
-from atlas_rap.maps.sdt import SkeletonSegment, SkeletonTrace, cell_support, distance_transform, segment_costs
+from atlas_rap.maps.sdt import (
+    SkeletonSegment,
+    SkeletonTrace,
+    cell_support,
+    distance_transform,
+    segment_costs,
+)
 
 __all__ = ["GraphRoute", "Topology", "build_topology", "RISK"]
 
