@@ -80,6 +80,7 @@ class _Skeleton:
         # edge id -> [u, v, pieces, length]; a piece is (segment, forward)
         self.edges: dict[int, list[Any]] = {}
         self.adj: dict[int, dict[int, None]] = {n: {} for n in range(len(trace.node_cells))}
+        self.degrees: dict[int, int] = dict.fromkeys(self.adj, 0)  # branches met at each node (a ring counts 2)
         for e, (u, v, length) in enumerate(zip(trace.seg_u.tolist(), trace.seg_v.tolist(),
                                                trace.seg_length.tolist())):
             self._add(e, u, v, [(e, True)], length)
@@ -89,14 +90,18 @@ class _Skeleton:
         self.edges[e] = [u, v, pieces, length]
         self.adj[u][e] = None
         self.adj[v][e] = None
+        self.degrees[u] += 1
+        self.degrees[v] += 1
 
     def _remove(self, e: int) -> None:
         u, v, _, _ = self.edges.pop(e)
         self.adj[u].pop(e, None)
         self.adj[v].pop(e, None)
+        self.degrees[u] -= 1
+        self.degrees[v] -= 1
 
     def degree(self, n: int) -> int:
-        return sum(2 if self.edges[e][0] == self.edges[e][1] else 1 for e in self.adj[n])
+        return self.degrees[n]
 
     def other(self, e: int, n: int) -> int:
         u, v = self.edges[e][0], self.edges[e][1]
