@@ -39,9 +39,9 @@ TARGET_UPDATES_PER_S = 10_000_000
 
 
 def _record_rings(world) -> list[tuple[tuple[float, float, float], object]]:
-    """(true pose, ranges) at 10 Hz along lab -> office -> lab (``sim.scripted``, as bench_sim.py drives)."""
+    """(true pose, ranges) at 10 Hz along lab -> office -> lab (``skills.scripted``, as bench_sim.py drives)."""
     from atlas_rap.sim.physics import Simulation
-    from atlas_rap.sim.scripted import drive_waypoints, there_and_back
+    from atlas_rap.skills.scripted import drive_waypoints, there_and_back
 
     sim = Simulation(world, seed=0)
     rings = []

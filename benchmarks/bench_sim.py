@@ -43,8 +43,8 @@ def emit(record: dict) -> None:
 def drive(with_sonar: bool) -> tuple[float, float, int]:
     """Drive the route once; (wall seconds, simulated seconds, waypoints reached)."""
     from atlas_rap.sim.physics import Simulation
-    from atlas_rap.sim.scripted import drive_waypoints, there_and_back
     from atlas_rap.sim.world import load_world
+    from atlas_rap.skills.scripted import drive_waypoints, there_and_back
 
     world = load_world(WORLD)
     sim = Simulation(world, seed=0, dt=1.0 / PHYSICS_HZ)

@@ -1556,7 +1556,7 @@ def read_truth(folder: str | Path, name: str) -> tuple[np.ndarray, dict[str, Any
 def world_rooms(world: Any, frame: GridFrame, *, free: np.ndarray | None = None) -> np.ndarray:
     """The world's named places as a label image on ``frame``: label i + 1 for the i-th place in file order.
 
-    ``world`` is an :class:`atlas_rap.sim.model.World` or the name of a
+    ``world`` is an :class:`atlas_rap.model.World` or the name of a
     shipped world. A cell belongs to a place when its centre is inside the
     place's region (even-odd rule, as :meth:`Place.contains`), or within
     ``radius`` of its point for a place without a region; the walls are not
@@ -1613,7 +1613,7 @@ def _place_cells(place: Any, frame: GridFrame) -> tuple[np.ndarray, np.ndarray, 
 
 
 def _even_odd(polygon: Any, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """:func:`atlas_rap.sim.model._inside`, vectorised over the points."""
+    """:func:`atlas_rap.model._inside`, vectorised over the points."""
     inside = np.zeros(x.shape, dtype=bool)
     n = len(polygon)
     for i in range(n):

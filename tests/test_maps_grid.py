@@ -14,12 +14,12 @@ from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.grid import OccupancyGrid, SonarModel, binary_entropy
 from atlas_rap.maps.inference import InferenceGrid
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, load_ros_map
-from atlas_rap.sim.model import SonarConfig
+from atlas_rap.model import SonarConfig
 from atlas_rap.sim.physics import Simulation
-from atlas_rap.sim.scripted import drive_waypoints, there_and_back
 from atlas_rap.sim.world import load_world
 from atlas_rap.skills.manager import SkillManager
 from atlas_rap.skills.mapping import MapBuilder
+from atlas_rap.skills.scripted import drive_waypoints, there_and_back
 from atlas_rap.skills.sensing import Odometry, SonarSensor
 
 SONAR = SonarConfig()

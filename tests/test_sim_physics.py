@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from atlas_rap.sim.model import Disturbance, Door, RobotConfig, Segment, SonarConfig, World
+from atlas_rap.model import Disturbance, Door, RobotConfig, Segment, SonarConfig, World
 from atlas_rap.sim.physics import Simulation
 from atlas_rap.sim.sonar import SonarRing
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from atlas_rap.sim.model import Door, Place, RobotConfig, Segment, World
+from atlas_rap.model import Door, Place, RobotConfig, Segment, World
 from atlas_rap.sim.render import TaskMark, render_run
 
 

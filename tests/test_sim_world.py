@@ -12,7 +12,7 @@ import pytest
 
 from atlas_rap.errors import AtlasError, Problem, SourceError
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, write_ros_map
-from atlas_rap.sim.model import Door, Segment, World
+from atlas_rap.model import Door, Segment, World
 from atlas_rap.sim.world import load_world, shipped_worlds
 
 SHIPPED = ("lab-corridor-office", "office-building", "maze", "small-office-map")

@@ -44,7 +44,7 @@ import numpy as np
 
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, RosMap, write_ros_map
-from atlas_rap.sim.model import SonarConfig
+from atlas_rap.model import SonarConfig
 
 __all__ = ["OccupancyGrid", "SonarModel", "binary_entropy"]
 

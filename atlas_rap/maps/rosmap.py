@@ -46,7 +46,7 @@ from atlas_rap.errors import Problem, line_of
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.geometry import outlines
 from atlas_rap.yamlsource import YamlSource, _kind, _nearest
-from atlas_rap.sim.model import Point, Segment
+from atlas_rap.model import Point, Segment
 
 # --------------------------------------------------------------------------
 # ROS maps

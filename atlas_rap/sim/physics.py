@@ -1,6 +1,6 @@
 """The simulated robot in a world: pymunk physics, drive, bumper, odometry, doors, disturbances.
 
-:class:`Simulation` builds a pymunk space from a :class:`~atlas_rap.sim.model.World`
+:class:`Simulation` builds a pymunk space from a :class:`~atlas_rap.model.World`
 and steps it at a fixed ``dt`` (SI units, zero gravity):
 
 * **Walls** are static segments of radius :data:`WALL_RADIUS` that the robot
@@ -60,7 +60,7 @@ from collections.abc import Callable
 import numpy as np
 import pymunk
 
-from atlas_rap.sim.model import Disturbance, Door, World
+from atlas_rap.model import Disturbance, Door, World
 from atlas_rap.sim.sonar import (
     ECHO_CATEGORY,
     OBSTACLE_CATEGORY,

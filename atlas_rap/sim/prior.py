@@ -18,7 +18,7 @@ and B is closed.
 from __future__ import annotations
 
 from atlas_rap.logic import Compound
-from atlas_rap.sim.model import World
+from atlas_rap.model import World
 
 
 def prior_facts(world: World) -> list[Compound]:

@@ -32,9 +32,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from atlas_rap.model import World
 from atlas_rap.pictures import DPI as _DPI
 from atlas_rap.pictures import map_layout
-from atlas_rap.sim.model import World
 
 __all__ = ["TASK_MARK_KINDS", "TaskMark", "render_run"]
 

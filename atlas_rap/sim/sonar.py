@@ -45,7 +45,7 @@ import math
 import numpy as np
 import pymunk
 
-from atlas_rap.sim.model import SonarConfig
+from atlas_rap.model import SonarConfig
 
 __all__ = [
     "ECHO_CATEGORY",

@@ -72,7 +72,7 @@ from atlas_rap.lang.validator import nearest
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, RosMap, load_ros_map, wall_segments
 from atlas_rap.yamlsource import YamlSource
 from atlas_rap.shipped import resolve_user_path, shipped_root, shipped_worlds
-from atlas_rap.sim.model import Disturbance, Door, Place, Point, RobotConfig, Segment, SonarConfig, World, _inside
+from atlas_rap.model import Disturbance, Door, Place, Point, RobotConfig, Segment, SonarConfig, World, _inside
 
 TOP_KEYS = ("name", "description", "walls", "polygons", "map", "places", "doors", "disturbances", "robot", "sonar")
 VARIANT_KEYS = ("name", "description", "base", "doors")

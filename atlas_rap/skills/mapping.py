@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from atlas_rap.maps.grid import OccupancyGrid
-from atlas_rap.sim.model import SonarConfig
+from atlas_rap.model import SonarConfig
 from atlas_rap.skills.skill import Skill
 
 

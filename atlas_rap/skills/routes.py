@@ -15,7 +15,7 @@ import heapq
 import math
 from dataclasses import dataclass
 
-from atlas_rap.sim.model import Door, Point, World
+from atlas_rap.model import Door, Point, World
 
 DOOR_CLEARANCE = 0.7
 DOOR_COST = 2.0

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from typing import Callable
 
-from atlas_rap.sim.model import Point, World
+from atlas_rap.model import Point, World
 from atlas_rap.skills.routes import plan_route
 
 REACHED = 0.3  # metres from a waypoint that count as reached
