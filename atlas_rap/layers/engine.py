@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation
-from atlas_rap.lang import ast, load, load_text
+from atlas_rap.lang import ast, load
 from atlas_rap.lang.loader import Program
 from atlas_rap.layers.executive import Driver, Executive, Pace, Rates, Stop, VirtualExecutive
 from atlas_rap.logic import Compound, Relation, Term, term_to_str
@@ -227,10 +227,6 @@ class MissionEngine:
     def load_file(self, path: str | Path, *, require_post: bool = False) -> Loaded:
         """Load a mission or RAP file (and what it includes); see :meth:`load`."""
         return self.load(load(path), require_post=require_post)
-
-    def load_text(self, text: str, name: str, forms=None) -> Loaded:
-        """Load typed source as a program of its own (the REPL); see :meth:`load`."""
-        return self.load(load_text(text, name, forms))
 
     def reload(self, path: str | Path) -> Loaded:
         """Load a file again for its definitions only: RAPs, rules, virtual skills and
