@@ -160,6 +160,13 @@ class World:
         """Each place's region (a polygon), or its point when it has none: what names a map's places."""
         return {name: place.region if place.region is not None else place.point for name, place in self.places.items()}
 
+    def without_map(self) -> World:
+        """What a robot with no prior map knows of this world: the names and points of its
+        places (as point places), the extent of the area, its own body and sonar; no walls,
+        no doors, no regions (``atlas run --no-prior-map``)."""
+        places = {name: Place(name, place.point, None, place.radius) for name, place in self.places.items()}
+        return World(self.name, (), places, {}, (), self.robot, self.sonar, self.bounds, self.source)
+
     def place_at(self, x: float, y: float) -> str | None:
         """The first place (in file order) that contains (x, y), or None."""
         for place in self.places.values():

@@ -17,10 +17,7 @@ from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, load_ros_map
 from atlas_rap.model import SonarConfig
 from atlas_rap.sim.physics import Simulation
 from atlas_rap.sim.world import load_world
-from atlas_rap.skills.manager import SkillManager
-from atlas_rap.skills.mapping import MapBuilder
 from atlas_rap.skills.scripted import drive_waypoints, there_and_back
-from atlas_rap.skills.sensing import Odometry, SonarSensor
 
 SONAR = SonarConfig()
 RADIUS = 0.2
@@ -308,27 +305,22 @@ def test_driving_lab_office_lab_gives_map_quality_above_0_9(mapped) -> None:
     assert grid.quality() > 0.8  # over every cell any reading touched (the default region)
 
 
-# -- the skill --------------------------------------------------------------------------------
+# -- Layer IV, which builds the grid while the robot drives ------------------------------------
 
 
-def test_map_builder_skill_fuses_each_new_ring_once_into_the_shared_grid() -> None:
-    world = load_world(WORLD)
-    sim = Simulation(world, seed=0)
-    builder = MapBuilder()
-    manager = SkillManager([SonarSensor(), Odometry(), builder], world=world, robot=sim)
-    manager.connect(None)
-    beliefs = manager.context.beliefs
-    grid = beliefs["grid"]
-    assert isinstance(grid, OccupancyGrid) and grid.frame.resolution == MapBuilder.resolution == 0.05
-    assert MapBuilder.name == "map-builder" and MapBuilder.always_on and MapBuilder.rate == 10.0
-    sim.command(0.4, 0.3)
-    for tick in range(40):  # 2 s at the manager's 20 Hz
-        manager.tick(tick * 0.05)
-        sim.step_many(5)
-    poses = beliefs["poses"]
-    assert 15 <= len(poses) <= 21  # 10 Hz
+def test_layer_iv_fuses_each_new_ring_once_into_the_shared_grid() -> None:
+    from atlas_rap.layers import MissionEngine
+    from atlas_rap.skills.beliefs import GRID, POSES
+
+    engine = MissionEngine(WORLD, seed=0, prior_map=False)
+    engine.start()
+    beliefs = engine.manager.context.beliefs
+    grid = beliefs[GRID]
+    assert isinstance(grid, OccupancyGrid) and grid.frame.resolution == 0.05
+    assert not grid.updated.any()
+    engine.simulation.command(0.4, 0.3)
+    engine.advance(2.0)
+    poses = beliefs[POSES]
+    assert 15 <= len(poses) <= 21  # every ring of the 10 Hz sonar, none twice
+    assert len(set(poses)) == len(poses) or engine.simulation.pose[:2] == poses[0][:2]
     assert grid.updated.sum() > 1000 and (grid.probabilities() < 0.5).sum() > 1000
-    before = grid.cells_updated
-    builder.transform({"pose": sim.odometry, "sonar": manager.data["sonar"]})  # the same ring again
-    assert grid.cells_updated == before
-    assert builder.transform({"pose": None, "sonar": None}) == {}

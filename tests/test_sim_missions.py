@@ -69,7 +69,8 @@ def test_an_openable_closed_door_is_opened_by_the_open_the_door_method(tmp_path)
     assert "(at robot storeroom)" not in run.facts("fact-asserted")
 
 
-PLACES = [(world, place) for world in shipped_worlds() for place in load_world(world).places]
+NO_WAY = {"lab-corridor-office-blocked"}  # blocked on purpose (tests/test_layers.py checks it says so)
+PLACES = [(world, place) for world in shipped_worlds() if world not in NO_WAY for place in load_world(world).places]
 
 
 @pytest.mark.parametrize("world, place", PLACES, ids=[f"{w}:{p}" for w, p in PLACES])

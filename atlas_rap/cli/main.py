@@ -13,6 +13,7 @@ import click
 
 from atlas_rap import __version__
 from atlas_rap.cli.check import check
+from atlas_rap.cli.experiment import experiment_group
 from atlas_rap.cli.map import map_group
 from atlas_rap.cli.plan import plan
 from atlas_rap.cli.repl import repl
@@ -28,7 +29,8 @@ def cli() -> None:
     AP files (.ap); check them with `atlas check`; run a mission with
     `atlas run`; make a plan with `atlas plan` (AP goals or PDDL);
     work with a running robot in `atlas repl`; build and abstract maps
-    with `atlas map`.
+    with `atlas map`; reproduce the seed papers' experiments with
+    `atlas experiment`.
     """
 
 
@@ -37,6 +39,7 @@ cli.add_command(run)
 cli.add_command(map_group)
 cli.add_command(plan)
 cli.add_command(repl)
+cli.add_command(experiment_group)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -64,6 +64,7 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
     from atlas_rap.maps.inference import InferenceGrid
     from atlas_rap.maps.levels import abstract_map, write_levels
     from atlas_rap.shipped import resolve_user_path
+    from atlas_rap.skills.beliefs import POSES
 
     if world == "none":
         raise click.UsageError("atlas map build needs a world to drive in, not 'none'")
@@ -81,8 +82,8 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
     except KeyboardInterrupt:  # in the instant before or after the run itself
         engine.halt_live("the run was interrupted")
     finally:
-        grid = engine.manager.context.beliefs["grid"]
-        poses = engine.manager.context.beliefs["poses"]
+        grid = engine.grid
+        poses = engine.manager.context.beliefs[POSES]
         grid.save_npz(out / "occupancy.npz")
         grid.to_ros_map(out / "occupancy.yaml")
     sim, radius = engine.simulation, engine.world.robot.radius

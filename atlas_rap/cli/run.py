@@ -29,9 +29,21 @@ from atlas_rap.cli.options import POSITIVE, OutputFile, world_help
               help="A topological map built from sonar (atlas map build): navigate-to plans its routes on it.")
 @click.option("--render", type=OutputFile(), metavar="OUT.png",
               help="Draw the world, the robot's path, the places and where each task started and ended.")
+@click.option("--no-prior-map", "no_prior_map", is_flag=True,
+              help="The robot knows only the names and points of the places: Layer IV maps while it drives.")
+@click.option("--map-in", "map_in", type=click.Path(dir_okay=False, exists=True), metavar="GRID.npz",
+              help="Start from this occupancy grid (a --map-out of an earlier run, or atlas map build's).")
+@click.option("--map-out", "map_out", type=OutputFile(), metavar="GRID.npz",
+              help="Write the occupancy grid built in this run, even if the run fails or is interrupted.")
+@click.option("--layers", "layers", default="I,II,III,IV", show_default=True, metavar="I,II,...",
+              callback=lambda ctx, param, value: _layers(value),
+              help="The ATLAS layers enabled (each can drive the robot alone).")
+@click.option("--layer-rules", "layer_rules", type=click.Path(dir_okay=False, exists=True), metavar="RULES.rap",
+              help="Memory rules that choose the primary layer (default: the shipped rap_library/layers.rap).")
 def run(mission_file: str, world: str | None, seed: int, trace_file: str | None, quiet: bool, verbose: bool,
         until: float, realtime: bool, show_agenda: bool, show_memory: bool, topology_file: str | None,
-        render: str | None) -> None:
+        render: str | None, no_prior_map: bool, map_in: str | None, map_out: str | None, layers: tuple[str, ...],
+        layer_rules: str | None) -> None:
     """Run a mission: post its tasks, run the RAPs, print a live trace and a summary.
 
     Exits 0 when every posted task succeeded, 1 when one failed (the
@@ -41,12 +53,15 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     from atlas_rap.cli.console import console
     from atlas_rap.cli.views import LiveTrace, memory_table, summary, task_tree
     from atlas_rap.errors import AtlasError
-    from atlas_rap.layers import MissionEngine, RunPicture, wall_clock_pacer
+    from atlas_rap.layers import MissionEngine, RunPicture
     from atlas_rap.sequencer import JsonlSink, agenda_tree
     from atlas_rap.shipped import resolve_user_path
 
     out, err = console(), console(err=True)
-    engine = MissionEngine(world, seed=seed, topology=topology_file)
+    if map_out and not (no_prior_map or map_in):
+        raise click.UsageError("--map-out needs a map built while driving: add --no-prior-map or --map-in")
+    engine = MissionEngine(world, seed=seed, topology=topology_file, prior_map=not no_prior_map, map_in=map_in,
+                           layers=layers, layer_rules=layer_rules, realtime=realtime)
     picture = RunPicture(engine) if render else None
     sink = JsonlSink(trace_file) if trace_file else None
     if sink is not None:
@@ -65,10 +80,12 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         raise AtlasError("--render needs a world; this run has none (--world none)")
     started = time.perf_counter()
     try:
-        result = engine.run_mission(until, pace=wall_clock_pacer() if realtime else None)
+        result = engine.run_mission(until)
     finally:
         if sink is not None:
             sink.close()
+        if map_out and engine.grid is not None:
+            engine.save_map(map_out)
         if picture is not None:
             picture.render(render, click.format_filename(mission_file))
     name = click.format_filename(mission_file)
@@ -85,3 +102,15 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     if result.ended_by == "interrupted":
         sys.exit(130)
     sys.exit(0 if result.ok else 1)
+
+
+def _layers(value: str) -> tuple[str, ...]:
+    """``--layers I,II``: the roman numerals, checked."""
+    from atlas_rap.layers import LAYER_NAMES
+
+    names = tuple(part.strip().upper() for part in value.split(",") if part.strip())
+    wrong = [name for name in names if name not in LAYER_NAMES]
+    if wrong or not names:
+        raise click.BadParameter(f"{', '.join(wrong) or 'none given'}: the layers are I, II, III and IV",
+                                 param_hint="--layers")
+    return names

@@ -1,16 +1,24 @@
 """The ATLAS layers: the run of a mission, from a program to a robot moving.
 
 - ``engine``: :class:`MissionEngine`, the one mission engine that ``atlas run``,
-  ``atlas repl`` and ``atlas map build`` drive: programs loaded in one pass
-  into a running world (or none), and time moved until the tasks end.
+  ``atlas repl``, ``atlas map build`` and ``atlas experiment`` drive: programs
+  loaded in one pass into a running world (or none), and time moved until
+  the tasks end.
 - ``executive``: what moves time: the multirate executive of a world
-  (physics, skills, sequencer at their own rates) or the timers alone.
+  (physics, skills, sequencer, layers at their own periods) or the timers alone;
+  ``clock``: the one clock (simulated, or paced to the wall).
+- ``layer``: :class:`Layer` and the :class:`LayerStack` the four layers share,
+  with the primary layer chosen by memory rules (``rap_library/layers.rap``);
+  ``monitoring``, ``operational``, ``tactical``, ``strategic``: Layers I-IV.
+- ``experiment``: the seed's skill-acquisition experiment; ``figures``: its plots.
 - ``picture``: an observer of a run that draws it as a PNG.
 """
 
+from atlas_rap.layers.clock import Clock, WallClock, wall_clock_pacer
 from atlas_rap.layers.engine import DEFAULT_WORLD, Loaded, MissionEngine, RunResult
-from atlas_rap.layers.executive import Executive, Rates, VirtualExecutive, wall_clock_pacer
+from atlas_rap.layers.executive import Executive, Rates, VirtualExecutive
+from atlas_rap.layers.layer import LAYER_NAMES, Layer, LayerStack
 from atlas_rap.layers.picture import RunPicture
 
-__all__ = ["DEFAULT_WORLD", "Executive", "Loaded", "MissionEngine", "Rates", "RunPicture", "RunResult",
-           "VirtualExecutive", "wall_clock_pacer"]
+__all__ = ["Clock", "DEFAULT_WORLD", "Executive", "LAYER_NAMES", "Layer", "LayerStack", "Loaded", "MissionEngine",
+           "Rates", "RunPicture", "RunResult", "VirtualExecutive", "WallClock", "wall_clock_pacer"]

@@ -32,18 +32,27 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
+from collections.abc import Iterable
 from typing import Any
 
 from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation
 from atlas_rap.lang import ast, load
 from atlas_rap.lang.loader import Program
+from atlas_rap.layers.clock import Clock, WallClock, wall_clock_pacer
 from atlas_rap.layers.executive import Driver, Executive, Pace, Rates, Stop, VirtualExecutive
+from atlas_rap.layers.layer import LAYER_NAMES, LayerStack
+from atlas_rap.layers.monitoring import MonitoringLayer
+from atlas_rap.layers.operational import OperationalLayer
+from atlas_rap.layers.strategic import StrategicLayer
+from atlas_rap.layers.tactical import TacticalLayer
 from atlas_rap.logic import Compound, Relation, Term, term_to_str
 from atlas_rap.sequencer import Sequencer, Task, Trace
 from atlas_rap.sequencer.checks import check_program
 from atlas_rap.sequencer.introspect import waiting_for
 from atlas_rap.sequencer.skill_link import CombinedSkills
 from atlas_rap.sequencer.task import SUCCEEDED
+from atlas_rap.shipped import shipped_root
+from atlas_rap.skills.beliefs import GRID, TOPOLOGY
 from atlas_rap.skills.virtual import VirtualSkills, skill_names
 
 DEFAULT_WORLD = "lab-corridor-office"
@@ -95,13 +104,27 @@ class MissionEngine:
     ``none``), which overrides the programs' ``(world ...)`` forms;
     ``default_world`` is used when neither says (``atlas run``: the lab,
     ``atlas repl``: none). ``topology`` is a topological map file for
-    ``navigate-to``; ``mapping`` adds the map-builder skill.
+    ``navigate-to``; ``mapping`` makes Layer IV map the world even with a
+    prior map (``atlas map build``). ``prior_map`` False (``--no-prior-map``)
+    gives the robot only the names and points of the places: Layer IV maps
+    while it drives, from ``map_in`` (an ``occupancy.npz``) if given.
+    ``layers`` are the layers enabled; ``layer_rules`` the file of switching
+    rules (default: the shipped ``rap_library/layers.rap``); ``realtime``
+    paces simulated time to the wall clock.
     """
 
     def __init__(self, world: str | None = None, *, default_world: str = DEFAULT_WORLD, seed: int = 0,
                  trace: Trace | None = None, topology: str | None = None, mapping: bool = False,
-                 rates: Rates = Rates()) -> None:
+                 rates: Rates = Rates(), prior_map: bool = True, map_in: str | Path | None = None,
+                 layers: Iterable[str] = LAYER_NAMES, layer_rules: str | Path | None = None,
+                 realtime: bool = False) -> None:
         self.world_flag = world
+        self.prior_map = prior_map
+        self.map_in = map_in
+        self.enabled_layers = tuple(layers)
+        self.layer_rules = Path(layer_rules) if layer_rules is not None else shipped_root("rap_library") / "layers.rap"
+        self.realtime = realtime
+        self.stack: LayerStack | None = None
         self.default_world = default_world
         self.seed = seed
         self.trace = trace if trace is not None else Trace()
@@ -161,7 +184,9 @@ class MissionEngine:
         if self.world is not None:
             from atlas_rap.sim.prior import prior_facts
 
-            seq.change([("assert", fact) for fact in prior_facts(self.world)], "world")
+            seq.change([("assert", fact) for fact in prior_facts(self.stack.world)], "world")
+            if self.prior_map:
+                seq.change([("assert", Compound("map", ("prior",)))], "world")
 
     def _build(self, chosen: str, form: ast.WorldDecl | None = None, line: str | None = None) -> None:
         """Make the world (unless ``none``), its skills beside the virtual ones, and the sequencer."""
@@ -170,7 +195,7 @@ class MissionEngine:
                 raise AtlasError("--map needs a world; this run has none (--world none)")
             self.skills = self.virtual
             self._sequencer = Sequencer(skills=self.skills, trace=self.trace)
-            self.driver = VirtualExecutive(self._sequencer)
+            self.driver = VirtualExecutive(self._sequencer, pace=wall_clock_pacer() if self.realtime else None)
             return
         from atlas_rap.sim.physics import Simulation
         from atlas_rap.sim.world import load_world, world_path
@@ -186,15 +211,67 @@ class MissionEngine:
                 raise
             raise _located(exc, form, line) from None
         self.simulation = Simulation(self.world, seed=self.seed, dt=1.0 / self.rates.physics)
-        self.manager = stock_manager(self.world, self.simulation, self.simulation.rng, mapping=self.mapping)
+        believed = self.world if self.prior_map else self.world.without_map()
+        self.manager = stock_manager(believed, self.simulation, self.simulation.rng)
         if self.topology is not None:
             from atlas_rap.maps.topology import Topology
-            from atlas_rap.skills.navigation import TOPOLOGY
 
             self.manager.context.beliefs[TOPOLOGY] = Topology.from_json(self.topology)
         self.skills = CombinedSkills(self.manager, self.virtual)
         self._sequencer = Sequencer(skills=self.skills, trace=self.trace)
-        self.driver = Executive(self.simulation, self.manager, self._sequencer, self.rates)
+        self.stack = self._layer_stack(believed)
+        clock = (WallClock if self.realtime else Clock)(self.rates.physics)
+        self.driver = Executive(self.simulation, self.manager, self._sequencer, self.rates, stack=self.stack,
+                                clock=clock)
+        self._load_layer_rules()
+
+    def _layer_stack(self, believed: Any) -> LayerStack:
+        """The four layers over the robot's beliefs; Layer IV only when there is a map to build."""
+        stack = LayerStack(self._sequencer, self.manager.context.beliefs, believed, enabled=self.enabled_layers,
+                           prior_map=self.prior_map)
+        stack.add(MonitoringLayer(stack))
+        stack.add(OperationalLayer(stack))
+        stack.add(TacticalLayer(stack))
+        if self.mapping or not self.prior_map or self.map_in is not None:
+            stack.add(StrategicLayer(stack, self._map_in(believed) if self.map_in is not None else None))
+        return stack
+
+    def _map_in(self, world: Any):
+        """The grid of ``--map-in``, checked: a grid file, and one that covers the world."""
+        from atlas_rap.maps.grid import OccupancyGrid
+
+        try:
+            grid = OccupancyGrid.load_npz(self.map_in)
+        except (OSError, KeyError, ValueError) as exc:
+            raise AtlasError(f"{self.map_in}: not an occupancy grid written by atlas run --map-out or "
+                             f"atlas map build ({exc})") from None
+        xmin, ymin, xmax, ymax = world.bounds
+        frame = grid.frame
+        inset = frame.resolution / 2
+        corners = [frame.world_to_cell(x, y) for x in (xmin + inset, xmax - inset) for y in (ymin + inset, ymax - inset)]
+        if not all(frame.contains_cell(row, col) for row, col in corners):
+            raise AtlasError(f"{self.map_in}: this grid does not cover world {world.name} "
+                             f"(x {xmin:g}..{xmax:g}, y {ymin:g}..{ymax:g}); was it built in another world?")
+        return grid
+
+    def _load_layer_rules(self) -> None:
+        """The switching rules and their settings (``layer_rules``), before any program."""
+        program = load(self.layer_rules)
+        self._check(program, False)
+        self._define(program)
+        self._act(program)
+
+    @property
+    def grid(self):
+        """The occupancy grid Layer IV has built (None when it does not map)."""
+        return self.manager.context.beliefs.get(GRID) if self.manager is not None else None
+
+    def save_map(self, path: str | Path) -> Path:
+        """Write the grid Layer IV built (``--map-out``), as ``atlas run --map-in`` and ``atlas map`` read it."""
+        grid = self.grid
+        if grid is None:
+            raise AtlasError("this run built no map: give --no-prior-map or --map-in to map while driving")
+        return grid.save_npz(path)
 
     def _choose_world(self, program: Program) -> None:
         """Step 1 of :meth:`load`: the program's ``(world ...)`` chooses, or must match, the world."""

@@ -1,12 +1,20 @@
-"""What moves time for a run: the multirate executive of a world, or the timers alone.
+"""What moves time for a run: the multirate executive of the ATLAS layers, or the timers alone.
 
 DESIGN.md §3: each periodic process has a period and all run on one thread
-in simulated time. :class:`Executive` steps the physics at its rate (100 Hz
-by default) and, on the same clock, runs the skill manager (20 Hz: Layers
-I-II, the reactive tier) and the sequencer (10 Hz: Layer II, RAPs). Time
-is counted in physics steps, so the rates never drift apart, and a run is
-deterministic. The tactical and strategic layers (III, IV) join when the
-maps do.
+on one :class:`~atlas_rap.layers.clock.Clock`, counted in physics steps
+(100 Hz by default), so the rates never drift apart and a run is
+deterministic. At each step :class:`Executive` runs, in this order, what is
+due:
+
+- the physics of the world;
+- the skill manager (20 Hz; the reactive skills: sensors, the safety
+  reflex, motion, event monitors), then **Layer I** (monitoring) at the
+  same rate;
+- the sequencer (10 Hz), in **Layer II**'s slot: RAPs run at the
+  operational rate, then Layer II's own tick;
+- **Layer III** (tactical, 1 Hz) and **Layer IV** (strategic, 2 Hz).
+
+The layers, and which of them is primary, are :mod:`atlas_rap.layers.layer`'s.
 
 :class:`VirtualExecutive` is the same interface for a run with no world
 (``(world none)``): virtual skills and scripted events are timers, so time
@@ -15,15 +23,16 @@ milliseconds.
 
 Both offer :meth:`run` (until the posted tasks end) and :meth:`advance`
 (for a while, whether or not tasks are live); ``pace(t)`` is called before
-the clock moves to ``t`` (:func:`wall_clock_pacer` for ``--realtime``) and
-``stop()`` ends either early (the REPL's Ctrl-C).
+the sequencer moves to ``t`` (a progress bar) and ``stop()`` ends either
+early (the REPL's Ctrl-C).
 """
 
 from __future__ import annotations
 
-import time as wall
 from dataclasses import dataclass
 from typing import Any, Callable, Protocol
+
+from atlas_rap.layers.clock import Clock
 
 Pace = Callable[[float], None]
 Stop = Callable[[], bool]
@@ -49,20 +58,30 @@ class Rates:
 
 
 class Executive:
-    """Runs a simulation, a skill manager and a sequencer together on one clock."""
+    """Runs a simulation, a skill manager, a sequencer and the layers together on one clock."""
 
-    def __init__(self, simulation: Any, manager: Any, sequencer: Any, rates: Rates = Rates()) -> None:
+    def __init__(self, simulation: Any, manager: Any, sequencer: Any, rates: Rates = Rates(), *,
+                 stack: Any = None, clock: Clock | None = None) -> None:
         self.simulation = simulation
         self.manager = manager
         self.sequencer = sequencer
         self.rates = rates
-        self.skill_every = max(1, round(rates.physics / rates.skills))
-        self.sequencer_every = max(1, round(rates.physics / rates.sequencer))
-        self.steps = 0
+        self.stack = stack
+        self.clock = clock if clock is not None else Clock(rates.physics)
+        self.skill_every = self.clock.every(1.0 / rates.skills)
+        self.sequencer_every = self.clock.every(1.0 / rates.sequencer)
+        self.started = False
+        self._fast: list[Any] = []
+        self._operational: list[Any] = []
+        self._slow: list[tuple[int, Any]] = []
 
     @property
     def time(self) -> float:
-        return self.steps / self.rates.physics
+        return self.clock.now
+
+    @property
+    def steps(self) -> int:
+        return self.clock.ticks
 
     def run(self, until: float, pace: Pace | None = None, stop: Stop | None = None) -> str:
         """Run until every posted task has ended ("done"), ``until`` ("time-limit") or ``stop()``."""
@@ -83,29 +102,59 @@ class Executive:
             self.step(pace)
 
     def _begin(self) -> None:
-        """Skills due now run (their events reach memory) before the agenda settles."""
+        """Skills due now run (their events reach memory), the layers start, the agenda settles."""
         self.manager.tick(self.time)
+        if not self.started:
+            self.started = True
+            if self.stack is not None:
+                self.stack.start()
+                for layer in self.stack.active():
+                    every = self.clock.every(layer.period)
+                    if layer.name == "I":
+                        self._fast.append(layer)
+                    elif layer.name == "II":
+                        self._operational.append(layer)
+                    else:
+                        self._slow.append((every, layer))
         self.sequencer.settle()
 
     def step(self, pace: Pace | None = None) -> None:
-        """One physics step, and the skills and the sequencer when their periods come round."""
+        """One physics step, and every process whose period has come round."""
         self.simulation.step()
-        self.steps += 1
-        now = self.time
-        if self.steps % self.skill_every == 0:
+        clock = self.clock
+        clock.tick()
+        ticks, now = clock.ticks, clock.now
+        stack = self.stack
+        if ticks % self.skill_every == 0:
             self.sequencer.timers.fire_due(now, late=False)
             self.manager.tick(now)
-        if self.steps % self.sequencer_every == 0:
+            if stack is not None:
+                stack.observe()  # skills' events may have made the rules choose another layer
+            for layer in self._fast:
+                layer.tick(now)
+        if ticks % self.sequencer_every == 0:
+            clock.keep_pace()
             if pace is not None:
                 pace(now)
             self.sequencer.advance_to(now)
+            if stack is not None:
+                stack.observe()  # and so may the RAPs' changes
+            for layer in self._operational:
+                layer.tick(now)
+        for every, layer in self._slow:
+            if ticks % every == 0:
+                layer.tick(now)
 
 
 class VirtualExecutive:
-    """Moves time for a run with no world: from one due timer to the next."""
+    """Moves time for a run with no world: from one due timer to the next.
 
-    def __init__(self, sequencer: Any) -> None:
+    ``pace`` (``--realtime``: :func:`~atlas_rap.layers.clock.wall_clock_pacer`) is called
+    before every move of the clock, with any ``pace`` given to :meth:`run`."""
+
+    def __init__(self, sequencer: Any, pace: Pace | None = None) -> None:
         self.sequencer = sequencer
+        self.own_pace = pace
 
     @property
     def time(self) -> float:
@@ -116,6 +165,7 @@ class VirtualExecutive:
         ``until`` ("time-limit") or ``stop()`` ("stopped")."""
         seq = self.sequencer
         timers = seq.timers
+        pace = _both(self.own_pace, pace)
         seq.settle()
         while seq.live_roots():
             if stop is not None and stop():
@@ -135,6 +185,7 @@ class VirtualExecutive:
         """Fire every timer due in the next ``seconds``, then move the clock to their end."""
         seq = self.sequencer
         until = seq.now() + seconds
+        pace = _both(self.own_pace, pace)
         seq.settle()
         while not (stop is not None and stop()):
             due = seq.timers.next_time()
@@ -147,13 +198,7 @@ class VirtualExecutive:
             seq.advance_to(until)
 
 
-def wall_clock_pacer(speed: float = 1.0) -> Pace:
-    """A ``pace`` function that sleeps so simulated time runs ``speed`` times the wall clock."""
-    start = wall.monotonic()
-
-    def pace(sim_time: float) -> None:
-        delay = start + sim_time / speed - wall.monotonic()
-        if delay > 0:
-            wall.sleep(delay)
-
-    return pace
+def _both(first: Pace | None, second: Pace | None) -> Pace | None:
+    if first is None or second is None:
+        return first or second
+    return lambda t: (first(t), second(t))

@@ -120,6 +120,8 @@ class RuleEngine:
     ) -> None:
         self.max_firings = max_firings
         self.relations = relations
+        self.fired: deque[tuple[MemoryRule, Compound]] = deque(maxlen=16)
+        """The latest firings (rule, the fact that fired it), newest last: who concluded what."""
         self._rules: list[MemoryRule] = []
         self._by_trigger: dict[tuple[str, int], list[MemoryRule]] = {}
         for rule in rules:
@@ -200,6 +202,7 @@ class RuleEngine:
                     firings += 1
                     counts[rule.name] += 1
                     recent.append((rule.name, trigger_fact))
+                    self.fired.append((rule, trigger_fact))
                     if firings > self.max_firings:
                         raise self._cycle_error(fact, counts, recent, made)
                     for kind, effect in rule.effects:

@@ -34,7 +34,7 @@ from scipy import ndimage
 
 from atlas_rap.maps.grid import OccupancyGrid
 
-__all__ = ["InferenceGrid"]
+__all__ = ["InferenceGrid", "explored_quality", "explored_region"]
 
 
 def _disk(radius_cells: int) -> np.ndarray:
@@ -152,3 +152,51 @@ class InferenceGrid:
     def __repr__(self) -> str:
         return (f"<InferenceGrid {self.frame.height}x{self.frame.width}: {int(self.reachable.sum())} reachable, "
                 f"{int(self.observable.sum())} observable>")
+
+
+
+def explored_region(grid: OccupancyGrid, frontier: float = 0.5, goals: Iterable[Sequence[float]] = (),
+                    goal_radius: float = 1.5) -> np.ndarray:
+    """The region of interest of a robot with no prior map: what it has explored, and where it is going.
+
+    The cells believed free, and every cell within ``frontier`` metres of them
+    that can be reached without passing a cell believed occupied: the walls that
+    bound them, and a band of the unknown beyond the frontier; and the discs of
+    ``goal_radius`` round the ``goals`` (the places the robot has been sent to).
+    Cheap (one masked dilation), for measuring quality while driving.
+
+    The band and the discs make the quality grow with the map's *extent* (seed
+    §5: the map is evaluated "both in terms of its extent and its quality"):
+    while the robot explores, the unknown beyond the frontier and round a goal
+    not reached yet (entropy 1) weigh the quality down, so one room seen many
+    times does not pass for a good map; behind a wall nothing counts, as the
+    robot cannot see there.
+    """
+    frame = grid.frame
+    region = np.zeros(frame.shape, dtype=bool)
+    steps = max(1, round(frontier / grid.resolution))
+    updated = grid.updated
+    rows = np.flatnonzero(updated.any(axis=1))
+    if rows.size:  # the work is done on the box round what has been seen, not on the whole grid
+        cols = np.flatnonzero(updated.any(axis=0))
+        r0, r1 = max(rows[0] - steps - 1, 0), min(rows[-1] + steps + 2, frame.height)
+        c0, c1 = max(cols[0] - steps - 1, 0), min(cols[-1] + steps + 2, frame.width)
+        log_odds, seen = grid.log_odds[r0:r1, c0:c1], updated[r0:r1, c0:c1]
+        free = seen & (log_odds < 0)
+        open_cells = ~(seen & (log_odds > 0))
+        band = ndimage.binary_dilation(free, iterations=steps, mask=open_cells) if free.any() else free
+        region[r0:r1, c0:c1] = band | ndimage.binary_dilation(band) & ~open_cells
+    for x, y in goals:
+        row, col = frame.world_to_cell(x, y)
+        span = int(math.ceil(goal_radius / frame.resolution))
+        g0, g1 = max(row - span, 0), min(row + span + 1, frame.height)
+        h0, h1 = max(col - span, 0), min(col + span + 1, frame.width)
+        if g0 < g1 and h0 < h1:
+            rr, cc = np.ogrid[g0:g1, h0:h1]
+            region[g0:g1, h0:h1] |= (rr - row) ** 2 + (cc - col) ** 2 <= (goal_radius / frame.resolution) ** 2
+    return region
+
+
+def explored_quality(grid: OccupancyGrid, frontier: float = 0.5, goals: Iterable[Sequence[float]] = ()) -> float:
+    """1 - mean entropy over :func:`explored_region`: the map quality the ATLAS layers switch on."""
+    return grid.quality(explored_region(grid, frontier, goals))

@@ -577,7 +577,7 @@ class Topology:
 
         try:
             path = nx.shortest_path(work, A, B, weight=weight)
-        except nx.NetworkXNoPath:
+        except (nx.NetworkXNoPath, nx.NodeNotFound):  # not found: every way to join the graph is avoided
             return None
         cells: list[tuple[int, int]] = []
         cost = 0.0

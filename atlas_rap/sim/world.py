@@ -33,7 +33,8 @@ the model. An example with every key::
     sonar: {count: 16, beam_width_deg: 15, max_range: 5, min_range: 0.05, range_noise: 0.01,
             range_noise_per_m: 0.01, specular_angle_deg: 60, specular_dropout: 0.8, rays_per_beam: 3, rate: 10}
 
-A *variant* of a world changes only its doors::
+A *variant* of a world changes only its doors and its disturbances (a
+``disturbances`` list replaces the base's)::
 
     base: lab-corridor-office          # a shipped world, or a path relative to this file
     name: lab-corridor-office-door-closed
@@ -75,7 +76,7 @@ from atlas_rap.shipped import resolve_user_path, shipped_root, shipped_worlds
 from atlas_rap.model import Disturbance, Door, Place, Point, RobotConfig, Segment, SonarConfig, World, _inside
 
 TOP_KEYS = ("name", "description", "walls", "polygons", "map", "places", "doors", "disturbances", "robot", "sonar")
-VARIANT_KEYS = ("name", "description", "base", "doors")
+VARIANT_KEYS = ("name", "description", "base", "doors", "disturbances")
 VARIANT_DOOR_KEYS = ("open", "openable", "schedule")
 PLACE_KEYS = ("point", "region", "radius")
 DOOR_KEYS = ("between", "center", "segment", "open", "openable", "schedule")
@@ -177,9 +178,11 @@ class _WorldReader:
                      _bounds(all_walls, places, robot), src.file)
 
     def variant(self) -> World:
-        """A world file with ``base: WORLD``: that world with its doors changed (open, openable, schedule)."""
+        """A world file with ``base: WORLD``: that world with its doors changed (open, openable,
+        schedule) and, if given, other disturbances (the list replaces the base's)."""
         src = self.src
-        top = src.keys(src.root, "", VARIANT_KEYS, what=" (a world variant: base, name, description, doors)")
+        top = src.keys(src.root, "", VARIANT_KEYS,
+                       what=" (a world variant: base, name, description, doors, disturbances)")
         src.check()
         assert top is not None
         base_node = top["base"][1]
@@ -215,9 +218,10 @@ class _WorldReader:
                 continue
             if all(v is not None for v in changes.values()):
                 doors[name] = replace(door, **changes)
+        disturbances = self.disturbances(top["disturbances"][1]) if "disturbances" in top else world.disturbances
         name = src.string(top["name"][1], "name") if "name" in top else self.path.stem
         src.check()
-        return replace(world, name=name or self.path.stem, doors=doors, source=src.file)
+        return replace(world, name=name or self.path.stem, doors=doors, disturbances=disturbances, source=src.file)
 
     def _base_world(self, node: Node, name: str, target: str) -> World:
         """The world a variant is based on, read and checked as any world; its problems are raised located."""

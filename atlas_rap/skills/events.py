@@ -21,7 +21,7 @@ import numpy as np
 
 from atlas_rap.logic import Compound
 from atlas_rap.skills.avoidance import angle_wrap
-from atlas_rap.skills.navigation import CLOSED_DOORS
+from atlas_rap.skills.beliefs import CLOSED_DOORS
 from atlas_rap.skills.skill import Skill
 
 

@@ -28,6 +28,7 @@ from typing import Any, Iterable
 from atlas_rap.errors import AtlasError
 from atlas_rap.logic import Compound, String
 from atlas_rap.sequencer.skill_link import SkillHost
+from atlas_rap.skills.beliefs import Beliefs
 from atlas_rap.skills.skill import Skill
 
 
@@ -37,15 +38,15 @@ class SkillContext:
 
     ``robot`` is the body the skills sense and drive (the simulation, or a
     real robot's driver with the same methods); ``beliefs`` is shared
-    state that is not a data flow (doors observed closed, for the route
-    planner); ``rng`` the run's one random generator.
+    state that is not a data flow, under typed keys (:mod:`atlas_rap.skills.beliefs`:
+    the doors observed closed, the grid, the route); ``rng`` the run's one random generator.
     """
 
     manager: SkillManager
     world: Any = None
     robot: Any = None
     rng: Any = None
-    beliefs: dict[str, Any] = field(default_factory=dict)
+    beliefs: Beliefs = field(default_factory=Beliefs)
 
     def now(self) -> float:
         return self.manager.now

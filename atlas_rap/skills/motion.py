@@ -16,6 +16,7 @@ import numpy as np
 
 from atlas_rap.logic import Compound
 from atlas_rap.skills.avoidance import angle_difference, angle_wrap, steer
+from atlas_rap.skills.beliefs import HOLD, SPEED_LIMIT
 from atlas_rap.skills.skill import Skill
 
 ARRIVED = 0.2  # metres from a final goal that count as there
@@ -72,7 +73,9 @@ class _Driving(Skill):
         distance = math.dist(pose[:2], goal)
         if distance < (ARRIVED if final else PASSED):
             return {"command": (0.0, 0.0)}, True
-        v, omega = steer(pose, goal, sonar, max_speed=self.max_speed, max_turn=self.max_turn,
+        limit = self.context.beliefs.get(SPEED_LIMIT)
+        speed = self.max_speed if limit is None else self.max_speed * limit
+        v, omega = steer(pose, goal, sonar, max_speed=speed, max_turn=self.max_turn,
                          arrive_radius=0.8 if final else 0.3)
         return {"command": (v, omega)}, False
 
@@ -95,7 +98,10 @@ class FollowRoute(_Driving):
         return self.follow(pose, inputs["sonar"])
 
     def follow(self, pose, sonar) -> dict[str, Any]:
-        """Drive along ``self.waypoints``; finish at the last one."""
+        """Drive along ``self.waypoints``; finish at the last one. While Layer I holds the
+        robot, no progress is expected."""
+        if HOLD in self.context.beliefs:
+            self.progress.reset(self.context.now())
         goal = self.waypoints[self.index]
         final = self.index == len(self.waypoints) - 1
         out, arrived = self.drive_to(pose, goal, sonar, final)

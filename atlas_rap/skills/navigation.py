@@ -1,40 +1,33 @@
 """Going to named places: the navigate-to and open-door skills.
 
-``(navigate-to PLACE)`` plans a route over the prior map (places and
-doors, ``skills.routes``), leaving out the doors the robot has seen closed,
-and follows its waypoints around obstacles. When a door on its way is seen
-closed (the door monitor's belief), or it makes no progress, it stops,
-asserts ``(blocked robot WHAT)`` and fails with the reason, so that the
-``go-to`` RAP can recover: open the door, or navigate again, which plans
-another way round. ``(open-door DOOR)`` drives up to a door that the robot
-can open (``openable`` in the world) and opens it.
-
-With a topological map built from sonar (``atlas map build``, then
-``atlas run --map DIR/topology.json``), navigate-to plans on that graph
-instead (ATLAS Layer III): the most probable short route along the
-skeleton, leaving out edges through doors seen closed.
+``(navigate-to PLACE)`` asks a *route source* for a route and follows its
+waypoints around obstacles. The source is the belief
+:data:`~atlas_rap.skills.beliefs.ROUTES`: in a run it is the ATLAS layer
+stack, which asks whichever layer is primary (the prior map's places and
+doors, the topology built from sonar, or the occupancy grid); alone (a unit
+test of the skill), it is the prior map, or the topological map of ``atlas
+run --map``. When the source has a better route (its ``revision`` grows: a
+re-plan on a newer grid, a re-route round a block), navigate-to takes it.
+When a door on its way is seen closed (the door monitor's belief), or it
+makes no progress, it stops, asserts ``(blocked robot WHAT)`` and fails with
+the reason, so that the ``go-to`` RAP can recover: open the door, or
+navigate again, which plans another way round. ``(open-door DOOR)`` drives
+up to a door that the robot can open (``openable`` in the world) and opens it.
 """
 
 from __future__ import annotations
 
 import math
-
-import numpy as np
 from typing import Any, Mapping
 
 from atlas_rap.logic import Compound, Var
+from atlas_rap.skills.beliefs import CLOSED_DOORS, GOAL, ROUTE, ROUTES, TOPOLOGY, FollowedRoute, Goal, PlannedRoute
 from atlas_rap.skills.motion import FollowRoute, _Driving
-from atlas_rap.skills.routes import door_waypoints, plan_route, where_is
-
-CLOSED_DOORS = "closed-doors"
-"""The belief (a set of door names) the door monitor keeps and the route planner avoids."""
-
-TOPOLOGY = "topology"
-"""The belief holding a topological map built from sonar (``atlas run --map``); routes are planned on it when set."""
+from atlas_rap.skills.routes import PriorMapRoutes, TopologyRoutes
 
 
 class NavigateTo(FollowRoute):
-    """``(navigate-to PLACE)``: drive to a named place by a route through open doors."""
+    """``(navigate-to PLACE)``: drive to a named place by the route its route source gives."""
 
     name = "navigate-to"
     params = ("place",)
@@ -47,55 +40,43 @@ class NavigateTo(FollowRoute):
         self.goal = str(args[0])
         self.waypoints, self.index, self.door_at = [], 0, {}
         self.failure: str | None = None
+        self.revision: int | None = None
         world = context.world
         if self.goal not in world.places:
             self.failure = f"there is no place named {self.goal} in world {world.name}"
             return
+        context.beliefs[GOAL] = Goal(self.goal, world.places[self.goal].point)
+        self.source = context.beliefs.get(ROUTES) or self._own_source()
+        self._plan()
+
+    def _own_source(self):
+        """Without the layers: the topological map of ``--map`` if there is one, else the prior map."""
+        topology = self.context.beliefs.get(TOPOLOGY)
+        source = TopologyRoutes(self.context.world, topology) if topology is not None else PriorMapRoutes(
+            self.context.world)
+        self.context.beliefs[ROUTES] = source
+        return source
+
+    def _plan(self) -> None:
+        """Ask the route source for a route from here; take it, or keep the reason there is none."""
+        context = self.context
         x, y, _ = context.robot.odometry
-        closed = context.beliefs.get(CLOSED_DOORS, set())
-        topology = context.beliefs.get(TOPOLOGY)
-        if topology is not None:
-            self._route_on_topology(topology, (x, y), closed)
+        self.revision = self.source.revision
+        answer = self.source.route(self.goal, (x, y), context.beliefs.get(CLOSED_DOORS) or set())
+        if not isinstance(answer, PlannedRoute):
+            self.failure = str(answer)
             return
-        route = plan_route(world, (x, y), self.goal, closed)
-        if route is None:
-            here = where_is(world, x, y)
-            known = f" (doors seen closed: {', '.join(sorted(closed))})" if closed else ""
-            self.failure = f"no route from {here} to {self.goal}{known}"
-            return
-        self.route = route
-        self.waypoints = list(route.waypoints)
-        self.door_at = self._door_positions(route)
+        self.waypoints, self.index, self.door_at = list(answer.waypoints), 0, dict(answer.doors)
+        context.beliefs[ROUTE] = FollowedRoute(self.goal, answer.waypoints, 0, answer.by, dict(answer.doors))
+        self.progress.reset(context.now())
 
-    def _route_on_topology(self, topology, start: tuple[float, float], closed: set[str]) -> None:
-        """Plan on the topological map built from sonar, leaving out edges through doors seen closed."""
-        world = self.context.world
-        avoid = [world.doors[door].center for door in sorted(closed)]
-        route = topology.route(start, world.places[self.goal].point, avoid=avoid)
-        if route is None:
-            known = f" (doors seen closed: {', '.join(sorted(closed))})" if closed else ""
-            self.failure = f"no route on the topological map from {where_is(world, *start)} to {self.goal}{known}"
-            return
-        self.waypoints = [(float(x), float(y)) for x, y in route.waypoints]
-        self.door_at = {}
-        for door in world.doors.values():
-            if door.segment is None:
-                continue
-            gaps = [_distance_to_segment(door.center, a, b) for a, b in zip(self.waypoints, self.waypoints[1:])]
-            if gaps and min(gaps) < 0.5:
-                self.door_at[door.name] = int(np.argmin(gaps))
-
-    def _door_positions(self, route) -> dict[str, int]:
-        """For each door of the route, the index of the last waypoint before passing it."""
-        positions, index, here = {}, 0, route.places[0]
-        for door_name, there in zip(route.doors, route.places[1:]):
-            door = self.context.world.doors[door_name]
-            positions[door_name] = index
-            index += len(door_waypoints(self.context.world, door, here, there))
-            here = there
-        return positions
+    def disable(self) -> None:
+        self.context.beliefs.pop(GOAL)
+        self.context.beliefs.pop(ROUTE)
 
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        if self.failure is None and self.revision is not None and self.source.revision != self.revision:
+            self._plan()
         if self.failure is not None:
             self.context.assert_fact(Compound("blocked", ("robot", "no-route")))
             self.context.finish(self, ":fail", self.failure)
@@ -103,13 +84,17 @@ class NavigateTo(FollowRoute):
         pose = inputs["pose"]
         if pose is None:
             return {}
-        closed = self.context.beliefs.get(CLOSED_DOORS, set())
+        closed = self.context.beliefs.get(CLOSED_DOORS) or set()
         for door, position in self.door_at.items():
             if door in closed and self.index <= position + 1:
                 self.context.assert_fact(Compound("blocked", ("robot", door)))
                 self.context.finish(self, ":fail", f"door {door} on the way to {self.goal} is closed")
                 return {"command": (0.0, 0.0)}
-        return self.follow(pose, inputs["sonar"])
+        out = self.follow(pose, inputs["sonar"])
+        followed = self.context.beliefs.get(ROUTE)
+        if followed is not None:
+            followed.index = self.index
+        return out
 
 
 class OpenDoor(_Driving):
@@ -153,10 +138,3 @@ class OpenDoor(_Driving):
             context.finish(self)
         return {"command": (0.0, 0.0)}
 
-
-def _distance_to_segment(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
-    ax, ay = a
-    dx, dy = b[0] - ax, b[1] - ay
-    length2 = dx * dx + dy * dy
-    t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / length2))
-    return math.hypot(p[0] - ax - t * dx, p[1] - ay - t * dy)

@@ -16,6 +16,7 @@ import math
 from dataclasses import dataclass
 
 from atlas_rap.model import Door, Point, World
+from atlas_rap.skills.beliefs import PlannedRoute
 
 DOOR_CLEARANCE = 0.7
 DOOR_COST = 2.0
@@ -86,3 +87,74 @@ def door_waypoints(world: World, door: Door, from_place: str, to_place: str) -> 
     elif not source.contains(*a) and math.dist(b, source.point) < math.dist(a, source.point):
         a, b = b, a
     return a, door.center, b
+
+
+def door_positions(world: World, route: Route) -> dict[str, int]:
+    """For each door of ``route``, the index of the last waypoint before passing it."""
+    positions, index, here = {}, 0, route.places[0]
+    for door_name, there in zip(route.doors, route.places[1:]):
+        positions[door_name] = index
+        index += len(door_waypoints(world, world.doors[door_name], here, there))
+        here = there
+    return positions
+
+
+class PriorMapRoutes:
+    """A :class:`~atlas_rap.skills.beliefs.RouteSource` on the prior map: places joined by doors.
+
+    ``avoid`` are doors the robot found blocked by an obstacle (Layer III):
+    left out as if closed. The prior map has no geometry to go round
+    anything else by.
+    """
+
+    def __init__(self, world: World) -> None:
+        self.world = world
+        self.revision = 0
+        self.avoid: set[str] = set()
+
+    def route(self, goal: str, start: Point, closed: set[str]):
+        world = self.world
+        blocked = set(self.avoid)
+        route = plan_route(world, start, goal, set(closed) | blocked)
+        if route is None:
+            here = where_is(world, *start)
+            known = f" (doors seen closed: {', '.join(sorted(closed))})" if closed else ""
+            cut = f" (blocked: {', '.join(sorted(blocked))})" if blocked else ""
+            return f"no route from {here} to {goal}{known}{cut}"
+        return PlannedRoute(route.waypoints, door_positions(world, route), "prior map")
+
+
+class TopologyRoutes:
+    """A :class:`~atlas_rap.skills.beliefs.RouteSource` on a topological map (Layer III's, or ``--map``)."""
+
+    def __init__(self, world: World, topology, by: str = "topology") -> None:
+        self.world = world
+        self.topology = topology
+        self.by = by
+        self.revision = 0
+        self.avoid: list[Point] = []
+
+    def route(self, goal: str, start: Point, closed: set[str]):
+        world = self.world
+        avoid = [world.doors[door].center for door in sorted(closed) if door in world.doors] + list(self.avoid)
+        found = self.topology.route(start, world.places[goal].point, avoid=avoid)
+        if found is None:
+            known = f" (doors seen closed: {', '.join(sorted(closed))})" if closed else ""
+            return f"no route on the topological map from {where_is(world, *start)} to {goal}{known}"
+        waypoints = tuple((float(x), float(y)) for x, y in found.waypoints)
+        doors = {}
+        for door in world.doors.values():
+            if door.segment is None:
+                continue
+            gaps = [_distance_to_segment(door.center, a, b) for a, b in zip(waypoints, waypoints[1:])]
+            if gaps and min(gaps) < 0.5:
+                doors[door.name] = gaps.index(min(gaps))
+        return PlannedRoute(waypoints, doors, self.by)
+
+
+def _distance_to_segment(p: Point, a: Point, b: Point) -> float:
+    ax, ay = a
+    dx, dy = b[0] - ax, b[1] - ay
+    length2 = dx * dx + dy * dy
+    t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / length2))
+    return math.hypot(p[0] - ax - t * dx, p[1] - ay - t * dy)

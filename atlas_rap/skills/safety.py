@@ -15,6 +15,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from atlas_rap.skills.beliefs import HOLD, REFLEXES
 from atlas_rap.skills.skill import Skill
 
 FRONT_HALF_ANGLE = math.radians(50)
@@ -25,7 +26,9 @@ class SafetyReflex(Skill):
 
     Forward speed scales down linearly from ``slow_range`` to ``stop_range``
     (sonar range from the robot's rim, in the front sector); after a bump
-    the robot reverses for ``backoff_time`` seconds, turning away.
+    the robot reverses for ``backoff_time`` seconds, turning away. While
+    Layer I holds the robot (the :data:`~atlas_rap.skills.beliefs.HOLD`
+    belief) it stands still; with Layer I not enabled the reflex is off.
     """
 
     name = "safety-reflex"
@@ -46,6 +49,9 @@ class SafetyReflex(Skill):
         self.front: np.ndarray | None = None
 
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        beliefs = self.context.beliefs
+        if beliefs.get(REFLEXES) is False:  # Layer I is not enabled: the command goes to the wheels as it is
+            return {"safe-command": inputs["command"]}
         now = self.context.now()
         bump = inputs["bump"]
         if bump is not None and math.cos(bump) > 0 and now >= self.backing_off_until:
@@ -56,6 +62,8 @@ class SafetyReflex(Skill):
         command = inputs["command"]
         if command is None:
             return {"safe-command": None}
+        if HOLD in beliefs:  # Layer I is primary: stop until the way is clear
+            return {"safe-command": (0.0, 0.0)}
         v, omega = command
         sonar = inputs["sonar"]
         if sonar is not None and v > 0:

@@ -13,6 +13,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from atlas_rap.skills.beliefs import POSE, SONAR
 from atlas_rap.skills.skill import Skill
 
 
@@ -29,7 +30,9 @@ class SonarSensor(Skill):
         self.angles = np.asarray(context.robot.sonar_angles, dtype=float)
 
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
-        return {"sonar": (self.context.robot.sonar(), self.angles)}
+        reading = (self.context.robot.sonar(), self.angles)
+        self.context.beliefs[SONAR] = reading
+        return {"sonar": reading}
 
 
 class Odometry(Skill):
@@ -40,7 +43,9 @@ class Odometry(Skill):
     always_on = True
 
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
-        return {"pose": self.context.robot.odometry}
+        pose = self.context.robot.odometry
+        self.context.beliefs[POSE] = pose
+        return {"pose": pose}
 
 
 class Bumper(Skill):

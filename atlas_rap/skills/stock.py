@@ -21,14 +21,11 @@ def stock_skills() -> list[Skill]:
             NavigateTo(), OpenDoor()]
 
 
-def stock_manager(world: Any, robot: Any, rng: Any = None, *, mapping: bool = False) -> SkillManager:
-    """A skill manager with the stock skills for ``robot`` in ``world``; ``mapping`` adds the map-builder."""
-    skills = stock_skills()
-    if mapping:
-        from atlas_rap.skills.mapping import MapBuilder
-
-        skills.append(MapBuilder())
-    return SkillManager(skills, world=world, robot=robot, rng=rng)
+def stock_manager(world: Any, robot: Any, rng: Any = None) -> SkillManager:
+    """A skill manager with the stock skills for ``robot`` in ``world`` (what the robot
+    believes of it: the true world, or only its places with no prior map). Mapping is
+    not a skill: ATLAS Layer IV builds the grid (``atlas_rap.layers.strategic``)."""
+    return SkillManager(stock_skills(), world=world, robot=robot, rng=rng)
 
 
 def stock_skill_names() -> dict[str, set[int]]:

@@ -1,0 +1,187 @@
+"""The seed's skill-acquisition experiment (seed 000 §5.2, Figs. 12 and 13), as one call.
+
+A robot with no prior map drives from its lab to the office and back,
+run after run, the occupancy grid carried from each run to the next
+(exactly ``atlas run errand.rap --no-prior-map --map-in/--map-out``). Per
+run it records the map quality at the end, the run's duration in simulated
+seconds and how long each layer was primary. Layer IV maps and drives
+while the map is poor; once the rules find it good enough, mapping stops and
+Layer II follows the route, and the runs get close to the optimal time: the
+shortest collision-free route on the true map at the robot's top speed.
+
+Then the obstacle scenario, on the map of the last run: a person crosses
+the corridor (short-lived: Layer I stops the robot, Layer II goes on), then
+a box blocks the way (long-lived: Layer III re-routes and hands back to II).
+
+:func:`skill_acquisition` returns the ``figures.json`` structure
+(:mod:`atlas_rap.layers.figures` draws it); :func:`write_results` writes it
+with the CSV of the runs and the figures.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from atlas_rap.layers.engine import MissionEngine
+from atlas_rap.layers.figures import (
+    FIGURE_FILES,
+    plot_durations,
+    plot_map_quality,
+    plot_obstacle_layers,
+    plot_run_layers,
+    primary_seconds,
+)
+from atlas_rap.shipped import shipped_root
+
+ERRAND = """;;; The seed's errand: from the lab to the office, and back (atlas experiment skill-acquisition).
+(include "{navigation}")
+(define-rap (errand)
+  (method
+    (task-net
+      (sequence
+        (t1 (go-to {goal}))
+        (t2 (go-to {home}))))))
+(post (errand))
+"""
+
+OBSTACLE_WORLD = "lab-corridor-office-obstacles"
+"""The world of the obstacle scenario: the lab, corridor and office with a person and a box."""
+
+RUN_LIMIT = 900.0
+"""Simulated seconds one run may take."""
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What the experiment runs: ``runs`` errands in ``world`` from ``home`` to ``goal`` and back."""
+
+    world: str = "lab-corridor-office"
+    runs: int = 7
+    seed: int = 0
+    home: str = "lab"
+    goal: str = "office"
+    obstacles: str | None = OBSTACLE_WORLD
+    layer_rules: str | None = None
+
+
+def errand_file(out: Path, settings: Settings) -> Path:
+    """The mission of every run, written into ``out``."""
+    navigation = shipped_root("rap_library") / "navigation.rap"
+    path = out / "errand.rap"
+    path.write_text(ERRAND.format(navigation=navigation.as_posix(), goal=settings.goal, home=settings.home),
+                    encoding="utf-8")
+    return path
+
+
+def optimal_seconds(world_name: str, home: str, goal: str) -> float:
+    """The errand at top speed along the shortest collision-free routes on the true map."""
+    from atlas_rap.maps.gridpath import shortest_route_length
+    from atlas_rap.sim.world import load_world
+
+    world = load_world(world_name)
+    start = world.robot.start[:2]
+    there = shortest_route_length(world, start, world.places[goal].point)
+    back = shortest_route_length(world, world.places[goal].point, world.places[home].point)
+    return (there + back) / world.robot.max_speed
+
+
+def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: Path,
+            layer_rules: str | None) -> dict[str, Any]:
+    """One errand with no prior map, from ``map_in``; its figures and the grid written to ``map_out``."""
+    engine = MissionEngine(world, seed=seed, prior_map=False, map_in=map_in, layer_rules=layer_rules)
+    engine.load_file(mission, require_post=True)
+    try:
+        result = engine.run_mission(RUN_LIMIT)
+    finally:
+        engine.save_map(map_out)
+    stack = engine.stack
+    timeline = [{"t": round(s.t, 2), "layer": s.layer, "previous": s.previous, "reason": s.reason}
+                for s in stack.timeline]
+    return {"ok": result.ok, "ended_by": result.ended_by, "map_quality": engine.stack.layers["IV"].quality(),
+            "duration_s": round(result.time, 2), "timeline": timeline, "start_s": 0.0, "end_s": round(result.time, 2),
+            "primary_s": {k: round(v, 2) for k, v in primary_seconds(timeline, result.time).items()},
+            "path_m": round(_path_length(engine), 2)}
+
+
+def skill_acquisition(out: str | Path, settings: Settings = Settings(),
+                      progress: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Run the experiment (see the module docstring); the ``figures.json`` structure."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    mission = errand_file(out, settings)
+    optimal = round(optimal_seconds(settings.world, settings.home, settings.goal), 2)
+    threshold = _threshold(settings)
+    runs = []
+    map_in: Path | None = None
+    for number in range(1, settings.runs + 1):
+        if progress is not None:
+            progress(f"run {number} of {settings.runs}")
+        map_out = out / f"map-run{number}.npz"
+        run = one_run(mission, settings.world, settings.seed, map_in, map_out, settings.layer_rules)
+        runs.append({"run": number, **run, "optimal_s": optimal})
+        map_in = map_out
+    data: dict[str, Any] = {"world": settings.world, "seed": settings.seed, "threshold": threshold, "runs": runs}
+    if settings.obstacles is not None:
+        if progress is not None:
+            progress("obstacle scenario")
+        data["obstacles"] = obstacle_scenario(mission, settings, map_in, out)
+    return data
+
+
+def obstacle_scenario(mission: Path, settings: Settings, map_in: Path | None, out: Path) -> dict[str, Any]:
+    """The errand once more in the obstacle world, on the map the runs built."""
+    from atlas_rap.sim.world import load_world
+
+    run = one_run(mission, settings.obstacles, settings.seed, map_in, out / "map-obstacles.npz",
+                  settings.layer_rules)
+    world = load_world(settings.obstacles)
+    events = [{"t": d.start, "what": f"{'a person starts to cross' if d.kind == 'person' else 'a box is put down'}"
+                                    f" ({d.name})"} for d in world.disturbances]
+    return {**run, "optimal_s": round(optimal_seconds(settings.world, settings.home, settings.goal), 2),
+            "events": events}
+
+
+def write_results(data: dict[str, Any], out: str | Path) -> list[Path]:
+    """``figures.json``, ``runs.csv`` and the four figures, into ``out``; the paths written."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    written = [out / "figures.json", out / "runs.csv"]
+    written[0].write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    with written[1].open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["run", "map_quality", "duration_s", "optimal_s", "primary_I_s", "primary_II_s",
+                         "primary_III_s", "primary_IV_s", "ok"])
+        for run in data["runs"]:
+            p = run["primary_s"]
+            writer.writerow([run["run"], run["map_quality"], run["duration_s"], run["optimal_s"],
+                             p["I"], p["II"], p["III"], p["IV"], run["ok"]])
+    written.append(plot_map_quality(data, out / FIGURE_FILES["map_quality"]))
+    written.append(plot_durations(data, out / FIGURE_FILES["durations"]))
+    written.append(plot_run_layers(data, out / FIGURE_FILES["run_layers"]))
+    if "obstacles" in data:
+        written.append(plot_obstacle_layers(data, out / FIGURE_FILES["obstacle_layers"]))
+    return written
+
+
+def _threshold(settings: Settings) -> float:
+    """The map-quality threshold of the rules file the runs use."""
+    from atlas_rap.lang import load
+    from atlas_rap.lang import ast
+
+    path = settings.layer_rules or shipped_root("rap_library") / "layers.rap"
+    for form in load(path).of_type(ast.InitialMemory):
+        for fact in form.facts:
+            if fact.functor == "layer-setting" and fact.args[0] == "map-quality-threshold":
+                return float(fact.args[1])
+    return 0.9
+
+
+def _path_length(engine: MissionEngine) -> float:
+    path = [(x, y) for _, x, y, _ in engine.simulation.path]
+    return sum(math.dist(a, b) for a, b in zip(path, path[1:]))

@@ -1,0 +1,289 @@
+"""A layer of ATLAS, and the stack of them that shares one robot, one memory and one drive.
+
+ATLAS (seed 000 §2, §5) replicates control over layers that each see the
+world through their own representation and each can drive the robot on its
+own; at any time one of them is the **primary layer**, whose plan the robot
+follows. Here a :class:`Layer` has a roman ``name`` (I-IV), a ``period``
+and a :meth:`Layer.tick`; the executive runs each at its period on one
+clock. The :class:`LayerStack` is what they share:
+
+- the robot's beliefs (:mod:`atlas_rap.skills.beliefs`: pose, sonar, grid,
+  topology, route), typed, never string keys;
+- RAP memory: layers say what they find as facts (:meth:`LayerStack.post`,
+  ``(map-quality 0.93)``, ``(obstacle short-lived)``, ``(route-blocked A
+  B)``, ``(no-route)``), and read their settings from it
+  (``(layer-setting NAME VALUE)``);
+- the choice of the primary layer, which is *data*: memory rules (the
+  shipped ``rap_library/layers.rap``, or ``atlas run --layer-rules``)
+  conclude ``(primary-layer II)`` from those facts, and the stack follows
+  memory. Each change is a ``layer-switched`` trace event (layer, previous
+  layer, reason: the rule and the fact that fired it);
+- the drive: the stack is the :class:`~atlas_rap.skills.beliefs.RouteSource`
+  that ``navigate-to`` asks, and it asks the primary layer, so a RAP that
+  says ``(navigate-to office)`` is driven by whichever layer is primary
+  without knowing which.
+
+A layer that is not enabled (``atlas run --layers I,II``) neither ticks nor
+drives; when the rules choose it, the nearest enabled layer below it (else
+above it) drives instead, and the trace says so.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from atlas_rap.logic import Compound, Var, term_to_str
+import numpy as np
+
+from atlas_rap.skills.beliefs import GRID, HOLD, POSE, ROUTES, Beliefs, PlannedRoute
+from atlas_rap.model import Point
+
+if TYPE_CHECKING:
+    from atlas_rap.sequencer import Sequencer
+
+LAYER_NAMES = ("I", "II", "III", "IV")
+BLOCK_RADIUS = 0.3
+"""Metres round a point found blocked that grid routes keep out of."""
+TITLES = {"I": "Monitoring", "II": "Operational", "III": "Tactical", "IV": "Strategic"}
+
+
+class Layer:
+    """One layer: a name (I-IV), a period in simulated seconds, a tick, and a way to drive.
+
+    :meth:`route` is how the layer drives the robot when it is primary: a
+    route to ``goal``, the reason there is none (a string), or None when it
+    leaves the driving to the layer below (Layer I holds the robot still
+    and lets the route stand).
+    """
+
+    name: ClassVar[str] = ""
+    plans: ClassVar[bool] = False  # does the layer plan routes (II-IV), or only react (I)?
+    period: float = 1.0
+
+    def __init__(self, stack: LayerStack) -> None:
+        self.stack = stack
+
+    @property
+    def title(self) -> str:
+        return TITLES[self.name]
+
+    def start(self) -> None:
+        """Once, before the first tick."""
+
+    def tick(self, now: float) -> None:
+        """Every ``period`` seconds of simulated time."""
+
+    def route(self, goal: str, start: Point, closed: set[str]) -> PlannedRoute | str | None:
+        return None
+
+    def __repr__(self) -> str:
+        return f"<Layer {self.name} {self.title}>"
+
+
+@dataclass(frozen=True, slots=True)
+class Switch:
+    """One change of the primary layer, as traced."""
+
+    t: float
+    layer: str
+    previous: str | None
+    reason: str
+
+
+class LayerStack:
+    """The layers of one run and what they share; see the module docstring."""
+
+    def __init__(self, sequencer: Sequencer, beliefs: Beliefs, world: Any, *,
+                 enabled: Iterable[str] = LAYER_NAMES, prior_map: bool = True) -> None:
+        self.sequencer = sequencer
+        self.beliefs = beliefs
+        self.world = world
+        self.prior_map = prior_map
+        self.blocks: list[Point] = []  # points found blocked (Layer III); grid routes leave them out
+        self.blocked_doors: set[str] = set()  # doors found blocked (Layer III); prior-map routes leave them out
+        self.grid_version = 0  # grows each time Layer IV changes the grid
+        self._planners: dict[bool, tuple[tuple[Any, ...], Any]] = {}
+        self.enabled = frozenset(enabled)
+        unknown = self.enabled - set(LAYER_NAMES)
+        if unknown:
+            raise ValueError(f"no layer {', '.join(sorted(unknown))}: the layers are I, II, III and IV")
+        self.layers: dict[str, Layer] = {}
+        self.primary: str | None = None
+        self.chosen: str | None = None  # what the rules said, before enabling was taken into account
+        self.timeline: list[Switch] = []
+        self.revision = 0
+        self.robot_radius = float(world.robot.radius)
+        self.logging_rings = False  # Layer IV turns it on while it maps
+        self._driver: str | None = None
+        beliefs[ROUTES] = self
+
+    def add(self, layer: Layer) -> None:
+        self.layers[layer.name] = layer
+
+    def active(self) -> list[Layer]:
+        """The enabled layers, I first."""
+        return [self.layers[name] for name in LAYER_NAMES if name in self.layers and name in self.enabled]
+
+    def start(self) -> None:
+        """Start the layers from I up (Layer I says the way is clear before Layer IV measures
+        the map, so the rules decide on both), then follow memory."""
+        for layer in self.active():
+            layer.start()
+        if "I" not in self.enabled:  # nothing watches the way: it is taken as clear
+            self.sequencer.change([("assert", Compound("obstacle", ("none",)))], "layers")
+        self.observe()
+
+    # -- memory -------------------------------------------------------------------
+
+    def post(self, layer: Layer, changes: list[tuple[str, Compound]]) -> None:
+        """Facts a layer found, into RAP memory (the rules may switch the primary layer)."""
+        made = self.sequencer.change(changes, f"layer {layer.name}")
+        if any(fact.functor == "primary-layer" for _, fact in made):
+            self.observe(self._reason(changes))
+
+    def assert_fact(self, layer: Layer, functor: str, *args: Any) -> None:
+        """Assert ``(functor args...)`` unless memory holds it already (facts are said once)."""
+        fact = Compound(functor, tuple(args))
+        if fact not in self.sequencer.memory:
+            self.post(layer, [("assert", fact)])
+
+    def retract_fact(self, layer: Layer, functor: str, *args: Any) -> None:
+        fact = Compound(functor, tuple(args))
+        if fact in self.sequencer.memory:
+            self.post(layer, [("retract", fact)])
+
+    def holds(self, functor: str, *args: Any) -> bool:
+        return Compound(functor, tuple(args)) in self.sequencer.memory
+
+    def setting(self, name: str, default: float) -> float:
+        """A number from ``(layer-setting NAME VALUE)`` in memory (the rules file's settings)."""
+        for fact in self.sequencer.memory.facts(Compound("layer-setting", (name, Var("value")))):
+            value = fact.args[1]
+            if isinstance(value, (int, float)) and not isinstance(value, bool):
+                return float(value)
+        return default
+
+    def _reason(self, changes: list[tuple[str, Compound]]) -> str:
+        """The rule that concluded the new primary layer, and the fact that fired it."""
+        for rule, fact in reversed(self.sequencer.rules.fired):
+            if any(kind == "assert" and effect.functor == "primary-layer" for kind, effect in rule.effects):
+                return f"rule {rule.name} on {term_to_str(fact)}"
+        if not changes:
+            return "asserted in memory"
+        return f"memory: {', '.join(term_to_str(fact) for _, fact in changes)}"
+
+    # -- the primary layer ----------------------------------------------------------
+
+    def observe(self, reason: str | None = None) -> None:
+        """Follow memory's ``(primary-layer L)``: switch, trace it, and re-route when the driver changes."""
+        chosen = None
+        for fact in self.sequencer.memory.facts(Compound("primary-layer", (Var("layer"),))):
+            chosen = str(fact.args[0]).upper()  # symbols read lower-case: (primary-layer II) is ii
+        if chosen is None or chosen == self.chosen:
+            return
+        self.chosen = chosen
+        if reason is None:
+            reason = self._reason([])
+        layer = self._enabled_near(chosen)
+        if layer != chosen:
+            reason += f"; {chosen} is not enabled, so {layer} drives"
+        if chosen == "I":  # standing in for a layer not enabled, Layer I drives instead of holding
+            self.beliefs[HOLD] = "Layer I holds the robot: something is in its way"
+        else:
+            self.beliefs.pop(HOLD)
+        if layer == self.primary:
+            return
+        previous, self.primary = self.primary, layer
+        now = self.sequencer.now()
+        self.timeline.append(Switch(now, layer, previous, reason))
+        self.sequencer.trace.emit("layer-switched", layer=layer, previous=previous, reason=reason)
+        driver = self._driving_layer()
+        if driver != self._driver:
+            self._driver = driver
+            self.revision += 1
+
+    def _enabled_near(self, name: str) -> str:
+        if name in self.enabled or name not in LAYER_NAMES:
+            return name
+        index = LAYER_NAMES.index(name)
+        below = [n for n in LAYER_NAMES[:index][::-1] if n in self.enabled]
+        above = [n for n in LAYER_NAMES[index + 1:] if n in self.enabled]
+        return (below or above or [name])[0]
+
+    def _driving_layer(self) -> str | None:
+        """The layer whose routes the robot follows: the primary layer, or the one below it that plans."""
+        if self.primary is None:
+            return None
+        if self.primary == "I" and self._driver is not None:
+            return self._driver  # Layer I holds the robot; the route it was following stands
+        index = LAYER_NAMES.index(self.primary) if self.primary in LAYER_NAMES else 0
+        order = list(LAYER_NAMES[index::-1]) + list(LAYER_NAMES[index + 1:])
+        for name in order:
+            layer = self.layers.get(name)
+            if layer is not None and name in self.enabled and layer.plans:
+                return name
+        return "I" if "I" in self.enabled and "I" in self.layers else None  # alone, Layer I drives reactively
+
+    @property
+    def driver(self) -> str | None:
+        """The layer whose routes the robot follows now."""
+        return self._driving_layer()
+
+    def grid_planner(self, *, unknown_passable: bool):
+        """A path planner on the grid as it is now (cached while the grid and the robot's cell stay).
+
+        The blocked points are obstacles; the disc round the robot is free (it
+        stands there, whatever the sonar saw). With ``unknown_passable`` False
+        (Layers II and III, which do not explore) unknown cells are obstacles.
+        """
+        from atlas_rap.maps.gridpath import GridPlanner
+
+        grid = self.beliefs[GRID]
+        frame = grid.frame
+        pose = self.beliefs.get(POSE)
+        here = frame.world_to_cell(*pose[:2]) if pose is not None else None
+        key = (self.grid_version, len(self.blocks), here)
+        cached = self._planners.get(unknown_passable)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        p_occ = grid.probabilities()
+        known = grid.updated.copy() if unknown_passable else np.ones(p_occ.shape, dtype=bool)
+        if not unknown_passable:
+            p_occ[~grid.updated] = 1.0
+        rows, cols = np.ogrid[:frame.height, :frame.width]
+        if here is not None:
+            disc = (rows - here[0]) ** 2 + (cols - here[1]) ** 2 <= ((self.robot_radius + 0.35) / frame.resolution) ** 2
+            p_occ[disc] = np.minimum(p_occ[disc], 0.3)
+            known[disc] = True
+        for x, y in self.blocks:
+            row, col = frame.world_to_cell(x, y)
+            disc = (rows - row) ** 2 + (cols - col) ** 2 <= (BLOCK_RADIUS / frame.resolution) ** 2
+            p_occ[disc], known[disc] = 1.0, True
+        planner = GridPlanner(p_occ, frame, self.robot_radius, known=known)
+        self._planners[unknown_passable] = (key, planner)
+        return planner
+
+    def replanned(self) -> None:
+        """A layer has a better route than the one being driven (``navigate-to`` asks again)."""
+        self.revision += 1
+
+    # -- the RouteSource navigate-to asks -------------------------------------------
+
+    def route(self, goal: str, start: Point, closed: set[str]) -> PlannedRoute | str:
+        """A route from the layer that drives. When it has none and it is not Layer IV, memory
+        hears ``(no-route)`` (the rules may hand over to Layer IV, which explores) and the
+        layer that drives then is asked in turn."""
+        asked: set[str] = set()
+        answer: PlannedRoute | str = "no layer that plans routes is enabled"
+        driver = self._driving_layer()
+        while driver is not None and driver not in asked:
+            asked.add(driver)
+            found = self.layers[driver].route(goal, start, closed)
+            answer = found if found is not None else f"Layer {driver} has no route to {goal}"
+            if isinstance(answer, PlannedRoute) or driver == "IV":
+                return answer
+            self.post(self.layers[driver], [("assert", Compound("no-route", ()))])
+            driver = self._driving_layer()
+        return answer

@@ -1,0 +1,155 @@
+"""Layer I, Monitoring: raw sonar, detection, and feedback control (seed Table 1).
+
+Always active and the highest priority. At the skills' rate it
+
+- keeps the reflexes on (the safety reflex slows, stops and backs off;
+  with Layer I not enabled they are off, see ``skills/safety.py``);
+- logs every new sonar ring with its pose, for Layer IV to fuse at its
+  own, slower period (and keeps the last few for Layer III's assessment);
+- watches the way ahead: an echo in the strip the robot will sweep on its
+  way to the route's next waypoint, nearer than the waypoint and within
+  :data:`LOOK_AHEAD` metres,
+  that the map does not explain (an echo from a cell the grid already
+  believes occupied is structure: a wall is Layer IV's to plan round).
+  Seen for ``obstacle-after`` seconds it asserts ``(obstacle short-lived)``;
+  still there after ``long-lived-after`` seconds, ``(obstacle long-lived)``
+  and the :data:`~atlas_rap.skills.beliefs.OBSTACLE` belief (where it is);
+  clear for ``clear-after`` seconds, ``(obstacle none)``. The times are
+  ``(layer-setting ...)`` facts of the rules file.
+
+When primary it holds the robot still (the stack sets the ``HOLD`` belief);
+alone it drives reactively, straight for the goal with the reflexes on.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+
+from atlas_rap.layers.layer import Layer
+from atlas_rap.logic import Compound
+from atlas_rap.model import Point
+from atlas_rap.skills.beliefs import GRID, OBSTACLE, POSE, REFLEXES, ROUTE, SONAR, PlannedRoute
+
+RECENT_RINGS = 30
+"""Rings kept for Layer III's assessment of an obstacle (3 s of a 10 Hz sonar)."""
+
+LOOK_AHEAD = 0.7
+"""Metres from the robot's rim within which an echo on the way ahead is an obstacle."""
+
+OCCUPIED_LOG_ODDS = 0.0
+"""Cells the grid believes more likely occupied than not (P(occ) > 0.5) explain an echo."""
+
+EXPLAINED_WITHIN = 4
+"""Cells (0.2 m on a 0.05 m grid) round an echo's point in which an obstacle on the grid explains it:
+a sonar beam is 15 degrees wide, so the point is known to a few centimetres only."""
+
+MARGIN = 0.1
+"""Metres either side of the robot's width that its swept path takes in."""
+
+
+class MonitoringLayer(Layer):
+    """Layer I; see the module docstring."""
+
+    name = "I"
+    period = 0.05
+
+    def start(self) -> None:
+        self.stack.beliefs[REFLEXES] = True
+        self.ring_log: list[tuple[tuple[float, float, float], np.ndarray, np.ndarray]] = []
+        self.recent: deque[tuple[tuple[float, float, float], np.ndarray, np.ndarray]] = deque(maxlen=RECENT_RINGS)
+        self._last_ranges = None
+        self.state = "none"
+        self.seen_since: float | None = None
+        self.clear_since: float | None = None
+        self.stack.assert_fact(self, "obstacle", "none")
+
+    def tick(self, now: float) -> None:
+        beliefs = self.stack.beliefs
+        pose, reading = beliefs.get(POSE), beliefs.get(SONAR)
+        if pose is None or reading is None:
+            return
+        ranges, angles = reading
+        if ranges is not self._last_ranges:
+            self._last_ranges = ranges
+            self.recent.append((pose, ranges, angles))
+            if self.stack.logging_rings:
+                self.ring_log.append((pose, ranges, angles))
+        echo = self._in_the_way(pose, ranges, angles)
+        stack = self.stack
+        if echo is not None:
+            self.clear_since = None
+            if self.seen_since is None:
+                self.seen_since = now
+            lasted = now - self.seen_since  # since the obstacle was first seen, flickers included
+            if self.state == "none" and lasted >= stack.setting("obstacle-after", 0.5):
+                self.state = "short-lived"
+                stack.post(self, [("assert", _fact("short-lived"))])
+            if self.state == "short-lived" and lasted >= stack.setting("long-lived-after", 4.0):
+                self.state = "long-lived"
+                beliefs[OBSTACLE] = echo
+                stack.post(self, [("assert", _fact("long-lived"))])
+            return
+        if self.state == "none":
+            self.seen_since = None  # a glimpse shorter than obstacle-after: nothing
+            return
+        if self.clear_since is None:
+            self.clear_since = now
+        if now - self.clear_since >= stack.setting("clear-after", 0.5):
+            self.state, self.seen_since = "none", None
+            stack.post(self, [("assert", _fact("none"))])
+
+    def _in_the_way(self, pose, ranges: np.ndarray, angles: np.ndarray) -> Point | None:
+        """Where an unexplained echo in the robot's swept path to the next waypoint is, or None.
+
+        The swept path is the strip as wide as the robot (plus ``MARGIN``) along
+        the line to the waypoint, up to the waypoint and at most ``LOOK_AHEAD``
+        metres from the rim: a door jamb beside the way is not in it, a person
+        crossing it is.
+        """
+        route = self.stack.beliefs.get(ROUTE)
+        if route is None:
+            return None
+        x, y, heading = pose
+        tx, ty = route.next_point
+        radius = self.stack.robot_radius
+        distance = math.hypot(tx - x, ty - y)
+        if distance - radius <= 0.05:
+            return None
+        off = angles + heading - math.atan2(ty - y, tx - x)
+        reach = ranges + radius
+        along, across = reach * np.cos(off), reach * np.sin(off)
+        near = (along > 0) & (along - radius < min(distance - radius, LOOK_AHEAD)) & (np.abs(across) < radius + MARGIN)
+        if not near.any():
+            return None
+        beam = int(np.argmin(np.where(near, ranges, np.inf)))
+        direction = heading + float(angles[beam])
+        point = (x + float(reach[beam]) * math.cos(direction), y + float(reach[beam]) * math.sin(direction))
+        return None if self._explained(point) else point
+
+    def _explained(self, point: Point) -> bool:
+        """An echo from where the grid already has an obstacle is structure, not news."""
+        grid = self.stack.beliefs.get(GRID)
+        if grid is None:
+            return False
+        row, col = grid.frame.world_to_cell(*point)
+        if not grid.frame.contains_cell(row, col):
+            return True
+        span = EXPLAINED_WITHIN
+        window = grid.log_odds[max(row - span, 0):row + span + 1, max(col - span, 0):col + span + 1]
+        return bool((window > OCCUPIED_LOG_ODDS).any())
+
+    def drain(self) -> list[tuple[tuple[float, float, float], np.ndarray, np.ndarray]]:
+        """The rings logged since the last call (Layer IV fuses them)."""
+        rings, self.ring_log = self.ring_log, []
+        return rings
+
+    def route(self, goal: str, start: Point, closed: set[str]) -> PlannedRoute | str | None:
+        """Alone, Layer I heads straight for the goal; the reflexes keep it safe."""
+        return PlannedRoute((self.stack.world.places[goal].point,), {}, "I")
+
+
+def _fact(state: str) -> Compound:
+    return Compound("obstacle", (state,))

@@ -1,0 +1,195 @@
+"""Layer IV, Strategic: mapping and planning on the occupancy grid (seed Table 1, §3).
+
+The slowest layer. At its period it
+
+- **maps** while memory says ``(mapping on)`` (the rules decide): it fuses
+  every sonar ring Layer I logged since its last tick into the
+  :data:`~atlas_rap.skills.beliefs.GRID` belief, at the pose the robot
+  believed it had (the recursive Bayesian update of
+  :meth:`~atlas_rap.maps.grid.OccupancyGrid.update_sonar`); while mapping,
+  the motion skills keep to ``mapping-speed`` (a layer setting, a fraction
+  of top speed) so that the sonar sees each cell often;
+- **measures the map** every ``quality-every`` seconds in a run without a
+  prior map: ``(map-quality Q)``, one minus the mean entropy of the
+  region of interest: the explored region and the surroundings of the
+  places the robot has been sent to
+  (:func:`~atlas_rap.maps.inference.explored_quality`), which the rules
+  compare with their threshold;
+- **plans** when it drives: the cheapest path on the grid with
+  ``skimage.graph.MCP`` (:class:`~atlas_rap.maps.gridpath.GridPlanner`),
+  unknown cells passable at a cost (optimistic planning), re-planned as
+  soon as the grid shows the path blocked. No path at all, even through the
+  unknown: ``(no-route)`` and a reason that says so. (When Layer II or III
+  has no route on the known map, the stack asserts ``(no-route)`` too, and
+  the rules hand the drive to Layer IV, which explores; it holds until the
+  robot is sent somewhere else.)
+
+The grid can be carried from run to run (``atlas run --map-in/--map-out``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from atlas_rap.layers.layer import Layer, LayerStack
+from atlas_rap.logic import Compound
+from atlas_rap.model import Point
+from atlas_rap.skills.beliefs import GOAL, GRID, POSE, POSES, SONAR, SPEED_LIMIT, PlannedRoute
+
+
+class StrategicLayer(Layer):
+    """Layer IV; see the module docstring. ``grid`` is a map to start from (``--map-in``)."""
+
+    name = "IV"
+    plans = True
+    period = 0.5
+
+    def __init__(self, stack: LayerStack, grid=None) -> None:
+        from atlas_rap.maps.grid import OccupancyGrid
+
+        super().__init__(stack)
+        world = stack.world
+        stack.beliefs[GRID] = grid if grid is not None else OccupancyGrid.covering(world.bounds, 0.05)
+        stack.beliefs.setdefault(POSES, [])
+
+    def start(self) -> None:
+        stack, world = self.stack, self.stack.world
+        self.sonar = world.sonar
+        self.quality_at = -math.inf
+        self.goals: list[Point] = []  # where the robot has been sent: part of the region the quality is of
+        self.no_route_goal: str | None = None  # the goal (no-route) was said of
+        self.path = None
+        self.path_goal: str | None = None
+        self.path_version = -1
+        self._last_ranges = None
+        self._marked: Point | None = None  # where the last footprint was marked free
+        if stack.prior_map:
+            stack.assert_fact(self, "mapping", "on")
+        else:
+            self.quality_at = 0.0
+            self._measure()
+        stack.logging_rings = stack.holds("mapping", "on")
+
+    def tick(self, now: float) -> None:
+        stack, beliefs = self.stack, self.stack.beliefs
+        mapping = stack.holds("mapping", "on")
+        stack.logging_rings = mapping
+        rings = self._rings()
+        echoes: list[np.ndarray] = []
+        if mapping and rings:
+            grid, poses = beliefs[GRID], beliefs[POSES]
+            driving = stack.driver == self.name
+            for (x, y, heading), ranges, angles in rings:  # one by one: each ring's arcs see the rings before
+                grid.update_sonar(float(x), float(y), float(heading), ranges, angles, stack.robot_radius, self.sonar)
+                if self._marked is None or math.dist(self._marked, (x, y)) >= FOOTPRINT_SPACING:
+                    grid.mark_free(float(x), float(y), stack.robot_radius)
+                    self._marked = (float(x), float(y))
+                poses.append((float(x), float(y), float(heading)))
+                if driving:
+                    echoes.append(_echo_points(x, y, heading, ranges, angles, stack.robot_radius,
+                                               self.sonar.max_range))
+            stack.grid_version += 1
+        if mapping and not stack.prior_map:
+            beliefs[SPEED_LIMIT] = stack.setting("mapping-speed", 0.6)
+        else:
+            beliefs.pop(SPEED_LIMIT)
+        if not stack.prior_map and now - self.quality_at >= stack.setting("quality-every", 2.0):
+            self.quality_at = now
+            self._measure()
+        if stack.driver == self.name and echoes:
+            self._watch_path(np.concatenate(echoes))
+
+    def _rings(self):
+        """The rings to fuse: Layer I's log, or the latest ring when Layer I is not running."""
+        monitor = self.stack.layers.get("I")
+        if monitor is not None and "I" in self.stack.enabled:
+            return monitor.drain()
+        reading, pose = self.stack.beliefs.get(SONAR), self.stack.beliefs.get(POSE)
+        if reading is None or pose is None or reading[0] is self._last_ranges:
+            return []
+        self._last_ranges = reading[0]
+        return [(pose, *reading)]
+
+    def quality(self) -> float:
+        """The map quality as the rules see it (three decimals): 1 - mean entropy of the
+        explored region and round the places the robot has been sent to."""
+        from atlas_rap.maps.inference import explored_quality
+
+        goal = self.stack.beliefs.get(GOAL)
+        if goal is not None and goal.point not in self.goals:
+            self.goals.append(goal.point)
+        return round(explored_quality(self.stack.beliefs[GRID], goals=self.goals), 3)
+
+    def _measure(self) -> None:
+        self.stack.assert_fact(self, "map-quality", self.quality())
+
+    def _watch_path(self, echoes: np.ndarray) -> None:
+        """Re-plan when the grid shows the path blocked: an echo within the robot's reach of
+        the path, from a cell the grid now believes occupied. Only the echoes of the rings
+        just fused can have changed that, so nothing else is looked at."""
+        stack = self.stack
+        goal = stack.beliefs.get(GOAL)
+        if goal is None or self.path is None or self.path_goal != goal.place or not len(echoes):
+            return
+        near = echoes[_near_polyline(echoes, np.asarray(self.path.waypoints), stack.robot_radius + NEAR_PATH)]
+        if not len(near):
+            return
+        grid = stack.beliefs[GRID]
+        rows, cols = grid.frame.world_to_cell(near[:, 0], near[:, 1])
+        rows, cols = np.asarray(rows), np.asarray(cols)
+        inside = (rows >= 0) & (rows < grid.frame.height) & (cols >= 0) & (cols < grid.frame.width)
+        if (grid.log_odds[rows[inside], cols[inside]] > OCCUPIED_LOG_ODDS).any():
+            stack.replanned()
+
+    def route(self, goal: str, start: Point, closed: set[str]) -> PlannedRoute | str:
+        """The cheapest path on the grid, the unknown passable at a cost. ``(no-route)`` holds
+        while there is none, and is forgotten when the robot is sent somewhere else."""
+        stack = self.stack
+        if stack.holds("no-route"):
+            current = stack.beliefs.get(GOAL)
+            if self.no_route_goal is None:
+                self.no_route_goal = current.place if current is not None else goal
+            elif goal != self.no_route_goal:  # sent somewhere else: the way there is not known to be cut
+                stack.post(self, [("retract", Compound("no-route", ()))])
+                self.no_route_goal = None
+        self.path_goal, self.path_version = goal, stack.grid_version
+        self.path = stack.grid_planner(unknown_passable=True).plan(start, stack.world.places[goal].point)
+        if self.path is None:
+            stack.assert_fact(self, "no-route")
+            return (f"no way to {goal} on the occupancy grid, not even through its unknown part: "
+                    f"every way is blocked")
+        return PlannedRoute(self.path.waypoints, {}, self.name)
+
+
+OCCUPIED_LOG_ODDS = math.log(0.6 / 0.4)
+"""An echo's cell above P(occ) = 0.6 (the planner's obstacle level) blocks the path it is near."""
+
+FOOTPRINT_SPACING = 0.1
+"""Metres the robot moves between the footprints it marks free (the disc under it)."""
+
+NEAR_PATH = 0.15
+"""Metres beyond the robot's radius from the path within which an echo may block it."""
+
+
+def _echo_points(x: float, y: float, heading: float, ranges: np.ndarray, angles: np.ndarray, radius: float,
+                 max_range: float) -> np.ndarray:
+    """World (x, y) of the ring's echoes (beams that came back before their maximum range)."""
+    hit = ranges < max_range - 1e-6
+    reach = ranges[hit] + radius
+    direction = heading + angles[hit]
+    return np.column_stack([x + reach * np.cos(direction), y + reach * np.sin(direction)])
+
+
+def _near_polyline(points: np.ndarray, polyline: np.ndarray, within: float) -> np.ndarray:
+    """For each point, whether it lies within ``within`` metres of the polyline."""
+    if len(polyline) < 2:
+        return np.hypot(*(points - polyline[:1]).T) < within
+    a, b = polyline[:-1], polyline[1:]
+    ab = b - a
+    length2 = np.maximum((ab ** 2).sum(axis=1), 1e-12)
+    ap = points[:, None, :] - a[None, :, :]
+    t = np.clip((ap * ab[None]).sum(axis=2) / length2[None], 0.0, 1.0)
+    closest = a[None] + t[..., None] * ab[None]
+    return (np.hypot(*(points[:, None, :] - closest).transpose(2, 0, 1)) < within).any(axis=1)

@@ -1,0 +1,185 @@
+"""Layer III, Tactical: situation assessment and re-routing on the topological and geometric maps.
+
+Two jobs (seed Table 1 and §5.2):
+
+- **The topology from the grid.** In a run without a prior map, every
+  ``topology-every`` seconds (a layer setting) and only when Layer IV has
+  changed the grid since, it runs the abstraction (distance transform,
+  skeleton, places, topology: :func:`atlas_rap.maps.abstraction.abstract`)
+  on the grid's reachable part and names the places after the world's
+  named places that fall inside them. The topology is the
+  :data:`~atlas_rap.skills.beliefs.TOPOLOGY` belief, and what it connects
+  is RAP memory: ``(connected lab corridor)`` (both ways), retracted when a
+  newer map no longer joins them.
+- **Assessment when primary.** The rules make Layer III primary when
+  something has stood in the robot's way for long (``(obstacle
+  long-lived)``. It fuses the last few sonar rings into the grid (so the
+  obstacle is on the map even when mapping is off), rebuilds the topology,
+  finds the stretch of the route the obstacle blocks (from the place the
+  robot is in to the next place the route was to reach), asserts
+  ``(route-blocked A B)`` and re-routes round it. With a prior map (places
+  and doors, no grid) it leaves the route's next door out when the obstacle
+  is near it and another way exists; else the route stands and the motion
+  skills steer round the obstacle. If a route remains, it asserts ``(rerouted A B)`` (the
+  rules hand back to Layer II, which follows the new route); if none does,
+  ``(no-route)`` (the rules hand over to Layer IV, which remaps).
+
+A block stays for the rest of the run.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from atlas_rap.layers.layer import Layer
+from atlas_rap.layers.operational import route_on_maps
+from atlas_rap.logic import Compound
+from atlas_rap.model import Point
+from atlas_rap.skills.beliefs import CLOSED_DOORS, GOAL, GRID, OBSTACLE, POSE, ROUTE, TOPOLOGY, PlannedRoute
+
+
+DOOR_BLOCK = 2.0
+"""Metres from the next door of a route within which an obstacle blocks that door (prior map)."""
+
+
+class TacticalLayer(Layer):
+    """Layer III; see the module docstring."""
+
+    name = "III"
+    plans = True
+    period = 1.0
+
+    def start(self) -> None:
+        self.built_version = -1
+        self.built_at = -math.inf
+        self.connected: set[tuple[str, str]] = set()
+        self.assessed: Point | None = None
+        if not self.stack.prior_map and self.stack.beliefs.get(GRID) is not None:
+            self.rebuild(0.0)  # a map carried from an earlier run (--map-in): its topology from the start
+
+    def tick(self, now: float) -> None:
+        stack = self.stack
+        if not stack.prior_map and stack.beliefs.get(GRID) is not None and stack.grid_version != self.built_version:
+            if now - self.built_at >= stack.setting("topology-every", 10.0) or stack.primary in ("II", "III"):
+                self.rebuild(now)
+        if stack.primary == "III":
+            obstacle = stack.beliefs.get(OBSTACLE)
+            if obstacle is not None and obstacle != self.assessed:
+                self.assessed = obstacle
+                self.assess(obstacle)
+
+    def rebuild(self, now: float) -> None:
+        """The topology of the grid as it is now, its places named; ``connected`` facts follow it."""
+        from atlas_rap.maps.abstraction import abstract
+        from atlas_rap.maps.inference import InferenceGrid
+
+        stack, beliefs = self.stack, self.stack.beliefs
+        grid = beliefs[GRID]
+        self.built_version, self.built_at = stack.grid_version, now
+        pose = beliefs.get(POSE) or stack.world.robot.start
+        p_occ = grid.probabilities()
+        reachable = InferenceGrid(grid, pose[:2], stack.robot_radius, stack.world.sonar.max_range).reachable
+        if reachable.sum() < 50:
+            return
+        p_occ[~grid.updated] = np.nan
+        try:
+            topology = abstract(p_occ, grid.frame, stack.robot_radius, reachable=reachable).topology
+        except ValueError:
+            return  # too little map to abstract yet
+        facts = topology.facts(stack.world.place_shapes())
+        beliefs[TOPOLOGY] = topology
+        pairs = {(a, b) for kind, *rest in facts if kind == "connected" for a, b in [rest]}
+        pairs = pairs | {(b, a) for a, b in pairs}
+        changes = [("retract", _connected(pair)) for pair in sorted(self.connected - pairs)]
+        changes += [("assert", _connected(pair)) for pair in sorted(pairs - self.connected)]
+        self.connected = pairs
+        if changes:
+            stack.post(self, changes)
+        if stack.primary in ("II", "III"):
+            stack.replanned()
+
+    def assess(self, obstacle: Point) -> None:
+        """The obstacle blocks an edge: update the map with what the sonar sees now, say which
+        edge is blocked, and re-route round it (or say there is no way)."""
+        stack = self.stack
+        grid = stack.beliefs.get(GRID)
+        monitor = stack.layers.get("I")
+        if grid is not None and monitor is not None and not stack.prior_map:
+            for (x, y, heading), ranges, angles in monitor.recent:
+                grid.update_sonar(float(x), float(y), float(heading), ranges, angles, stack.robot_radius,
+                                  stack.world.sonar)
+            stack.grid_version += 1
+            self.rebuild(stack.sequencer.now())
+        a, b = self._edge_at(obstacle)
+        if grid is None or stack.prior_map:  # on a grid built from sonar the obstacle is on the map now
+            stack.blocks.append(obstacle)
+        stack.post(self, [("assert", _fact("route-blocked", a, b))])
+        goal = stack.beliefs.get(GOAL)
+        pose = stack.beliefs.get(POSE)
+        if goal is None or pose is None:
+            return
+        closed = stack.beliefs.get(CLOSED_DOORS) or set()
+        door = self._door_ahead(obstacle) if stack.prior_map else None
+        if door is not None:
+            stack.blocked_doors.add(door)
+        answer = self.route(goal.place, pose[:2], closed)
+        if not isinstance(answer, PlannedRoute) and door is not None:
+            stack.blocked_doors.discard(door)  # the only way is past it: keep the route, steer round the obstacle
+            answer = self.route(goal.place, pose[:2], closed)
+        if isinstance(answer, PlannedRoute):
+            stack.replanned()
+            stack.post(self, [("assert", _fact("rerouted", a, b))])
+        else:
+            stack.post(self, [("assert", _fact("no-route"))])
+
+    def _door_ahead(self, obstacle: Point) -> str | None:
+        """On the prior map: the next door of the route, if the obstacle is near it (it blocks the way in)."""
+        route = self.stack.beliefs.get(ROUTE)
+        if route is None:
+            return None
+        ahead = [(index, door) for door, index in route.doors.items() if index >= route.index - 1]
+        doors = self.stack.world.doors
+        for _, door in sorted(ahead):
+            return door if math.dist(doors[door].center, obstacle) < DOOR_BLOCK else None
+        return None
+
+    def _edge_at(self, obstacle: Point) -> tuple[str, str]:
+        """The places the blocked stretch of the route joins: where the robot is, and the
+        first place the route was to reach past the obstacle."""
+        stack = self.stack
+        pose = stack.beliefs.get(POSE)
+        here = self._place(pose[:2]) if pose is not None else self._place(obstacle)
+        route = stack.beliefs.get(ROUTE)
+        ahead = route.waypoints[route.index:] if route is not None else ()
+        for point in (obstacle, *ahead):
+            there = self._place(point)
+            if there != here:
+                return here, there
+        return here, here
+
+    def _place(self, xy: Point) -> str:
+        """The name of the place a point is in: on the topology, else the world's nearest place."""
+        topology = self.stack.beliefs.get(TOPOLOGY)
+        if topology is not None:
+            label = topology.place_at(xy)
+            if label:
+                return topology.place_name(label)
+        world = self.stack.world
+        named = world.place_at(*xy)
+        if named is not None or not world.places:
+            return named or "nowhere"
+        return min(world.places.values(), key=lambda place: math.dist(place.point, xy)).name
+
+    def route(self, goal: str, start: Point, closed: set[str]) -> PlannedRoute | str:
+        return route_on_maps(self.stack, goal, start, closed, self.name)
+
+
+def _connected(pair: tuple[str, str]) -> Compound:
+    return _fact("connected", *pair)
+
+
+def _fact(functor: str, *args: str) -> Compound:
+    return Compound(functor, tuple(args))
+

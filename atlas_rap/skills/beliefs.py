@@ -1,0 +1,159 @@
+"""Beliefs: the named, typed state that skills and the ATLAS layers share.
+
+A data flow between skills goes through the skill manager's wires (a
+skill's outputs to the inputs of the same name). What is not a data flow,
+but something the robot *believes* (the doors it saw closed, the
+occupancy grid it is building, the topology made from it, the route it is
+following, the place it is going to) lives in :class:`Beliefs`, under a
+:class:`Belief` key that names it and says its type. A key is a module
+constant, so a reader finds every producer and consumer by searching for
+it, and a wrong value is refused where it is written, not where it is read:
+
+    from atlas_rap.skills.beliefs import GRID
+    context.beliefs[GRID] = OccupancyGrid.covering(bounds)   # checked
+    grid = context.beliefs.get(GRID)                          # OccupancyGrid | None
+
+The keys the toolkit uses are declared here with the small value types that
+have no other home (:class:`Goal`, :class:`FollowedRoute`,
+:class:`PlannedRoute`, :class:`RouteSource`). This is ROS's parameter /
+blackboard idea with a type per key, like BehaviorTree.CPP's typed ports.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Generic, Protocol, TypeVar
+
+from atlas_rap.model import Point
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Belief(Generic[T]):
+    """The key of one belief: its name (for messages) and the type its value must have."""
+
+    name: str
+    kind: type | tuple[type, ...] | str
+    doc: str = ""
+
+    def admits(self, value: object) -> bool:
+        """Whether ``value`` has the belief's type (a ``"module:Class"`` kind is matched by
+        name, so declaring it does not import a heavy module)."""
+        if isinstance(self.kind, str):
+            return any(f"{k.__module__}:{k.__qualname__}" == self.kind for k in type(value).__mro__)
+        return isinstance(value, self.kind)
+
+    def __repr__(self) -> str:
+        return f"<Belief {self.name}>"
+
+
+class Beliefs:
+    """The beliefs of one robot: :class:`Belief` key → value, type-checked on write."""
+
+    def __init__(self) -> None:
+        self._values: dict[Belief[Any], Any] = {}
+
+    def __getitem__(self, key: Belief[T]) -> T:
+        try:
+            return self._values[key]
+        except KeyError:
+            raise KeyError(f"no belief {key.name} yet") from None
+
+    def get(self, key: Belief[T], default: T | None = None) -> T | None:
+        return self._values.get(key, default)
+
+    def __setitem__(self, key: Belief[T], value: T) -> None:
+        if not isinstance(key, Belief):
+            raise TypeError(f"beliefs are keyed by Belief constants, not {key!r}")
+        if value is not None and not key.admits(value):
+            raise TypeError(f"belief {key.name} holds {_kind_name(key.kind)}, not {type(value).__name__}")
+        self._values[key] = value
+
+    def setdefault(self, key: Belief[T], value: T) -> T:
+        if key not in self._values:
+            self[key] = value
+        return self._values[key]
+
+    def pop(self, key: Belief[T], default: T | None = None) -> T | None:
+        return self._values.pop(key, default)
+
+    def __contains__(self, key: object) -> bool:
+        return key in self._values
+
+    def __repr__(self) -> str:
+        return f"<Beliefs {', '.join(key.name for key in self._values)}>"
+
+
+def _kind_name(kind: type | tuple[type, ...] | str) -> str:
+    if isinstance(kind, str):
+        return kind.rpartition(":")[2]
+    kinds = kind if isinstance(kind, tuple) else (kind,)
+    return " or ".join(k.__name__ for k in kinds)
+
+
+# -- values -----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class Goal:
+    """Where the robot is going: a named place and its point (set by ``navigate-to``)."""
+
+    place: str
+    point: Point
+
+
+@dataclass(frozen=True, slots=True)
+class PlannedRoute:
+    """A route a planner made: waypoints to drive, the doors on it (door → index of the
+    last waypoint before it, for routes on the prior map) and who planned it."""
+
+    waypoints: tuple[Point, ...]
+    doors: dict[str, int] = field(default_factory=dict)
+    by: str = ""
+
+
+@dataclass(slots=True)
+class FollowedRoute:
+    """The route being driven now and the index of the waypoint being driven to."""
+
+    goal: str
+    waypoints: tuple[Point, ...]
+    index: int = 0
+    by: str = ""
+    doors: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def next_point(self) -> Point:
+        return self.waypoints[min(self.index, len(self.waypoints) - 1)]
+
+
+class RouteSource(Protocol):
+    """Who plans routes for ``navigate-to``: the prior map, a topology, or the ATLAS layers.
+
+    ``revision`` grows whenever the source has a better route than it gave
+    before (a re-plan on a new grid, a re-route round a block): the skill
+    then asks again. :meth:`route` returns a route, or the reason there is none.
+    """
+
+    revision: int
+
+    def route(self, goal: str, start: Point, closed: set[str]) -> PlannedRoute | str:
+        """A route from ``start`` to the place ``goal`` avoiding ``closed`` doors, or why not."""
+
+
+# -- the keys ---------------------------------------------------------------------------
+
+POSE: Belief[tuple] = Belief("pose", tuple, "(x, y, heading) the robot believes it has (odometry)")
+SONAR: Belief[tuple] = Belief("sonar", tuple, "the latest sonar ring: (ranges from the rim, body-frame angles)")
+CLOSED_DOORS: Belief[set] = Belief("closed-doors", set, "door names seen closed (door monitor); routes avoid them")
+GRID: Belief[Any] = Belief("grid", "atlas_rap.maps.grid:OccupancyGrid", "the occupancy grid built from sonar (Layer IV)")
+POSES: Belief[list] = Belief("poses", list, "the believed poses the grid was built from")
+TOPOLOGY: Belief[Any] = Belief("topology", "atlas_rap.maps.topology:Topology", "the topological map (Layer III, or atlas run --map)")
+GOAL: Belief[Goal] = Belief("goal", Goal, "where navigate-to is taking the robot")
+ROUTE: Belief[FollowedRoute] = Belief("route", FollowedRoute, "the route navigate-to is driving")
+ROUTES: Belief[Any] = Belief("routes", object, "the RouteSource navigate-to asks (default: the prior map)")
+OBSTACLE: Belief[tuple] = Belief("obstacle", tuple, "(x, y) of the obstacle in the robot's way (Layer I)")
+REFLEXES: Belief[bool] = Belief("reflexes", bool, "False when Layer I is not enabled: no slowing, stopping, backing off")
+HOLD: Belief[str] = Belief("hold", str, "why Layer I holds the robot still (absent: not held)")
+SPEED_LIMIT: Belief[float] = Belief("speed-limit", float, "the fraction of top speed motion skills may use")
