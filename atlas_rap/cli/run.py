@@ -95,6 +95,10 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         out.print(memory_table(engine.sequencer.memory))
     for line in summary(result, name, time.perf_counter() - started):
         out.print(line)
+    if engine.stack is not None and engine.stack.timeline:
+        out.print("  primary layer: " + engine.stack.primary_summary(result.time), style="dim")
+    if map_out and engine.grid is not None:
+        out.print(f"map written to {map_out}", style="dim")
     if trace_file:
         out.print(f"trace written to {trace_file}", style="dim")
     if render:

@@ -18,11 +18,17 @@ from atlas_rap.sequencer.task import Failure
 _STATUS_STYLES = {"pending": "dim", "running": "cyan", "succeeded": "green", "failed": "red", "halted": "yellow"}
 
 
+QUIET_FACTS = ("(layer-setting ", "(map-quality ", "(primary-layer ", "(mapping ")
+"""Facts the live trace shows only with ``--verbose``: the layers' settings, the map quality
+every 2 s, and the primary layer (shown as its own ``⇄`` line)."""
+
+
 class LiveTrace:
     """A trace sink that prints each record as one readable line, indented by task depth.
 
     ``verbose`` also shows task selections and skill disables, which are
-    frequent and mostly predictable.
+    frequent and mostly predictable, and the layers' bookkeeping facts
+    (:data:`QUIET_FACTS`).
     """
 
     def __init__(self, console: Console, *, verbose: bool = False) -> None:
@@ -77,7 +83,12 @@ class LiveTrace:
                                f"from {who} ({record['outcome']})", style="yellow")
         if event == "memory-error":
             return text.append(f"  ✗ memory error on {record['fact']}: {record['error']}", style="bold red")
+        if event == "layer-switched":
+            was = f" (was {record['previous']})" if record.get("previous") else ""
+            return text.append(f"  ⇄ Layer {record['layer']} primary{was}: {record['reason']}", style="bold cyan")
         if event in ("fact-asserted", "fact-retracted"):
+            if not self.verbose and record["fact"].startswith(QUIET_FACTS):
+                return None
             sign = "+" if event == "fact-asserted" else "-"
             by = f"  ({record['by']})" if "by" in record else ""
             return text.append(f"  {sign} {record['fact']}", style="blue").append(by, style="dim")

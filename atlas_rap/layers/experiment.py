@@ -35,7 +35,6 @@ from atlas_rap.layers.figures import (
     plot_map_quality,
     plot_obstacle_layers,
     plot_run_layers,
-    primary_seconds,
 )
 from atlas_rap.shipped import shipped_root
 
@@ -101,11 +100,10 @@ def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: 
     finally:
         engine.save_map(map_out)
     stack = engine.stack
-    timeline = [{"t": round(s.t, 2), "layer": s.layer, "previous": s.previous, "reason": s.reason}
-                for s in stack.timeline]
+    timeline = stack.timeline_records()
     return {"ok": result.ok, "ended_by": result.ended_by, "map_quality": engine.stack.layers["IV"].quality(),
             "duration_s": round(result.time, 2), "timeline": timeline, "start_s": 0.0, "end_s": round(result.time, 2),
-            "primary_s": {k: round(v, 2) for k, v in primary_seconds(timeline, result.time).items()},
+            "primary_s": {k: round(v, 2) for k, v in stack.primary_seconds(result.time).items()},
             "path_m": round(_path_length(engine), 2)}
 
 

@@ -204,6 +204,22 @@ class LayerStack:
             self._driver = driver
             self.revision += 1
 
+    def timeline_records(self) -> list[dict[str, Any]]:
+        """The switches as the trace and ``figures.json`` have them."""
+        return [{"t": round(s.t, 2), "layer": s.layer, "previous": s.previous, "reason": s.reason}
+                for s in self.timeline]
+
+    def primary_seconds(self, end: float) -> dict[str, float]:
+        """Seconds each layer was primary, from the start of the run to ``end``."""
+        from atlas_rap.layers.figures import primary_seconds
+
+        return primary_seconds(self.timeline_records(), end)
+
+    def primary_summary(self, end: float) -> str:
+        """``IV 80.0 s, II 19.8 s``: how long each layer drove, the longest first."""
+        seconds = sorted(((s, name) for name, s in self.primary_seconds(end).items() if s > 0), reverse=True)
+        return ", ".join(f"{name} {s:.1f} s" for s, name in seconds)
+
     def _enabled_near(self, name: str) -> str:
         if name in self.enabled or name not in LAYER_NAMES:
             return name
