@@ -29,6 +29,7 @@ from collections import deque
 import numpy as np
 
 from atlas_rap.layers.layer import Layer
+from atlas_rap.layers.route_geometry import distance_to_polyline, echo_points, route_ahead
 from atlas_rap.logic import Compound
 from atlas_rap.model import Point
 from atlas_rap.skills.beliefs import GRID, OBSTACLE, POSE, REFLEXES, ROUTE, SONAR, PlannedRoute
@@ -61,6 +62,7 @@ class MonitoringLayer(Layer):
         self.ring_log: list[tuple[tuple[float, float, float], np.ndarray, np.ndarray]] = []
         self.recent: deque[tuple[tuple[float, float, float], np.ndarray, np.ndarray]] = deque(maxlen=RECENT_RINGS)
         self._last_ranges = None
+        self._echo: Point | None = None
         self.state = "none"
         self.seen_since: float | None = None
         self.clear_since: float | None = None
@@ -72,12 +74,13 @@ class MonitoringLayer(Layer):
         if pose is None or reading is None:
             return
         ranges, angles = reading
-        if ranges is not self._last_ranges:
+        if ranges is not self._last_ranges:  # a new ring (the sonar's 10 Hz): look again
             self._last_ranges = ranges
             self.recent.append((pose, ranges, angles))
             if self.stack.logging_rings:
                 self.ring_log.append((pose, ranges, angles))
-        echo = self._in_the_way(pose, ranges, angles)
+            self._echo = self._in_the_way(pose, ranges, angles)
+        echo = self._echo
         stack = self.stack
         if echo is not None:
             self.clear_since = None
@@ -102,31 +105,33 @@ class MonitoringLayer(Layer):
             stack.post(self, [("assert", _fact("none"))])
 
     def _in_the_way(self, pose, ranges: np.ndarray, angles: np.ndarray) -> Point | None:
-        """Where an unexplained echo in the robot's swept path to the next waypoint is, or None.
+        """Where an unexplained echo in the robot's swept path is, or None.
 
-        The swept path is the strip as wide as the robot (plus ``MARGIN``) along
-        the line to the waypoint, up to the waypoint and at most ``LOOK_AHEAD``
-        metres from the rim: a door jamb beside the way is not in it, a person
-        crossing it is.
+        The swept path is the strip as wide as the robot (plus ``MARGIN``)
+        along the next ``LOOK_AHEAD`` metres of the route (past the next
+        waypoint, on along the route, but not past its goal): a door jamb
+        beside the way is not in it; a person crossing it, or a box just
+        beyond a doorway the route goes through, is.
         """
         route = self.stack.beliefs.get(ROUTE)
         if route is None:
             return None
         x, y, heading = pose
-        tx, ty = route.next_point
         radius = self.stack.robot_radius
-        distance = math.hypot(tx - x, ty - y)
-        if distance - radius <= 0.05:
+        echoes, hit = echo_points(x, y, heading, ranges, angles, radius, LOOK_AHEAD + radius + MARGIN)
+        if not hit.any():  # farther echoes cannot be in the strip
             return None
-        off = angles + heading - math.atan2(ty - y, tx - x)
-        reach = ranges + radius
-        along, across = reach * np.cos(off), reach * np.sin(off)
-        near = (along > 0) & (along - radius < min(distance - radius, LOOK_AHEAD)) & (np.abs(across) < radius + MARGIN)
+        reach = ranges[hit] + radius
+        ahead = route_ahead((x, y), route.waypoints, route.index, LOOK_AHEAD + radius)
+        if len(ahead) < 2 or math.dist(ahead[0], ahead[-1]) <= radius + 0.05:
+            return None
+        near = distance_to_polyline(echoes, ahead[1:] if len(ahead) > 2 else ahead) < radius + MARGIN
+        near &= distance_to_polyline(echoes, ahead[:1]) > radius  # not beside or behind the robot itself
+        near &= _beyond_start(echoes, ahead)
         if not near.any():
             return None
-        beam = int(np.argmin(np.where(near, ranges, np.inf)))
-        direction = heading + float(angles[beam])
-        point = (x + float(reach[beam]) * math.cos(direction), y + float(reach[beam]) * math.sin(direction))
+        nearest = int(np.argmin(np.where(near, reach, np.inf)))
+        point = (float(echoes[nearest, 0]), float(echoes[nearest, 1]))
         return None if self._explained(point) else point
 
     def _explained(self, point: Point) -> bool:
@@ -153,3 +158,9 @@ class MonitoringLayer(Layer):
 
 def _fact(state: str) -> Compound:
     return Compound("obstacle", (state,))
+
+
+def _beyond_start(points: np.ndarray, ahead: np.ndarray) -> np.ndarray:
+    """Points ahead of the robot along the first leg of the route (not behind it)."""
+    direction = ahead[1] - ahead[0]
+    return (points - ahead[0]) @ direction > 0

@@ -34,6 +34,7 @@ import math
 import numpy as np
 
 from atlas_rap.layers.layer import Layer, LayerStack
+from atlas_rap.layers.route_geometry import distance_to_polyline, echo_points
 from atlas_rap.logic import Compound
 from atlas_rap.model import Point
 from atlas_rap.skills.beliefs import GOAL, GRID, POSE, POSES, SONAR, SPEED_LIMIT, PlannedRoute
@@ -88,8 +89,8 @@ class StrategicLayer(Layer):
                     self._marked = (float(x), float(y))
                 poses.append((float(x), float(y), float(heading)))
                 if driving:
-                    echoes.append(_echo_points(x, y, heading, ranges, angles, stack.robot_radius,
-                                               self.sonar.max_range))
+                    echoes.append(echo_points(x, y, heading, ranges, angles, stack.robot_radius,
+                                              self.sonar.max_range)[0])
             stack.grid_version += 1
         if mapping and not stack.prior_map:
             beliefs[SPEED_LIMIT] = stack.setting("mapping-speed", 0.6)
@@ -133,7 +134,7 @@ class StrategicLayer(Layer):
         goal = stack.beliefs.get(GOAL)
         if goal is None or self.path is None or self.path_goal != goal.place or not len(echoes):
             return
-        near = echoes[_near_polyline(echoes, np.asarray(self.path.waypoints), stack.robot_radius + NEAR_PATH)]
+        near = echoes[distance_to_polyline(echoes, np.asarray(self.path.waypoints)) < stack.robot_radius + NEAR_PATH]
         if not len(near):
             return
         grid = stack.beliefs[GRID]
@@ -172,24 +173,3 @@ FOOTPRINT_SPACING = 0.1
 NEAR_PATH = 0.15
 """Metres beyond the robot's radius from the path within which an echo may block it."""
 
-
-def _echo_points(x: float, y: float, heading: float, ranges: np.ndarray, angles: np.ndarray, radius: float,
-                 max_range: float) -> np.ndarray:
-    """World (x, y) of the ring's echoes (beams that came back before their maximum range)."""
-    hit = ranges < max_range - 1e-6
-    reach = ranges[hit] + radius
-    direction = heading + angles[hit]
-    return np.column_stack([x + reach * np.cos(direction), y + reach * np.sin(direction)])
-
-
-def _near_polyline(points: np.ndarray, polyline: np.ndarray, within: float) -> np.ndarray:
-    """For each point, whether it lies within ``within`` metres of the polyline."""
-    if len(polyline) < 2:
-        return np.hypot(*(points - polyline[:1]).T) < within
-    a, b = polyline[:-1], polyline[1:]
-    ab = b - a
-    length2 = np.maximum((ab ** 2).sum(axis=1), 1e-12)
-    ap = points[:, None, :] - a[None, :, :]
-    t = np.clip((ap * ab[None]).sum(axis=2) / length2[None], 0.0, 1.0)
-    closest = a[None] + t[..., None] * ab[None]
-    return (np.hypot(*(points[:, None, :] - closest).transpose(2, 0, 1)) < within).any(axis=1)

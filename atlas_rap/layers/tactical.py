@@ -14,7 +14,9 @@ Two jobs (seed Table 1 and §5.2):
 - **Assessment when primary.** The rules make Layer III primary when
   something has stood in the robot's way for long (``(obstacle
   long-lived)``. It fuses the last few sonar rings into the grid (so the
-  obstacle is on the map even when mapping is off), rebuilds the topology,
+  obstacle is on the map even when mapping is off), forgets what an older
+  map said lies just behind the obstacle's face (unknown, so no route goes
+  through its unseen side), rebuilds the topology,
   finds the stretch of the route the obstacle blocks (from the place the
   robot is in to the next place the route was to reach), asserts
   ``(route-blocked A B)`` and re-routes round it. With a prior map (places
@@ -35,10 +37,17 @@ import numpy as np
 
 from atlas_rap.layers.layer import Layer
 from atlas_rap.layers.operational import route_on_maps
+from atlas_rap.layers.route_geometry import echo_points
 from atlas_rap.logic import Compound
 from atlas_rap.model import Point
 from atlas_rap.skills.beliefs import CLOSED_DOORS, GOAL, GRID, OBSTACLE, POSE, ROUTE, TOPOLOGY, PlannedRoute
 
+
+UNSEEN_DEPTH = 0.8
+"""Metres behind an obstacle's face that become unknown when Layer III puts it on the map."""
+
+NEAR_OBSTACLE = 1.0
+"""Metres from the obstacle within which an echo is of the obstacle."""
 
 DOOR_BLOCK = 2.0
 """Metres from the next door of a route within which an obstacle blocks that door (prior map)."""
@@ -110,6 +119,7 @@ class TacticalLayer(Layer):
             for (x, y, heading), ranges, angles in monitor.recent:
                 grid.update_sonar(float(x), float(y), float(heading), ranges, angles, stack.robot_radius,
                                   stack.world.sonar)
+            self._forget_behind(grid, obstacle, monitor.recent)
             stack.grid_version += 1
             self.rebuild(stack.sequencer.now())
         a, b = self._edge_at(obstacle)
@@ -144,6 +154,30 @@ class TacticalLayer(Layer):
         for _, door in sorted(ahead):
             return door if math.dist(doors[door].center, obstacle) < DOOR_BLOCK else None
         return None
+
+    def _forget_behind(self, grid, obstacle: Point, rings) -> None:
+        """What lies behind an obstacle's face is not known any more: the cells up to
+        ``UNSEEN_DEPTH`` beyond the echoes near it, believed free from an older map,
+        become unknown (so no route is planned through the obstacle's unseen side)."""
+        frame = grid.frame
+        depth = np.arange(frame.resolution, UNSEEN_DEPTH, frame.resolution / 2)
+        radius = self.stack.robot_radius
+        for (x, y, heading), ranges, angles in rings:
+            echoes, hit = echo_points(x, y, heading, ranges, angles, radius, self.stack.world.sonar.max_range)
+            near = np.hypot(echoes[:, 0] - obstacle[0], echoes[:, 1] - obstacle[1]) < NEAR_OBSTACLE
+            if not near.any():
+                continue
+            direction = (heading + angles[hit])[near]
+            along = (ranges[hit][near] + radius)[:, None] + depth[None, :]
+            px = x + along * np.cos(direction)[:, None]
+            py = y + along * np.sin(direction)[:, None]
+            rows, cols = frame.world_to_cell(px.ravel(), py.ravel())
+            rows, cols = np.asarray(rows), np.asarray(cols)
+            inside = (rows >= 0) & (rows < frame.height) & (cols >= 0) & (cols < frame.width)
+            rows, cols = rows[inside], cols[inside]
+            free = grid.log_odds[rows, cols] < 0
+            grid.log_odds[rows[free], cols[free]] = 0.0
+            grid.updated[rows[free], cols[free]] = False
 
     def _edge_at(self, obstacle: Point) -> tuple[str, str]:
         """The places the blocked stretch of the route joins: where the robot is, and the
