@@ -287,3 +287,17 @@ def test_the_experiment_command_writes_its_figures_json_csv_and_pngs(tmp_path):
     for name in ("fig12a-map-quality", "fig12b-durations", "fig13a-layers-per-run", "fig13b-obstacles"):
         assert (out / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "run 2: map quality" in done.stdout
+
+
+def test_the_repl_drives_with_the_layers_and_says_which_is_primary(tmp_path):
+    script = f'(include "{REPO / "rap_library" / "navigation.rap"}")\n(post (go-to office))\n:run\n:layers\n'
+    done = subprocess.run([sys.executable, "-m", "atlas_rap", "repl", "--world", "lab-corridor-office",
+                           "--no-prior-map", "--map-out", "grid.npz"], input=script, cwd=tmp_path,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "primary: Layer IV" in done.stdout and "rule map-immature on (map-quality 0.0)" in done.stdout
+    assert (tmp_path / "grid.npz").exists()
+    done = subprocess.run([sys.executable, "-m", "atlas_rap", "repl"], input=":layers\n", cwd=tmp_path,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 1 and ":layers needs a world" in done.stderr and "Traceback" not in done.stderr
+

@@ -54,3 +54,44 @@ def _option(param) -> str:
     if param is None:
         return "output"
     return param.opts[0] if getattr(param, "opts", None) else param.name
+
+
+def layer_options(command):
+    """The ATLAS layers' options of ``atlas run`` and ``atlas repl`` (README, "The ATLAS layers")."""
+    options = [
+        click.option("--no-prior-map", "no_prior_map", is_flag=True,
+                     help="The robot knows only the names and points of the places: Layer IV maps while it drives."),
+        click.option("--map-in", "map_in", type=click.Path(dir_okay=False, exists=True), metavar="GRID.npz",
+                     help="Start from this occupancy grid (a --map-out of an earlier run, or atlas map build's)."),
+        click.option("--map-out", "map_out", type=OutputFile(), metavar="GRID.npz",
+                     help="Write the occupancy grid built while driving, even if the run fails or is interrupted."),
+        click.option("--layers", "layers", default="I,II,III,IV", show_default=True, metavar="I,II,...",
+                     callback=lambda ctx, param, value: parse_layers(value),
+                     help="The ATLAS layers enabled (each can drive the robot alone)."),
+        click.option("--layer-rules", "layer_rules", type=click.Path(dir_okay=False, exists=True),
+                     metavar="RULES.rap",
+                     help="Memory rules that choose the primary layer (default: the shipped rap_library/layers.rap)."),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command
+
+
+def parse_layers(value: str) -> tuple[str, ...]:
+    """``--layers I,II``: the roman numerals, checked."""
+    from atlas_rap.layers import LAYER_NAMES
+
+    names = tuple(part.strip().upper() for part in value.split(",") if part.strip())
+    wrong = [name for name in names if name not in LAYER_NAMES]
+    if wrong or not names:
+        raise click.BadParameter(f"{', '.join(wrong) or 'none given'}: the layers are I, II, III and IV",
+                                 param_hint="--layers")
+    return names
+
+
+def layer_engine_options(no_prior_map: bool, map_in: str | None, map_out: str | None, layers: tuple[str, ...],
+                         layer_rules: str | None) -> dict:
+    """The mission engine's keyword arguments for the layer options (``--map-out`` checked)."""
+    if map_out and not (no_prior_map or map_in):
+        raise click.UsageError("--map-out needs a map built while driving: add --no-prior-map or --map-in")
+    return {"prior_map": not no_prior_map, "map_in": map_in, "layers": layers, "layer_rules": layer_rules}

@@ -20,7 +20,7 @@ from typing import Iterable, Iterator, TextIO
 
 import click
 
-from atlas_rap.cli.options import POSITIVE, OutputFile, world_help
+from atlas_rap.cli.options import POSITIVE, OutputFile, layer_engine_options, layer_options, world_help
 
 
 @click.command()
@@ -33,8 +33,10 @@ from atlas_rap.cli.options import POSITIVE, OutputFile, world_help
 @click.option("--verbose", "-v", is_flag=True, help="Also show task selections and skill disables.")
 @click.option("--speed", type=POSITIVE, default=1.0, show_default=True,
               help="Interactive: simulated seconds per wall-clock second of the background clock.")
+@layer_options
 def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str | None, verbose: bool,
-         speed: float) -> None:
+         speed: float, no_prior_map: bool, map_in: str | None, map_out: str | None, layers: tuple[str, ...],
+         layer_rules: str | None) -> None:
     """Load FILEs, then read forms, queries and commands (:help lists them).
 
     Type any top-level form (define-rap, post, include, plan, ...),
@@ -51,7 +53,9 @@ def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str |
     interactive = sys.stdin.isatty()
     width = None if interactive else 200
     out, err = console(width=width), console(err=True, width=width)
-    session = Session(world, seed, out=out, err=err, trace_file=trace_file, verbose=verbose)
+    layering = layer_engine_options(no_prior_map, map_in, map_out, layers, layer_rules)
+    session = Session(world, seed, out=out, err=err, trace_file=trace_file, verbose=verbose, map_out=map_out,
+                      engine_options=layering)
     try:
         for path in files:
             session.load_file(path)

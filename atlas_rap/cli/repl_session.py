@@ -65,6 +65,7 @@ COMMANDS = {
     ":reload": "FILE  load FILE again: its RAPs, rules and virtual skills replace the old ones",
     ":skills": "the skills tasks can use, and which are running for which task",
     ":map": "[FILE.png]  draw the world and the robot's path (needs a world)",
+    ":layers": "the primary layer, how long each layer drove, and the last switches with their reasons",
     ":plan": "GOAL ...  show a plan for the goals (does not run it)",
     ":save": "FILE  write memory, live tasks and session definitions to a file that loads back",
     ":help": "this list",
@@ -79,7 +80,8 @@ class Session:
     """A mission engine (in a world, or none) ready for typed forms, queries and commands."""
 
     def __init__(self, world: str | None = None, seed: int = 0, *, out: Console | None = None,
-                 err: Console | None = None, trace_file: str | None = None, verbose: bool = False) -> None:
+                 err: Console | None = None, trace_file: str | None = None, verbose: bool = False,
+                 map_out: str | None = None, engine_options: dict | None = None) -> None:
         from atlas_rap.cli.views import LiveTrace
         from atlas_rap.layers import MissionEngine, RunPicture
         from atlas_rap.sequencer import JsonlSink, Trace
@@ -87,7 +89,9 @@ class Session:
         self.out = out or Console(highlight=False, soft_wrap=True)
         self.err = err or self.out
         self.trace = Trace(keep=True)
-        self.engine = MissionEngine(world, default_world="none", seed=seed, trace=self.trace)
+        self.engine = MissionEngine(world, default_world="none", seed=seed, trace=self.trace,
+                                    **(engine_options or {}))
+        self.map_out = map_out
         self.sink = JsonlSink(trace_file) if trace_file else None
         if self.sink is not None:
             self.trace.add_sink(self.sink)
@@ -320,6 +324,18 @@ class Session:
         if held:
             self.out.print("running: " + ", ".join(sorted(held)), markup=False)
 
+    def _layers(self, rest: str) -> None:
+        stack = self.engine.stack if self.engine.built else None
+        if stack is None:
+            raise AtlasError(":layers needs a world: start the REPL with --world W, or load a mission that names one")
+        if not stack.timeline:
+            self.out.print(f"no layer is primary yet (enabled: {', '.join(sorted(stack.enabled))})", markup=False)
+            return
+        self.out.print(f"primary: Layer {stack.primary}; {stack.primary_summary(self.engine.now())}", markup=False)
+        for switch in stack.timeline[-5:]:
+            was = f" (was {switch.previous})" if switch.previous else ""
+            self.out.print(f"{switch.t:9.2f}  Layer {switch.layer}{was}: {switch.reason}", markup=False)
+
     def _map(self, rest: str) -> None:
         from atlas_rap.outputs import output_file
 
@@ -379,6 +395,8 @@ class Session:
         finally:
             if self.sink is not None:
                 self.sink.close()
+            if self.map_out and self.engine.grid is not None:
+                self.engine.save_map(self.map_out)
 
 
 def _number(text: str, usage: str, kind: Callable = float):
@@ -394,7 +412,7 @@ def _number(text: str, usage: str, kind: Callable = float):
 _COMMAND_HANDLERS: dict[str, Callable[[Session, str], None]] = {
     ":agenda": Session._agenda, ":memory": Session._memory, ":trace": Session._trace, ":step": Session._step,
     ":run": Session._run, ":pause": Session._pause, ":reload": Session._reload, ":skills": Session._skills,
-    ":map": Session._map, ":plan": Session._plan, ":save": Session._save, ":help": Session._help,
+    ":map": Session._map, ":layers": Session._layers, ":plan": Session._plan, ":save": Session._save, ":help": Session._help,
 }
 
 

@@ -7,7 +7,7 @@ import time
 
 import click
 
-from atlas_rap.cli.options import POSITIVE, OutputFile, world_help
+from atlas_rap.cli.options import POSITIVE, OutputFile, layer_engine_options, layer_options, world_help
 
 
 @click.command()
@@ -29,17 +29,7 @@ from atlas_rap.cli.options import POSITIVE, OutputFile, world_help
               help="A topological map built from sonar (atlas map build): navigate-to plans its routes on it.")
 @click.option("--render", type=OutputFile(), metavar="OUT.png",
               help="Draw the world, the robot's path, the places and where each task started and ended.")
-@click.option("--no-prior-map", "no_prior_map", is_flag=True,
-              help="The robot knows only the names and points of the places: Layer IV maps while it drives.")
-@click.option("--map-in", "map_in", type=click.Path(dir_okay=False, exists=True), metavar="GRID.npz",
-              help="Start from this occupancy grid (a --map-out of an earlier run, or atlas map build's).")
-@click.option("--map-out", "map_out", type=OutputFile(), metavar="GRID.npz",
-              help="Write the occupancy grid built in this run, even if the run fails or is interrupted.")
-@click.option("--layers", "layers", default="I,II,III,IV", show_default=True, metavar="I,II,...",
-              callback=lambda ctx, param, value: _layers(value),
-              help="The ATLAS layers enabled (each can drive the robot alone).")
-@click.option("--layer-rules", "layer_rules", type=click.Path(dir_okay=False, exists=True), metavar="RULES.rap",
-              help="Memory rules that choose the primary layer (default: the shipped rap_library/layers.rap).")
+@layer_options
 def run(mission_file: str, world: str | None, seed: int, trace_file: str | None, quiet: bool, verbose: bool,
         until: float, realtime: bool, show_agenda: bool, show_memory: bool, topology_file: str | None,
         render: str | None, no_prior_map: bool, map_in: str | None, map_out: str | None, layers: tuple[str, ...],
@@ -58,10 +48,8 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     from atlas_rap.shipped import resolve_user_path
 
     out, err = console(), console(err=True)
-    if map_out and not (no_prior_map or map_in):
-        raise click.UsageError("--map-out needs a map built while driving: add --no-prior-map or --map-in")
-    engine = MissionEngine(world, seed=seed, topology=topology_file, prior_map=not no_prior_map, map_in=map_in,
-                           layers=layers, layer_rules=layer_rules, realtime=realtime)
+    layering = layer_engine_options(no_prior_map, map_in, map_out, layers, layer_rules)
+    engine = MissionEngine(world, seed=seed, topology=topology_file, realtime=realtime, **layering)
     picture = RunPicture(engine) if render else None
     sink = JsonlSink(trace_file) if trace_file else None
     if sink is not None:
@@ -107,14 +95,3 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         sys.exit(130)
     sys.exit(0 if result.ok else 1)
 
-
-def _layers(value: str) -> tuple[str, ...]:
-    """``--layers I,II``: the roman numerals, checked."""
-    from atlas_rap.layers import LAYER_NAMES
-
-    names = tuple(part.strip().upper() for part in value.split(",") if part.strip())
-    wrong = [name for name in names if name not in LAYER_NAMES]
-    if wrong or not names:
-        raise click.BadParameter(f"{', '.join(wrong) or 'none given'}: the layers are I, II, III and IV",
-                                 param_hint="--layers")
-    return names
