@@ -34,11 +34,11 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
-from atlas_rap.logic import Compound, Var, term_to_str
 import numpy as np
 
-from atlas_rap.skills.beliefs import GRID, HOLD, POSE, ROUTES, Beliefs, PlannedRoute
+from atlas_rap.logic import Compound, Var, term_to_str
 from atlas_rap.model import Point
+from atlas_rap.skills.beliefs import GRID, HOLD, POSE, ROUTES, Beliefs, PlannedRoute
 
 if TYPE_CHECKING:
     from atlas_rap.sequencer import Sequencer
@@ -149,11 +149,6 @@ class LayerStack:
         if fact not in self.sequencer.memory:
             self.post(layer, [("assert", fact)])
 
-    def retract_fact(self, layer: Layer, functor: str, *args: Any) -> None:
-        fact = Compound(functor, tuple(args))
-        if fact in self.sequencer.memory:
-            self.post(layer, [("retract", fact)])
-
     def holds(self, functor: str, *args: Any) -> bool:
         return Compound(functor, tuple(args)) in self.sequencer.memory
 
@@ -166,9 +161,12 @@ class LayerStack:
         return default
 
     def _reason(self, changes: list[tuple[str, Compound]]) -> str:
-        """The rule that concluded the new primary layer, and the fact that fired it."""
-        for rule, fact in reversed(self.sequencer.rules.fired):
+        """The rule that concluded the new primary layer, and the fact that fired it (the
+        firings are forgotten once read, so a later switch is not charged to an old rule)."""
+        fired = self.sequencer.rules.fired
+        for rule, fact in reversed(fired):
             if any(kind == "assert" and effect.functor == "primary-layer" for kind, effect in rule.effects):
+                fired.clear()
                 return f"rule {rule.name} on {term_to_str(fact)}"
         if not changes:
             return "asserted in memory"
@@ -189,7 +187,7 @@ class LayerStack:
         layer = self._enabled_near(chosen)
         if layer != chosen:
             reason += f"; {chosen} is not enabled, so {layer} drives"
-        if chosen == "I":  # standing in for a layer not enabled, Layer I drives instead of holding
+        if chosen == "I":  # chosen by the rules, Layer I holds the robot; standing in for another, it drives
             self.beliefs[HOLD] = "Layer I holds the robot: something is in its way"
         else:
             self.beliefs.pop(HOLD)
