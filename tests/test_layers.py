@@ -262,6 +262,8 @@ def test_bad_layer_options_are_refused_clearly(tmp_path):
     mission = str(REPO / "rap_library" / "missions" / "deliver.rap")
     done = atlas("run", mission, "--layers", "I,V", cwd=tmp_path)
     assert done.returncode == 2 and "V: the layers are I, II, III and IV" in done.stderr
+    done = atlas("run", mission, "--layers", "IV", cwd=tmp_path)  # with a prior map, nothing to map
+    assert done.returncode == 1 and "Layer IV maps, so it runs only when the robot maps" in done.stderr
     done = atlas("run", mission, "--map-out", "grid.npz", cwd=tmp_path)
     assert done.returncode == 2 and "--map-out needs a map built while driving" in done.stderr
     (tmp_path / "bad.npz").write_text("not a grid", encoding="utf-8")

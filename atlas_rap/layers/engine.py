@@ -234,6 +234,9 @@ class MissionEngine:
         stack.add(TacticalLayer(stack))
         if self.mapping or not self.prior_map or self.map_in is not None:
             stack.add(StrategicLayer(stack, self._map_in(believed) if self.map_in is not None else None))
+        if not stack.active():
+            raise AtlasError(f"--layers {','.join(self.enabled_layers)}: Layer IV maps, so it runs only when the "
+                             f"robot maps (--no-prior-map or --map-in); enable I, II or III as well")
         return stack
 
     def _map_in(self, world: Any):
