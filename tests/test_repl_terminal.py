@@ -20,26 +20,32 @@ pytestmark = pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is no
 
 
 class Terminal:
-    """A detached tmux session running one command, read with capture-pane."""
+    """A detached tmux session running one command, read with capture-pane.
+
+    Each terminal has a tmux server of its own (``-L``): on the shared default
+    server, a test could connect just as the last one's server was exiting
+    ("server exited unexpectedly").
+    """
 
     def __init__(self, command: str, cwd: Path, **extra_env: str) -> None:
         self.name = f"atlas-{uuid.uuid4().hex[:8]}"
         env = {"PYTHONPATH": str(REPO), "ATLAS_RAP_DATA_DIR": str(cwd / "data"), "TERM": "xterm-256color",
                "PATH": os.environ.get("PATH", "/usr/bin:/bin"), **extra_env}
         exports = " ".join(f"{k}='{v}'" for k, v in env.items())
-        subprocess.run(["tmux", "new-session", "-d", "-s", self.name, "-x", "120", "-y", "40",
+        self.tmux = ["tmux", "-L", self.name]
+        subprocess.run([*self.tmux, "new-session", "-d", "-s", self.name, "-x", "120", "-y", "40",
                         f"cd '{cwd}' && env {exports} {command}; echo EXITED $?; sleep 30"], check=True)
 
     def screen(self, styles: bool = False) -> str:
         """What the terminal shows; with ``styles``, its colour and style codes too."""
-        return subprocess.run(["tmux", "capture-pane", "-p", *(["-e"] if styles else []), "-t", self.name],
+        return subprocess.run([*self.tmux, "capture-pane", "-p", *(["-e"] if styles else []), "-t", self.name],
                               capture_output=True, text=True).stdout
 
     def keys(self, *keys: str) -> None:
-        subprocess.run(["tmux", "send-keys", "-t", self.name, *keys], check=True)
+        subprocess.run([*self.tmux, "send-keys", "-t", self.name, *keys], check=True)
 
     def type(self, text: str) -> None:
-        subprocess.run(["tmux", "send-keys", "-t", self.name, "-l", text], check=True)
+        subprocess.run([*self.tmux, "send-keys", "-t", self.name, "-l", text], check=True)
 
     def wait_for(self, text: str, timeout: float = 20.0) -> str:
         deadline = time.monotonic() + timeout
@@ -51,7 +57,7 @@ class Terminal:
         raise AssertionError(f"{text!r} never appeared; the screen was:\n{self.screen()}")
 
     def close(self) -> None:
-        subprocess.run(["tmux", "kill-session", "-t", self.name], capture_output=True)
+        subprocess.run([*self.tmux, "kill-server"], capture_output=True)
 
 
 @pytest.fixture
