@@ -270,6 +270,9 @@ def test_bad_layer_options_are_refused_clearly(tmp_path):
     done = atlas("run", mission, "--map-in", "bad.npz", cwd=tmp_path)
     assert done.returncode == 1 and "bad.npz: not an occupancy grid" in done.stderr
     assert "Traceback" not in done.stderr
+    done = atlas("experiment", "skill-acquisition", "--world", "maze", "--out", "out", cwd=tmp_path)
+    assert done.returncode == 1 and "world maze has no place named lab" in done.stderr
+    assert "Traceback" not in done.stderr
 
 
 def test_the_experiment_command_writes_its_figures_json_csv_and_pngs(tmp_path):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from atlas_rap.cli.options import OutputFolder, world_help
+from atlas_rap.cli.options import OutputFolder
 
 
 @click.group("experiment")
@@ -17,7 +17,8 @@ def experiment_group() -> None:
               help="Errands from the lab to the office and back, the map carried from run to run.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of every run.")
 @click.option("--world", "world", default="lab-corridor-office", show_default=True, metavar="W",
-              help=world_help("It needs places named lab and office."))
+              help="The world of the runs: a shipped world's name or a world file, with places named lab and "
+                   "office.")
 @click.option("--obstacles", "obstacles", default="lab-corridor-office-obstacles", show_default=True, metavar="W",
               help="The world of the obstacle scenario, run on the last run's map ('none': skip it).")
 @click.option("--layer-rules", "layer_rules", type=click.Path(dir_okay=False, exists=True), metavar="RULES.rap",

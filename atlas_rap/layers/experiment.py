@@ -110,6 +110,7 @@ def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: 
 def skill_acquisition(out: str | Path, settings: Settings = Settings(),
                       progress: Callable[[str], None] | None = None) -> dict[str, Any]:
     """Run the experiment (see the module docstring); the ``figures.json`` structure."""
+    _check_worlds(settings)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     mission = errand_file(out, settings)
@@ -165,6 +166,24 @@ def write_results(data: dict[str, Any], out: str | Path) -> list[Path]:
     if "obstacles" in data:
         written.append(plot_obstacle_layers(data, out / FIGURE_FILES["obstacle_layers"]))
     return written
+
+
+def _check_worlds(settings: Settings) -> None:
+    """Both worlds exist and have the errand's places (an AtlasError that says which is missing)."""
+    from atlas_rap.errors import AtlasError
+    from atlas_rap.sim.world import load_world
+
+    for name in (settings.world, settings.obstacles):
+        if name is None:
+            continue
+        if name == "none":
+            raise AtlasError("the experiment needs a world to drive in, not 'none'")
+        world = load_world(name)
+        missing = [place for place in (settings.home, settings.goal) if place not in world.places]
+        if missing:
+            raise AtlasError(f"world {world.name} has no place named {' or '.join(missing)}: the errand goes "
+                             f"from {settings.home} to {settings.goal} and back "
+                             f"(its places: {', '.join(world.places) or 'none'})")
 
 
 def _threshold(settings: Settings) -> float:
