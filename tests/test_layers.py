@@ -270,6 +270,10 @@ def test_bad_layer_options_are_refused_clearly(tmp_path):
     done = atlas("run", mission, "--map-in", "bad.npz", cwd=tmp_path)
     assert done.returncode == 1 and "bad.npz: not an occupancy grid" in done.stderr
     assert "Traceback" not in done.stderr
+    (tmp_path / "no-rules.rap").write_text("(initial-memory (layer-setting map-quality-threshold 0.5))\n",
+                                           encoding="utf-8")
+    done = atlas("run", mission, "-q", "--layer-rules", "no-rules.rap", cwd=tmp_path)
+    assert done.returncode == 1 and "no layer is primary: the layer rules (no-rules.rap)" in done.stdout
     done = atlas("experiment", "skill-acquisition", "--world", "maze", "--out", "out", cwd=tmp_path)
     assert done.returncode == 1 and "world maze has no place named lab" in done.stderr
     assert "Traceback" not in done.stderr

@@ -229,6 +229,7 @@ class MissionEngine:
         """The four layers over the robot's beliefs; Layer IV only when there is a map to build."""
         stack = LayerStack(self._sequencer, self.manager.context.beliefs, believed, enabled=self.enabled_layers,
                            prior_map=self.prior_map)
+        stack.rules_source = str(self.layer_rules)
         stack.add(MonitoringLayer(stack))
         stack.add(OperationalLayer(stack))
         stack.add(TacticalLayer(stack))

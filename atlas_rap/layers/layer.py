@@ -116,6 +116,7 @@ class LayerStack:
         self.revision = 0
         self.robot_radius = float(world.robot.radius)
         self.logging_rings = False  # Layer IV turns it on while it maps
+        self.rules_source = "rap_library/layers.rap"  # the file of switching rules, for messages
         self._driver: str | None = None
         beliefs[ROUTES] = self
 
@@ -289,6 +290,9 @@ class LayerStack:
         """A route from the layer that drives. When it has none and it is not Layer IV, memory
         hears ``(no-route)`` (the rules may hand over to Layer IV, which explores) and the
         layer that drives then is asked in turn."""
+        if self.primary is None:
+            return (f"no layer is primary: the layer rules ({self.rules_source}) concluded no (primary-layer L); "
+                    f"write rules that do, or leave out --layer-rules for the shipped ones")
         asked: set[str] = set()
         answer: PlannedRoute | str = "no layer that plans routes is enabled"
         driver = self._driving_layer()
