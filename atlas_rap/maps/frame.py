@@ -78,6 +78,20 @@ class GridFrame:
         """Whether (row, col) is a cell of this grid."""
         return 0 <= row < self.height and 0 <= col < self.width
 
+    def disc(self, x: float, y: float, radius: float) -> tuple[tuple[slice, slice], np.ndarray] | None:
+        """The cells within ``radius`` metres of world (x, y), measured between cell indices:
+        the window of the grid that holds them and a boolean mask over that window
+        (``array[window][mask]``), or None when none of them is on the grid."""
+        row, col = self.world_to_cell(x, y)
+        cells = radius / self.resolution
+        span = int(math.ceil(cells))
+        r0, r1 = max(row - span, 0), min(row + span + 1, self.height)
+        c0, c1 = max(col - span, 0), min(col + span + 1, self.width)
+        if r0 >= r1 or c0 >= c1:
+            return None
+        rows, cols = np.ogrid[r0:r1, c0:c1]
+        return (slice(r0, r1), slice(c0, c1)), (rows - row) ** 2 + (cols - col) ** 2 <= cells ** 2
+
     @property
     def extent(self) -> tuple[float, float, float, float]:
         """(xmin, ymin, xmax, ymax) of the grid's area in the world (axis-aligned, yaw included)."""

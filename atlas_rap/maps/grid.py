@@ -466,19 +466,14 @@ class OccupancyGrid:
         """The disc the robot's body covers at (x, y) is free (at most P(occ) = ``p``): the robot
         is standing there. Sonar measures from the rim outwards, so without this the cells
         under the robot would stay unknown where it never saw them from elsewhere."""
-        frame = self.frame
-        row, col = frame.world_to_cell(x, y)
-        span = int(math.ceil(radius / frame.resolution))
-        r0, r1 = max(row - span, 0), min(row + span + 1, frame.height)
-        c0, c1 = max(col - span, 0), min(col + span + 1, frame.width)
-        if r0 >= r1 or c0 >= c1:
+        found = self.frame.disc(x, y, radius)
+        if found is None:
             return
-        rows, cols = np.ogrid[r0:r1, c0:c1]
-        disc = (rows - row) ** 2 + (cols - col) ** 2 <= (radius / frame.resolution) ** 2
+        window, disc = found
         cap = np.float32(math.log(p / (1 - p)))
-        window = self._log_odds[r0:r1, c0:c1]
-        window[disc] = np.minimum(window[disc], cap)
-        self._updated[r0:r1, c0:c1] |= disc
+        cells = self._log_odds[window]
+        cells[disc] = np.minimum(cells[disc], cap)
+        self._updated[window] |= disc
 
     def _gather(self, tpl: _Templates, angle_bin: np.ndarray, start: np.ndarray, stop: np.ndarray,
                 base: np.ndarray, key_base: np.ndarray, row: np.ndarray, col: np.ndarray,

@@ -154,7 +154,6 @@ class InferenceGrid:
                 f"{int(self.observable.sum())} observable>")
 
 
-
 def explored_region(grid: OccupancyGrid, frontier: float = 0.5, goals: Iterable[Sequence[float]] = (),
                     goal_radius: float = 1.5) -> np.ndarray:
     """The region of interest of a robot with no prior map: what it has explored, and where it is going.
@@ -187,13 +186,9 @@ def explored_region(grid: OccupancyGrid, frontier: float = 0.5, goals: Iterable[
         band = ndimage.binary_dilation(free, iterations=steps, mask=open_cells) if free.any() else free
         region[r0:r1, c0:c1] = band | ndimage.binary_dilation(band) & ~open_cells
     for x, y in goals:
-        row, col = frame.world_to_cell(x, y)
-        span = int(math.ceil(goal_radius / frame.resolution))
-        g0, g1 = max(row - span, 0), min(row + span + 1, frame.height)
-        h0, h1 = max(col - span, 0), min(col + span + 1, frame.width)
-        if g0 < g1 and h0 < h1:
-            rr, cc = np.ogrid[g0:g1, h0:h1]
-            region[g0:g1, h0:h1] |= (rr - row) ** 2 + (cc - col) ** 2 <= (goal_radius / frame.resolution) ** 2
+        found = frame.disc(x, y, goal_radius)
+        if found is not None:
+            region[found[0]] |= found[1]
     return region
 
 
