@@ -108,14 +108,13 @@ class Executive:
             self.started = True
             if self.stack is not None:
                 self.stack.start()
-                for layer in self.stack.active():
-                    every = self.clock.every(layer.period)
+                for layer in self.stack.active():  # I in the skills' slot, II in the sequencer's, III-IV their own
                     if layer.name == "I":
                         self._fast.append(layer)
                     elif layer.name == "II":
                         self._operational.append(layer)
                     else:
-                        self._slow.append((every, layer))
+                        self._slow.append((self.clock.every(layer.period), layer))
         self.sequencer.settle()
 
     def step(self, pace: Pace | None = None) -> None:

@@ -118,6 +118,8 @@ class LayerStack:
         self.logging_rings = False  # Layer IV turns it on while it maps
         self.rules_source = "rap_library/layers.rap"  # the file of switching rules, for messages
         self._driver: str | None = None
+        self._changed = True  # (primary-layer L) may have changed since observe() last looked
+        sequencer.memory.subscribe(self._primary_changed, ["primary-layer"])
         beliefs[ROUTES] = self
 
     def add(self, layer: Layer) -> None:
@@ -140,8 +142,8 @@ class LayerStack:
 
     def post(self, layer: Layer, changes: list[tuple[str, Compound]]) -> None:
         """Facts a layer found, into RAP memory (the rules may switch the primary layer)."""
-        made = self.sequencer.change(changes, f"layer {layer.name}")
-        if any(fact.functor == "primary-layer" for _, fact in made):
+        self.sequencer.change(changes, f"layer {layer.name}")
+        if self._changed:
             self.observe(self._reason(changes))
 
     def assert_fact(self, layer: Layer, functor: str, *args: Any) -> None:
@@ -175,8 +177,17 @@ class LayerStack:
 
     # -- the primary layer ----------------------------------------------------------
 
+    def _primary_changed(self, kind: str, fact: Compound, time: float) -> None:
+        self._changed = True
+
     def observe(self, reason: str | None = None) -> None:
-        """Follow memory's ``(primary-layer L)``: switch, trace it, and re-route when the driver changes."""
+        """Follow memory's ``(primary-layer L)``: switch, trace it, and re-route when the driver
+        changes. Memory tells the stack when a ``primary-layer`` fact comes or goes, so
+        between changes this costs one test (the executive calls it after every skill and
+        sequencer tick)."""
+        if not self._changed:
+            return
+        self._changed = False
         chosen = None
         for fact in self.sequencer.memory.facts(Compound("primary-layer", (Var("layer"),))):
             chosen = str(fact.args[0]).upper()  # symbols read lower-case: (primary-layer II) is ii
@@ -267,15 +278,15 @@ class LayerStack:
         known = grid.updated.copy() if unknown_passable else np.ones(p_occ.shape, dtype=bool)
         if not unknown_passable:
             p_occ[~grid.updated] = 1.0
-        rows, cols = np.ogrid[:frame.height, :frame.width]
-        if here is not None:
-            disc = (rows - here[0]) ** 2 + (cols - here[1]) ** 2 <= ((self.robot_radius + 0.35) / frame.resolution) ** 2
-            p_occ[disc] = np.minimum(p_occ[disc], 0.3)
-            known[disc] = True
+        robot = frame.disc(*pose[:2], self.robot_radius + 0.35) if pose is not None else None
+        if robot is not None:
+            window, disc = robot
+            p_occ[window][disc] = np.minimum(p_occ[window][disc], 0.3)
+            known[window][disc] = True
         for x, y in self.blocks:
-            row, col = frame.world_to_cell(x, y)
-            disc = (rows - row) ** 2 + (cols - col) ** 2 <= (BLOCK_RADIUS / frame.resolution) ** 2
-            p_occ[disc], known[disc] = 1.0, True
+            found = frame.disc(x, y, BLOCK_RADIUS)
+            if found is not None:
+                p_occ[found[0]][found[1]], known[found[0]][found[1]] = 1.0, True
         planner = GridPlanner(p_occ, frame, self.robot_radius, known=known)
         self._planners[unknown_passable] = (key, planner)
         return planner
