@@ -30,9 +30,9 @@ skills and the program's virtual skills serve the sequencer side by side.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from collections.abc import Iterable
 from typing import Any
 
 from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation

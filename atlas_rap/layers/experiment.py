@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from atlas_rap.layers.engine import MissionEngine
+from atlas_rap.layers.layer import LayerStack
 from atlas_rap.layers.figures import (
     FIGURE_FILES,
     plot_durations,
@@ -91,8 +92,9 @@ def optimal_seconds(world_name: str, home: str, goal: str) -> float:
 
 
 def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: Path,
-            layer_rules: str | None) -> dict[str, Any]:
-    """One errand with no prior map, from ``map_in``; its figures and the grid written to ``map_out``."""
+            layer_rules: str | None) -> tuple[dict[str, Any], LayerStack]:
+    """One errand with no prior map, from ``map_in``: its figures (the grid written to
+    ``map_out``), and the layer stack it ran with (for its settings)."""
     engine = MissionEngine(world, seed=seed, prior_map=False, map_in=map_in, layer_rules=layer_rules)
     engine.load_file(mission, require_post=True)
     try:
@@ -101,10 +103,10 @@ def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: 
         engine.save_map(map_out)
     stack = engine.stack
     timeline = stack.timeline_records()
-    return {"ok": result.ok, "ended_by": result.ended_by, "map_quality": engine.stack.layers["IV"].quality(),
+    return {"ok": result.ok, "ended_by": result.ended_by, "map_quality": stack.layers["IV"].quality(),
             "duration_s": round(result.time, 2), "timeline": timeline, "start_s": 0.0, "end_s": round(result.time, 2),
             "primary_s": {k: round(v, 2) for k, v in stack.primary_seconds(result.time).items()},
-            "path_m": round(_path_length(engine), 2)}
+            "path_m": round(_path_length(engine), 2)}, stack
 
 
 def skill_acquisition(out: str | Path, settings: Settings = Settings(),
@@ -115,35 +117,36 @@ def skill_acquisition(out: str | Path, settings: Settings = Settings(),
     out.mkdir(parents=True, exist_ok=True)
     mission = errand_file(out, settings)
     optimal = round(optimal_seconds(settings.world, settings.home, settings.goal), 2)
-    threshold = _threshold(settings)
     runs = []
+    threshold = 0.9
     map_in: Path | None = None
     for number in range(1, settings.runs + 1):
         if progress is not None:
             progress(f"run {number} of {settings.runs}")
         map_out = out / f"map-run{number}.npz"
-        run = one_run(mission, settings.world, settings.seed, map_in, map_out, settings.layer_rules)
+        run, stack = one_run(mission, settings.world, settings.seed, map_in, map_out, settings.layer_rules)
         runs.append({"run": number, **run, "optimal_s": optimal})
+        threshold = stack.setting("map-quality-threshold", 0.9)  # the rules file's, as the runs used it
         map_in = map_out
     data: dict[str, Any] = {"world": settings.world, "seed": settings.seed, "threshold": threshold, "runs": runs}
     if settings.obstacles is not None:
         if progress is not None:
             progress("obstacle scenario")
-        data["obstacles"] = obstacle_scenario(mission, settings, map_in, out)
+        data["obstacles"] = obstacle_scenario(mission, settings, map_in, out, optimal)
     return data
 
 
-def obstacle_scenario(mission: Path, settings: Settings, map_in: Path | None, out: Path) -> dict[str, Any]:
+def obstacle_scenario(mission: Path, settings: Settings, map_in: Path | None, out: Path,
+                      optimal: float) -> dict[str, Any]:
     """The errand once more in the obstacle world, on the map the runs built."""
     from atlas_rap.sim.world import load_world
 
-    run = one_run(mission, settings.obstacles, settings.seed, map_in, out / "map-obstacles.npz",
-                  settings.layer_rules)
+    run, _ = one_run(mission, settings.obstacles, settings.seed, map_in, out / "map-obstacles.npz",
+                     settings.layer_rules)
     world = load_world(settings.obstacles)
     events = [{"t": d.start, "what": f"{'a person starts to cross' if d.kind == 'person' else 'a box is put down'}"
                                     f" ({d.name})"} for d in world.disturbances]
-    return {**run, "optimal_s": round(optimal_seconds(settings.world, settings.home, settings.goal), 2),
-            "events": events}
+    return {**run, "optimal_s": optimal, "events": events}
 
 
 def write_results(data: dict[str, Any], out: str | Path) -> list[Path]:
@@ -184,19 +187,6 @@ def _check_worlds(settings: Settings) -> None:
             raise AtlasError(f"world {world.name} has no place named {' or '.join(missing)}: the errand goes "
                              f"from {settings.home} to {settings.goal} and back "
                              f"(its places: {', '.join(world.places) or 'none'})")
-
-
-def _threshold(settings: Settings) -> float:
-    """The map-quality threshold of the rules file the runs use."""
-    from atlas_rap.lang import load
-    from atlas_rap.lang import ast
-
-    path = settings.layer_rules or shipped_root("rap_library") / "layers.rap"
-    for form in load(path).of_type(ast.InitialMemory):
-        for fact in form.facts:
-            if fact.functor == "layer-setting" and fact.args[0] == "map-quality-threshold":
-                return float(fact.args[1])
-    return 0.9
 
 
 def _path_length(engine: MissionEngine) -> float:

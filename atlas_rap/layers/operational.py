@@ -64,9 +64,9 @@ def route_on_maps(stack: LayerStack, goal: str, start: Point, closed: set[str], 
         elif stack.prior_map:
             return answer
     if stack.prior_map:
-        source = PriorMapRoutes(world)
+        source = PriorMapRoutes(world, by)
         source.avoid = set(stack.blocked_doors)
-        return _by(source.route(goal, start, closed), by)
+        return source.route(goal, start, closed)
     grid = stack.beliefs.get(GRID)
     if grid is None:
         return f"Layer {by} has no map to plan a route to {goal} on"
@@ -75,8 +75,3 @@ def route_on_maps(stack: LayerStack, goal: str, start: Point, closed: set[str], 
         return f"no route to {goal} on the known part of the map"
     return PlannedRoute(path.waypoints, {}, by)
 
-
-def _by(answer: PlannedRoute | str, by: str) -> PlannedRoute | str:
-    if isinstance(answer, PlannedRoute):
-        return PlannedRoute(answer.waypoints, answer.doors, by)
-    return answer

@@ -88,10 +88,11 @@ class TacticalLayer(Layer):
         grid = beliefs[GRID]
         self.built_version, self.built_at = stack.grid_version, now
         pose = beliefs.get(POSE) or stack.world.robot.start
-        p_occ = grid.probabilities()
-        reachable = InferenceGrid(grid, pose[:2], stack.robot_radius, stack.world.sonar.max_range).reachable
+        inference = InferenceGrid(grid, pose[:2], stack.robot_radius, stack.world.sonar.max_range)
+        reachable = inference.reachable
         if reachable.sum() < 50:
             return
+        p_occ = inference.occupancy  # the grid's probabilities, read once; reachable is made from them already
         p_occ[~grid.updated] = np.nan
         try:
             topology = abstract(p_occ, grid.frame, stack.robot_radius, reachable=reachable).topology

@@ -107,8 +107,9 @@ class PriorMapRoutes:
     anything else by.
     """
 
-    def __init__(self, world: World) -> None:
+    def __init__(self, world: World, by: str = "prior map") -> None:
         self.world = world
+        self.by = by
         self.revision = 0
         self.avoid: set[str] = set()
 
@@ -121,7 +122,7 @@ class PriorMapRoutes:
             known = f" (doors seen closed: {', '.join(sorted(closed))})" if closed else ""
             cut = f" (blocked: {', '.join(sorted(blocked))})" if blocked else ""
             return f"no route from {here} to {goal}{known}{cut}"
-        return PlannedRoute(route.waypoints, door_positions(world, route), "prior map")
+        return PlannedRoute(route.waypoints, door_positions(world, route), self.by)
 
 
 class TopologyRoutes:
