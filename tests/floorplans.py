@@ -1379,6 +1379,15 @@ def _unpocket(occ: np.ndarray, rooms: np.ndarray, furn: np.ndarray, items: tuple
     return took
 
 
+def _random_cell(ok: np.ndarray, rng: np.random.Generator) -> tuple[int, int] | None:
+    """A cell where ``ok`` is True, drawn uniformly with ``rng`` (row, col); None when there is none."""
+    cells = np.flatnonzero(ok)
+    if not cells.size:
+        return None
+    r, c = divmod(int(cells[int(rng.integers(cells.size))]), ok.shape[1])
+    return r, c
+
+
 def _add_noise(rng: np.random.Generator, u: _Units, plan: FloorPlan) -> FloorPlan:
     """A few occupied specks in free space and a few cells missing from the walls, as in a robot's map.
 
@@ -1400,10 +1409,10 @@ def _add_noise(rng: np.random.Generator, u: _Units, plan: FloorPlan) -> FloorPla
     space = u.cells(1.0)
     specks = []
     for _ in range(int(rng.integers(4, 13))):
-        cells = np.flatnonzero(ok)
-        if not cells.size:
+        cell = _random_cell(ok, rng)
+        if cell is None:
             break
-        r, c = divmod(int(cells[int(rng.integers(cells.size))]), rooms.shape[1])
+        r, c = cell
         box = (r, r + 1, c, c + 1)
         if rng.random() < 0.5:
             box = (r, r + 1, c, c + 2) if rng.random() < 0.5 else (r, r + 2, c, c + 1)
@@ -1423,10 +1432,10 @@ def _add_noise(rng: np.random.Generator, u: _Units, plan: FloorPlan) -> FloorPla
     ok = wall & face & (top > 0) & (top == low) & ~bad
     holes = []
     for _ in range(int(rng.integers(8, 25))):
-        cells = np.flatnonzero(ok)
-        if not cells.size:
+        cell = _random_cell(ok, rng)
+        if cell is None:
             break
-        r, c = divmod(int(cells[int(rng.integers(cells.size))]), rooms.shape[1])
+        r, c = cell
         occ[r, c], rooms[r, c] = 0.0, top[r, c]
         ok[max(r - 2, 0):r + 3, max(c - 2, 0):c + 3] = False
         holes.append((r, c))
