@@ -86,6 +86,8 @@ class LiveTrace:
         if event == "layer-switched":
             was = f" (was {record['previous']})" if record.get("previous") else ""
             return text.append(f"  ⇄ Layer {record['layer']} primary{was}: {record['reason']}", style="bold cyan")
+        if event.startswith("plan-") or event == "replanned":
+            return _plan_line(text, indent, record)
         if event in ("fact-asserted", "fact-retracted"):
             if not self.verbose and record["fact"].startswith(QUIET_FACTS):
                 return None
@@ -93,6 +95,39 @@ class LiveTrace:
             by = f"  ({record['by']})" if "by" in record else ""
             return text.append(f"  {sign} {record['fact']}", style="blue").append(by, style="dim")
         return text.append(f"{event} " + " ".join(f"{k}={v}" for k, v in record.items() if k not in ("t", "event")))
+
+
+def _plan_line(text: Text, indent: str, record: dict) -> Text:
+    """A plan executive's record (``sequencer.deliberation``) as one line marked ◆."""
+    event, n = record["event"], record["plan"]
+    version = f" v{record['version']}" if record.get("version", 1) > 1 else ""
+    if event == "plan-requested":
+        deadline = f" by t={record['deadline']:g} s" if "deadline" in record else ""
+        return text.append(f"{indent}  ◆ plan {n}: planning for {' '.join(record['goals'])}{deadline}", style="cyan")
+    if event == "plan-ready":
+        return text.append(f"{indent}  ◆ plan {n}{version} ready after {record['latency']:g} s: "
+                           f"{record['steps']} steps, makespan {record['makespan']:g} s: "
+                           + ", ".join(record["actions"]), style="bold cyan")
+    if event == "plan-step-started":
+        agent = f" [{record['agent']}]" if record.get("agent") else ""
+        return text.append(f"{indent}  ◆ plan {n} s{record['step']} {record['action']}{agent} starts", style="cyan")
+    if event == "plan-step-done":
+        return text.append(f"{indent}  ◆ plan {n} s{record['step']} {record['action']} done", style="green")
+    if event == "plan-step-failed":
+        return text.append(f"{indent}  ◆ plan {n} s{record['step']} {record['action']} failed: {record['reason']}",
+                           style="red")
+    if event == "replanned":
+        moved = "; ".join(f"{r['action']} {r['from']}→{r['to']}" for r in record["reassigned"])
+        parts = [f"kept {len(record['kept'])}", f"new {len(record['new'])}", f"halted {len(record['halted'])}",
+                 f"done before {len(record['done'])}"] + ([f"re-assigned {moved}"] if moved else [])
+        return text.append(f"{indent}  ◆ plan {n} re-planned{version} ({record['cause']}): " + ", ".join(parts),
+                           style="bold yellow")
+    if event == "plan-abandoned":
+        what = "gave up " + " ".join(record["goals"]) if record["scope"] == "goal" else "abandoned"
+        return text.append(f"{indent}  ◆ plan {n} {what}: {record['reason']}", style="bold red")
+    if event == "plan-done":
+        return text.append(f"{indent}  ◆ plan {n} done: {' '.join(record['goals'])}", style="bold green")
+    return text.append(f"{event} " + " ".join(f"{k}={v}" for k, v in record.items() if k not in ("t", "event")))
 
 
 def task_tree(nodes: list[TaskView], title: str = "agenda") -> Tree:

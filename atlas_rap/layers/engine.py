@@ -9,9 +9,11 @@ may use a virtual skill or RAP defined further down:
 1. its ``(world ...)`` form chooses the world, if none runs yet (a path is
    relative to the file); ``--world`` overrides every such form, and a
    program naming another world than the one running is a located error;
-2. its ``(plan GOAL ...)`` requests are planned (the planner is imported only
-   then) from memory, the program's ``initial``/``initial-memory`` facts and
-   the operators loaded so far, and replaced by RAPs that carry them out;
+2. its ``(plan GOAL ...)`` requests are checked against the operators loaded
+   so far and replaced by RAPs ``(carry-out-plan-N)`` whose one step is that
+   plan request: the plan is made when the task runs, from memory as it is
+   then, and carried out, watched and repaired beside the running robot
+   (``layers.deliberation``, ``sequencer.deliberation``);
 3. it is checked whole, against the skills and the RAPs, rules and virtual
    skills defined before it; any error and nothing of it takes effect;
 4. its definitions take effect: virtual skills, RAPs, memory rules,
@@ -39,6 +41,7 @@ from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation
 from atlas_rap.lang import ast, load
 from atlas_rap.lang.loader import Program
 from atlas_rap.layers.clock import Clock, WallClock, wall_clock_pacer
+from atlas_rap.layers.deliberation import PLAN_TIMEOUT, Deliberation
 from atlas_rap.layers.executive import Driver, Executive, Pace, Rates, Stop, VirtualExecutive
 from atlas_rap.layers.layer import LAYER_NAMES, LayerStack
 from atlas_rap.layers.monitoring import MonitoringLayer
@@ -61,8 +64,8 @@ DEFAULT_WORLD = "lab-corridor-office"
 DEFAULT_TIME_LIMIT = 3600.0
 """Simulated seconds a mission may run before its remaining tasks fail (``--until``)."""
 
-PLAN_TIMEOUT = 60.0
-"""CPU seconds the planner may take for one ``(plan GOAL ...)``."""
+PLAN_TASK = "carry-out-plan-{n}"
+"""The RAP that a top-level ``(plan GOAL ...)`` of a mission becomes: one plan step."""
 
 _PLANNING_FORMS = (ast.Operator, ast.Agents, ast.RelationDef, ast.Initial, ast.Goals)
 
@@ -146,6 +149,7 @@ class MissionEngine:
         self.lines: dict[str, list[str]] = {}
         self.files: set[str] = set()
         self.plans_made = 0
+        self.deliberation: Deliberation | None = None
 
     # -- the running system ----------------------------------------------------
 
@@ -195,6 +199,7 @@ class MissionEngine:
                 raise AtlasError("--map needs a world; this run has none (--world none)")
             self.skills = self.virtual
             self._sequencer = Sequencer(skills=self.skills, trace=self.trace)
+            self._deliberate()
             self.driver = VirtualExecutive(self._sequencer, pace=wall_clock_pacer() if self.realtime else None)
             return
         from atlas_rap.sim.physics import Simulation
@@ -219,11 +224,22 @@ class MissionEngine:
             self.manager.context.beliefs[TOPOLOGY] = Topology.from_json(self.topology)
         self.skills = CombinedSkills(self.manager, self.virtual)
         self._sequencer = Sequencer(skills=self.skills, trace=self.trace)
+        self._deliberate()
         self.stack = self._layer_stack(believed)
         clock = (WallClock if self.realtime else Clock)(self.rates.physics)
         self.driver = Executive(self.simulation, self.manager, self._sequencer, self.rates, stack=self.stack,
                                 clock=clock)
         self._load_layer_rules()
+
+    def _deliberate(self) -> None:
+        """The planner beside the sequencer: in simulated time, or on a worker in real time."""
+        self.deliberation = Deliberation(self.planning_problem, self._sequencer.timers, worker=self.realtime)
+        self._sequencer.deliberator = self.deliberation
+
+    def plan_in_worker(self, worker: bool = True) -> None:
+        """Plan on a worker thread (the REPL on a terminal, ``--realtime``) or in simulated time."""
+        self.sequencer
+        self.deliberation.worker = worker
 
     def _layer_stack(self, believed: Any) -> LayerStack:
         """The four layers over the robot's beliefs; Layer IV only when there is a map to build."""
@@ -403,13 +419,13 @@ class MissionEngine:
 
     # -- planning ----------------------------------------------------------------------
 
-    def plan(self, goals: tuple[Term, ...], loc: SourceLocation | None = None, program: Program | None = None,
-             facts: tuple[Compound, ...] = ()):
-        """A plan for ``goals`` from memory and ``facts``, with the operators, agents, relations
-        and ``initial`` facts loaded so far (and those of ``program``, being loaded)."""
-        from atlas_rap.planner.checks import raise_problems
+    def planning_problem(self, goals: tuple[Term, ...], lost: frozenset[str] = frozenset(),
+                         loc: SourceLocation | None = None, program: Program | None = None,
+                         facts: tuple[Compound, ...] = ()):
+        """The planning problem for ``goals`` from memory now and ``facts``, with the operators,
+        agents, relations and ``initial`` facts loaded so far (and those of ``program``, being
+        loaded), without the ``lost`` agents."""
         from atlas_rap.planner.problem import problem_from_program
-        from atlas_rap.planner.solve import solve
 
         forms = [form for form in self.planning if program is None or not _replaced(form, program)]
         if program is not None:
@@ -418,45 +434,41 @@ class MissionEngine:
         problem_program = Program(root=program.root if program is not None else "<plan>", files=(),
                                   forms=tuple(forms), lines=lines)
         base = problem_from_program(problem_program, name=problem_program.root)
-        problem = base.asked(goals, base.initial + tuple(self.sequencer.memory) + facts, loc)
+        if lost:
+            base = dataclasses.replace(base, controlled=tuple(a for a in base.controlled if a not in lost))
+        return base.asked(goals, base.initial + tuple(self.sequencer.memory) + facts, loc)
+
+    def plan(self, goals: tuple[Term, ...], loc: SourceLocation | None = None, program: Program | None = None,
+             facts: tuple[Compound, ...] = ()):
+        """A plan for ``goals`` now, from memory and ``facts`` (the REPL's ``:plan``: shown, not carried out)."""
+        from atlas_rap.planner.checks import raise_problems
+        from atlas_rap.planner.solve import solve
+
+        problem = self.planning_problem(goals, frozenset(), loc, program, facts)
         raise_problems(problem)
         return solve(problem, timeout=PLAN_TIMEOUT)
 
     def _carry_out_plans(self, program: Program) -> tuple[Program, list]:
-        """Step 2: each ``(plan GOAL ...)`` of ``program`` planned now and replaced by a
-        generated RAP that carries the plan out and a post of it (``planner.execute``)."""
-        from atlas_rap.lang import parse_text
-        from atlas_rap.planner.execute import PLAN_TASK, plan_rap_text
+        """Step 2: each ``(plan GOAL ...)`` of ``program`` is checked (every goal achievable by
+        some operator, the operators' constraints sound) and replaced by a RAP
+        ``(carry-out-plan-N)`` whose task net is that plan step, and a post of it. The plan
+        itself is made when the task runs, from memory as it is then (``layers.deliberation``)."""
+        from atlas_rap.planner.checks import raise_problems
 
         facts = tuple(f for form in program.of_type(ast.InitialMemory) for f in form.facts)
-        raps = list({(r.name, len(r.params)): r for r in
-                     list(self.sequencer.library.values()) + program.of_type(ast.RapDef)}.values())
         replaced: dict[int, list] = {}
-        plans, problems = [], []
+        problems = []
         for request in program.of_type(ast.PlanRequest):
-            line = program.source_line(request.loc)
             try:
-                plan = self.plan(request.goals, request.loc, program, facts)
+                raise_problems(self.planning_problem(request.goals, frozenset(), request.loc, program, facts))
             except SourceError as exc:
                 problems += exc.problems
                 continue
-            plans.append(plan)
-            if plan.status != "solved":
-                goals = " ".join(term_to_str(g) for g in request.goals)
-                reason = f" ({plan.reason})" if plan.reason else ""
-                problems.append(Problem(f"no plan for {goals}: {plan.status}{reason}", request.loc, line,
-                                        "check the initial facts and the operators that achieve these goals "
-                                        "with `atlas plan`"))
-                continue
             self.plans_made += 1
             name = PLAN_TASK.format(n=self.plans_made)
-            text, missing = plan_rap_text(plan, raps, name)
-            problems += [Problem(f"plan step {step}: no RAP can execute it", request.loc, line,
-                                 "write a RAP whose succeed clause unifies with the step's purpose, "
-                                 "or a RAP of the step's name") for step in missing]
-            if missing:
-                continue
-            rap = parse_text(text, f"<plan {self.plans_made}>").forms[0]
+            rap = ast.RapDef(head=Compound(name, ()), loc=request.loc, retries=1,  # the plan step repairs itself
+                             methods=(ast.Method(body=ast.TaskNet(nets=(request,), loc=request.loc),
+                                                 loc=request.loc),))
             replaced[id(request)] = [rap, ast.Post(task=Compound(name, ()), loc=request.loc)]
         if problems:
             raise SourceError(problems)
@@ -467,7 +479,7 @@ class MissionEngine:
         believed = [f for f in dict.fromkeys(initial) if f not in memory and f not in set(facts)]
         if believed:  # the planner's initial facts are what the robot believes too
             forms = (ast.InitialMemory(facts=tuple(believed), loc=program.of_type(ast.PlanRequest)[0].loc),) + forms
-        return dataclasses.replace(program, forms=forms), plans
+        return dataclasses.replace(program, forms=forms), []
 
     # -- time ---------------------------------------------------------------------------
 

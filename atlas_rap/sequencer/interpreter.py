@@ -78,6 +78,7 @@ from atlas_rap.logic.arithmetic import evaluated_fact
 from atlas_rap.logic.errors import RuleError
 from atlas_rap.logic.rules import Change
 from atlas_rap.sequencer.agenda import Agenda
+from atlas_rap.sequencer.deliberation import Deliberator
 from atlas_rap.sequencer.net import FAILURE_OUTCOMES, HALTED_OUTCOME, MethodRun, Node, StepNode, method_label
 from atlas_rap.sequencer.skill_link import NoSkills, SkillLink
 from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Task
@@ -135,6 +136,8 @@ class Sequencer:
         self._ids = count(1)
         self.holders: dict[Hashable, tuple[MethodRun, Compound]] = {}  # skill instance -> its run and call
         self.fault: str | None = None  # why memory rules stopped the run, until the runner takes it
+        self.deliberator: Deliberator | None = None  # the planner, for (plan GOAL ...) steps
+        self._plan_numbers = count(1)
         self.skills: SkillLink = skills if skills is not None else NoSkills()
         self.skills.connect(self)
         self._skill_names = self.skills.skills()
@@ -173,6 +176,10 @@ class Sequencer:
     def now(self) -> float:
         """The current simulated time, in seconds."""
         return self.timers.now
+
+    def next_plan_number(self) -> int:
+        """The number of the next plan of this run (1, 2, ...), as the trace names plans."""
+        return next(self._plan_numbers)
 
     # -- tasks ---------------------------------------------------------------
 

@@ -13,7 +13,10 @@ of nodes mirroring the method's body (LANGUAGE.md §2.2-§2.4):
   the rest is halted. ``(for L)`` holds step ``L`` back until this step has
   ended well; ``(until-end L)`` halts this step when ``L`` ends;
 - a :class:`WaitNode` is a bare ``(wait-for Q)``; a :class:`MemoryNode` an
-  ``assert``/``retract`` step; a :class:`PrimitiveNode` a ``primitive`` body.
+  ``assert``/``retract`` step; a :class:`PrimitiveNode` a ``primitive`` body;
+- a :class:`PlanNode` is a ``(plan GOAL ...)`` step: it asks the planner and
+  carries the plan out (``deliberation.PlanExecution``), ending ``:succeed``
+  when the goals hold and ``:fail`` when the plan is abandoned.
 
 Nodes report upward: a part that ends well calls ``parent.child_done``; a
 step that ends with a failure outcome (``:fail``, ``:timeout``, and for a
@@ -29,7 +32,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Callable
 
 from atlas_rap.lang import ast
-from atlas_rap.logic import Compound, QueryError, String, Subst, Term, Var, substitute, term_to_str
+from atlas_rap.logic import Compound, QueryError, String, Subst, Term, Var, is_ground, substitute, term_to_str
+from atlas_rap.sequencer.deliberation import PlanExecution
 from atlas_rap.sequencer.task import SUCCEEDED, Failure, Task
 from atlas_rap.sequencer.waiting import Waiter
 
@@ -397,7 +401,7 @@ class MemoryNode(Node):
 class StepNode(_Leaf):
     """A subtask: a child task (RAP) or the skill-step shorthand, raced by its wait-fors."""
 
-    __slots__ = ("step", "gate", "successors", "monitors", "state", "child", "skill", "cut", "call")
+    __slots__ = ("step", "gate", "successors", "monitors", "state", "child", "skill", "cut", "call", "execution")
 
     def __init__(self, run: MethodRun, parent: Node | MethodRun, step: ast.Step) -> None:
         super().__init__(run, parent)
@@ -410,7 +414,9 @@ class StepNode(_Leaf):
         self.skill: Compound | None = None
         self.group: WaitGroup | None = None
         self.cut = False
-        self.call: Term = step.task
+        self.execution: PlanExecution | None = None
+        request = step.plan
+        self.call: Term = step.task if request is None else Compound("plan", request.goals)  # type: ignore[assignment]
         if step.label is not None:
             run.labels[step.label] = self
 
@@ -436,6 +442,9 @@ class StepNode(_Leaf):
         run = self.run
         seq = run.seq
         self.state = "running"
+        if self.step.plan is not None:
+            self._begin_plan(self.step.plan)
+            return
         call = self.call = substitute(self.step.task, run.subst) if run.subst else self.step.task
         if seq.is_rap(call):
             self.child = seq.spawn(call, run.task, self)
@@ -457,6 +466,26 @@ class StepNode(_Leaf):
         if entries and run.live and self.state == "running":
             self.group = WaitGroup(seq, entries, self._decided)
             self.group.start()
+
+    def _begin_plan(self, request: ast.PlanRequest) -> None:
+        """A labelled ``(LABEL (plan GOAL ...) ...)`` step: carry out a plan, raced by the step's wait-fors."""
+        run = self.run
+        started = _start_plan(run, request, self._plan_ended)
+        if not isinstance(started, PlanExecution):
+            self.state = "done"
+            self.record(*started)
+            return
+        self.execution = started
+        self.call = Compound("plan", started.goals_asked)
+        entries = [_wait_entry(wait, run.subst) for wait in self.step.waits]
+        if entries and run.live and self.state == "running":
+            self.group = WaitGroup(run.seq, entries, self._decided)
+            self.group.start()
+
+    def _plan_ended(self, outcome: str, why: str) -> None:
+        self.execution = None
+        if self.state == "running":
+            self._finish(outcome, why, None)
 
     def child_ended(self, child: Task) -> None:
         """The child task ended (succeeded or failed) before any wait-for matched."""
@@ -519,6 +548,9 @@ class StepNode(_Leaf):
         """Stop this step's work: its waits, its child task (saying why) and its skill."""
         if self.group is not None:
             self.group.cancel()
+        execution, self.execution = self.execution, None
+        if execution is not None:
+            execution.halt(f"{cause.describe()} {what}" if cause is not None else what)
         child = self.child
         if child is not None and not child.finished:
             self.run.seq.halt(child, f"{cause.describe()} {what}" if cause is not None else what)
@@ -539,6 +571,8 @@ class StepNode(_Leaf):
     def waiting_for(self) -> list[str]:
         if self.state == "blocked":
             return [f"{self.describe()}: waiting for an earlier step (for)"]
+        if self.execution is not None:
+            return self.execution.waiting_for()
         if self.state != "running" or self.group is None or self.child is not None:
             return []
         return self.group.describe()
@@ -611,7 +645,69 @@ class PrimitiveNode(_Leaf):
         return self.group.describe() if self.group is not None else []
 
 
+class PlanNode(_Leaf):
+    """A ``(plan GOAL ... [:deadline S] [:max-failures N])`` step: the sequencer calling the deliberator.
+
+    The goals (with the method's bindings) go to the planner; the plan is
+    carried out by RAPs as subtasks of this task, watched and repaired
+    (:class:`~atlas_rap.sequencer.deliberation.PlanExecution`). The step
+    ends with the plan: ``:succeed`` (or ``:partial``) when carried out,
+    ``:fail`` when abandoned, ``:timeout`` at its deadline.
+    """
+
+    __slots__ = ("request", "execution", "goals")
+
+    def __init__(self, run: MethodRun, parent: Node | MethodRun, request: ast.PlanRequest) -> None:
+        super().__init__(run, parent)
+        self.request = request
+        self.execution: PlanExecution | None = None
+        self.goals: tuple[Term, ...] = request.goals
+
+    def describe(self) -> str:
+        return "(plan " + " ".join(term_to_str(g) for g in self.goals) + ")"
+
+    def start(self) -> None:
+        started = _start_plan(self.run, self.request, self._ended)
+        if isinstance(started, PlanExecution):
+            self.execution = started
+            self.goals = started.goals_asked
+        else:
+            self.record(*started)
+
+    def _ended(self, outcome: str, why: str) -> None:
+        self.execution = None
+        if self.run.live and self.record(outcome, why):
+            self.parent.child_done(self)
+
+    def halt(self) -> None:
+        execution, self.execution = self.execution, None
+        if execution is not None:
+            execution.halt("its method was halted")
+
+    def waiting_for(self) -> list[str]:
+        return self.execution.waiting_for() if self.execution is not None else []
+
+
+def _start_plan(run: MethodRun, request: ast.PlanRequest,
+                on_end: Callable[[str, str], None]) -> PlanExecution | tuple[str, str]:
+    """Start carrying out ``request`` for ``run``'s task: the execution, or the outcome and
+    reason the step ends with at once (goals not ground, no planner)."""
+    seq = run.seq
+    goals = tuple(substitute(goal, run.subst) for goal in request.goals) if run.subst else request.goals
+    unbound = [term_to_str(g) for g in goals if not is_ground(g)]
+    if unbound:
+        return ":fail", f"its goals have unbound variables: {', '.join(unbound)}"
+    if seq.deliberator is None:
+        return ":fail", "this run has no planner"
+    execution = PlanExecution(seq, seq.deliberator, run.task, goals, on_end, deadline=request.deadline,
+                              max_failures=request.max_failures)
+    execution.start()
+    return execution
+
+
 def _build(body: object, run: MethodRun, parent: Node | MethodRun) -> Node:
+    if isinstance(body, ast.PlanRequest):
+        return PlanNode(run, parent, body)
     if isinstance(body, ast.Step):
         return StepNode(run, parent, body)
     if isinstance(body, ast.Sequence):

@@ -21,6 +21,9 @@ EVENTS = (
     "task-posted", "task-selected", "method-selected", "task-succeeded", "task-failed",
     "task-halted", "step-outcome", "skill-enabled", "skill-disabled", "fact-asserted",
     "fact-retracted", "plan-ready", "layer-switched",
+    # the plan executive (sequencer.deliberation), beyond LANGUAGE.md's list:
+    "plan-requested", "plan-step-started", "plan-step-done", "plan-step-failed", "replanned",
+    "plan-abandoned", "plan-done",
 )
 """The event names of LANGUAGE.md §2.8; every record's ``event`` is one of them."""
 
