@@ -13,6 +13,8 @@ plan from memory, and a :class:`PlanExecution` carries it out:
   in trouble when a step's RAP fails, when a fact that a causal link of the
   plan still needs is retracted (or, for ``(not F)``, asserted) while the
   link is live (its producer done, its consumer not yet started), when a
+  step is done but a fact it was to make true for a later step does not
+  hold (its RAP succeeded another way: another attach point), when a
   controlled agent the plan still uses is lost (``(agent-failed A)`` is
   asserted), and when every step is done but the goals do not hold.
 - **Repair.** The deliberator plans again from *current* memory (the steps
@@ -37,11 +39,15 @@ plan from memory, and a :class:`PlanExecution` carries it out:
   (return to the dock). A plan that achieves some goals after giving others
   up ends ``:partial`` (a success outcome, in the trace).
 
-Choices a ROSPlan or PlanSys2 user should know: the plan's effects are not
-written into memory when a step ends (memory holds what skills and RAPs made
-true, so a substituted arm is not mistaken for the planned one); a step's
-purpose is checked by its RAP's ``succeed`` test, and the goals by memory at
-the end. Trace records: ``plan-requested``, ``plan-ready`` (with the
+Choices a ROSPlan or PlanSys2 user should know: memory holds what skills
+and RAPs made true, so a plan's effects are not written into it blindly when
+an operator's steps end (a substituted arm or attach point is not mistaken
+for the planned one). The facts the operator was to provide for later steps
+are checked against memory instead: a fact of a predicate memory has no
+facts of is the planner's own bookkeeping and is asserted then (as ROSPlan
+and PlanSys2 apply effects); any other that does not hold is a changed
+situation, repaired. A step's purpose is checked by its RAP's ``succeed``
+test, and the goals by memory at the end. Trace records: ``plan-requested``, ``plan-ready`` (with the
 simulated ``latency`` and the planner's ``wall`` seconds), ``plan-step-started``,
 ``plan-step-done``, ``plan-step-failed``, ``replanned``, ``plan-abandoned``
 (with ``scope`` ``goal`` or ``plan``) and ``plan-done``.
@@ -52,6 +58,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Callable, Protocol
 
+from atlas_rap.lang import parse_term
 from atlas_rap.logic import Compound, Term, Var, is_ground, term_to_str
 from atlas_rap.planner.dispatch import match_steps
 from atlas_rap.planner.plan import Plan, PlanStep
@@ -317,6 +324,10 @@ class PlanExecution:
         if task.status == SUCCEEDED:
             run.status = "done"
             seq.trace.emit("plan-step-done", **fields)
+            unmet = self._unmet_links(run.step.id)
+            if unmet is not None:
+                self._trouble(*unmet)
+                return
             self._dispatch()
             return
         run.status = "failed"
@@ -371,6 +382,41 @@ class PlanExecution:
             served = frozenset(g for g in self.goals if term_to_str(g) == text) if consumer == "goal" \
                 else self.serves.get(consumer)  # type: ignore[arg-type]
             return f"{text} was {'asserted' if kind == 'assert' else 'retracted'}, which {need} needs", served
+        return None
+
+    def _unmet_links(self, done: int) -> tuple[str, frozenset[Term] | None] | None:
+        """When the last plot step of an operator is done: check the facts the operator was
+        planned to make true (or false) for later steps or the goals, against memory.
+
+        A fact memory shows is fine. A fact of a predicate memory holds no fact of is the
+        planner's own bookkeeping (``(holding planner crate-1)``): it is asserted, as ROSPlan
+        and PlanSys2 apply an action's effects. Any other fact that does not hold means the
+        step's RAP succeeded otherwise than planned (another attach point, another arm): a
+        changed situation, returned as the cause and the goals concerned, so the rest of the
+        plan is made again from what is true.
+        """
+        source = self.steps[done].step.source
+        mine = {i for i, run in self.steps.items() if run.step.source == source}
+        if any(self.steps[i].status != "done" for i in mine):
+            return None
+        memory, relations = self.seq.memory, self.seq.relations
+        believed = []
+        for producer, consumer, link in self.plan.links:  # type: ignore[union-attr]
+            if producer not in mine or not self._live(producer, consumer):
+                continue
+            negative = link.startswith("(not ")
+            fact = parse_term(link[5:-1] if negative else link, "<plan link>")
+            if memory.holds(fact, None, relations) != negative:
+                continue
+            if not negative and isinstance(fact, Compound) and not any(memory.facts(
+                    Compound(fact.functor, tuple(_ANY for _ in fact.args)))):
+                believed.append(fact)
+                continue
+            need = "the goals" if consumer == "goal" else f"step s{consumer}"
+            served = frozenset(self.goals) if consumer == "goal" else self.serves.get(consumer)  # type: ignore[arg-type]
+            return f"s{done} {self.steps[done].action} is done but {link} does not hold, which {need} needs", served
+        if believed:
+            self.seq.change([("assert", fact) for fact in dict.fromkeys(believed)], f"plan {self.number}")
         return None
 
     def _live(self, producer: int | str, consumer: int | str) -> bool:
