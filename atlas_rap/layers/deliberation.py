@@ -26,6 +26,7 @@ inside the request, and a cancelled request delivers nothing.
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import time
 from typing import Callable
@@ -50,6 +51,7 @@ PLAN_TIMEOUT = 60.0
 
 Deliver = Callable[[Plan, float, float], None]
 ProblemFor = Callable[[tuple[Term, ...], frozenset[str]], PlanningProblem]
+"""``problem_for(goals, lost_agents)``: the planning problem from memory now."""
 
 
 def charged_latency(plan: Plan) -> float:
@@ -58,13 +60,19 @@ def charged_latency(plan: Plan) -> float:
 
 
 def plan_for(problem: PlanningProblem, timeout: float = PLAN_TIMEOUT) -> Plan:
-    """Solve ``problem``; bad input becomes a plan of status ``error`` with its reason."""
+    """Solve ``problem``; bad input becomes a plan of status ``error`` with its reason.
+    When no plan avoids ``problem.avoid`` (the actions that failed), plan with them."""
     from atlas_rap.planner.checks import raise_problems
     from atlas_rap.planner.solve import solve
 
     try:
         raise_problems(problem)
-        return solve(problem, timeout=timeout)
+        plan = solve(problem, timeout=timeout)
+        if plan.status == "unsolvable" and problem.avoid:
+            first = plan.stats.get("evaluated", 0)
+            plan = solve(dataclasses.replace(problem, avoid=frozenset()), timeout=timeout)
+            plan.stats["evaluated"] = int(plan.stats.get("evaluated", 0)) + int(first)
+        return plan
     except AtlasError as exc:
         return plan_of_error(exc)
 
@@ -104,12 +112,14 @@ class Deliberation:
         except AtlasError:
             return None
 
-    def request(self, goals: tuple[Term, ...], lost: frozenset[str], deliver: Deliver) -> _Request:
-        """Start a plan for ``goals`` without ``lost`` agents; ``deliver(plan, latency, wall)`` later."""
+    def request(self, goals: tuple[Term, ...], lost: frozenset[str], avoid: frozenset[Term],
+                deliver: Deliver) -> _Request:
+        """Start a plan for ``goals`` without ``lost`` agents and, when it can, without the actions
+        in ``avoid``; ``deliver(plan, latency, wall)`` later."""
         request = _Request()
         asked = self.timers.now
         try:
-            problem = self.problem_for(goals, lost)
+            problem = dataclasses.replace(self.problem_for(goals, lost), avoid=avoid)
         except AtlasError as exc:
             plan = plan_of_error(exc)
             request.timer = self.timers.after(0.0, lambda: deliver(plan, 0.0, 0.0))

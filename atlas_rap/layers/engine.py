@@ -20,8 +20,9 @@ may use a virtual skill or RAP defined further down:
    relations, planning operators; each replaces an earlier definition of the
    same name (a running task uses a new RAP at its next method choice);
 5. the world starts, once: its prior map (places, doors) goes into memory;
-6. its ``initial-memory`` facts, ``at-time`` events (absolute simulated
-   times, refused when past) and ``post``\\ s take effect, in that order.
+6. its ``initial`` (the planner's) and ``initial-memory`` facts, ``at-time``
+   events (absolute simulated times, refused when past) and ``post``\\ s take
+   effect, in that order.
 
 Time then moves with :meth:`run` (until the posted tasks end), :meth:`advance`
 (a while, tasks or not) or :meth:`run_mission` (``atlas run``: run, then fail
@@ -405,8 +406,15 @@ class MissionEngine:
         return [rap.name for rap in raps] + [form.name for form in rules] + [skill.name for skill in new_skills]
 
     def _act(self, program: Program) -> list[Task]:
-        """Step 6: initial memory, at-time events and posts, in that order; the tasks posted."""
+        """Step 6: initial memory, at-time events and posts, in that order; the tasks posted.
+        The planner's ``(initial ...)`` facts are what the robot believes too: they go into
+        memory with the program's ``initial-memory``, each once."""
         seq = self.sequencer
+        memory = seq.memory
+        believed = tuple(f for f in dict.fromkeys(f for form in program.of_type(ast.Initial) for f in form.facts)
+                         if f not in memory)
+        if believed:
+            seq.change([("assert", fact) for fact in believed], "initial")
         for form in program.of_type(ast.InitialMemory):
             seq.change([("assert", fact) for fact in form.facts], "initial-memory")
             fault = self.take_fault()
@@ -423,8 +431,10 @@ class MissionEngine:
                          loc: SourceLocation | None = None, program: Program | None = None,
                          facts: tuple[Compound, ...] = ()):
         """The planning problem for ``goals`` from memory now and ``facts``, with the operators,
-        agents, relations and ``initial`` facts loaded so far (and those of ``program``, being
-        loaded), without the ``lost`` agents."""
+        agents and relations loaded so far (and those of ``program``, being loaded), without
+        the ``lost`` agents. One memory: the ``initial`` facts of the programs loaded are in
+        it (:meth:`_act`), beside the prior map and what skills and RAPs asserted since, and
+        the planner starts from memory alone."""
         from atlas_rap.planner.problem import problem_from_program
 
         forms = [form for form in self.planning if program is None or not _replaced(form, program)]
@@ -436,7 +446,7 @@ class MissionEngine:
         base = problem_from_program(problem_program, name=problem_program.root)
         if lost:
             base = dataclasses.replace(base, controlled=tuple(a for a in base.controlled if a not in lost))
-        return base.asked(goals, base.initial + tuple(self.sequencer.memory) + facts, loc)
+        return base.asked(goals, tuple(self.sequencer.memory) + facts, loc)  # initial facts are in memory (_act)
 
     def plan(self, goals: tuple[Term, ...], loc: SourceLocation | None = None, program: Program | None = None,
              facts: tuple[Compound, ...] = ()):
@@ -455,7 +465,8 @@ class MissionEngine:
         itself is made when the task runs, from memory as it is then (``layers.deliberation``)."""
         from atlas_rap.planner.checks import raise_problems
 
-        facts = tuple(f for form in program.of_type(ast.InitialMemory) for f in form.facts)
+        facts = tuple(f for form in program.of_type(ast.InitialMemory) + program.of_type(ast.Initial)
+                      for f in form.facts)
         replaced: dict[int, list] = {}
         problems = []
         for request in program.of_type(ast.PlanRequest):
@@ -473,12 +484,6 @@ class MissionEngine:
         if problems:
             raise SourceError(problems)
         forms = tuple(new for form in program.forms for new in replaced.get(id(form), [form]))
-        initial = [f for form in self.planning + program.of_type(ast.Initial) if isinstance(form, ast.Initial)
-                   for f in form.facts]
-        memory = self.sequencer.memory
-        believed = [f for f in dict.fromkeys(initial) if f not in memory and f not in set(facts)]
-        if believed:  # the planner's initial facts are what the robot believes too
-            forms = (ast.InitialMemory(facts=tuple(believed), loc=program.of_type(ast.PlanRequest)[0].loc),) + forms
         return dataclasses.replace(program, forms=forms), []
 
     # -- time ---------------------------------------------------------------------------

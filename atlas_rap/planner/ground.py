@@ -325,6 +325,9 @@ def ground(problem: PlanningProblem) -> GroundTask:
     fact_ids = {f: i for i, f in enumerate(facts)}
     static_facts = {f for f in problem.initial if (f.functor, len(f.args)) in static}
     build = _ActionBuilder(fact_ids, static_facts, static)
+    if problem.avoid:
+        found = [(g, b) for g, b in found if Compound(g.op.name, tuple(b.get(v, v) for v in g.order))
+                 not in problem.avoid]
     actions = build.all(found)
     nature = build.all(nature_found)
     goal, goal_neg, unreachable = [], [], []

@@ -12,9 +12,11 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
+from typing import Iterable
+
 from atlas_rap.errors import SourceLocation
 from atlas_rap.lang import ast
-from atlas_rap.logic import Compound, Relation, Term
+from atlas_rap.logic import Compound, Relation, Term, unify
 
 
 @dataclass(frozen=True)
@@ -31,6 +33,15 @@ class PlanningProblem:
     - ``initial``: ground facts; ``goals``: facts, or ``(not FACT)``.
     - ``name``: for messages; ``goal_locations``: where each goal was written.
     - ``source_lines``: source text by file name, so later errors can show a caret.
+    - ``deadlines``: ``(GOAL, SECONDS)`` pairs from ``(deadline GOAL SECONDS)`` forms:
+      GOAL must be achieved within SECONDS of the plan's start;
+      ``deadline_locations``: where each GOAL is written.
+    - ``deadline``: the ``:deadline`` of a plan request (:meth:`asked`), for the
+      whole request: every goal within it. None when there is none.
+      :meth:`deadline_for` combines both.
+    - ``avoid``: ground actions ``(OPERATOR-NAME VALUE ...)`` the plan may not use
+      (a plan being repaired leaves out what already failed; see
+      ``layers.deliberation``).
     """
 
     operators: tuple[ast.Operator, ...]
@@ -44,6 +55,10 @@ class PlanningProblem:
     goal_locations: tuple[SourceLocation | None, ...] = ()
     agents_location: SourceLocation | None = None
     source_lines: dict[str, list[str]] = field(default_factory=dict)
+    deadlines: tuple[tuple[Term, float], ...] = ()
+    deadline_locations: tuple[SourceLocation | None, ...] = ()
+    deadline: float | None = None
+    avoid: frozenset[Term] = frozenset()
 
     def operator(self, name: str) -> ast.Operator:
         """The operator called ``name``."""
@@ -53,11 +68,24 @@ class PlanningProblem:
         raise KeyError(name)
 
     def asked(self, goals: tuple[Term, ...], initial: tuple[Compound, ...],
-              loc: SourceLocation | None = None) -> PlanningProblem:
-        """The same operators, agents and relations, asked for ``goals`` from ``initial``
-        (a mission's ``(plan ...)``, the REPL's memory); ``loc`` is where the goals were asked."""
+              loc: SourceLocation | None = None, deadline: float | None = None) -> PlanningProblem:
+        """The same operators, agents, relations and ``deadlines``, asked for ``goals``
+        from ``initial`` (a mission's ``(plan ...)``, the REPL's memory); ``loc`` is
+        where the goals were asked; ``deadline`` the request's ``:deadline`` (for all
+        its goals; it replaces that of an earlier request)."""
         return dataclasses.replace(self, goals=tuple(goals), initial=tuple(dict.fromkeys(initial)),
-                                   goal_locations=(loc,) * len(goals))
+                                   goal_locations=(loc,) * len(goals), deadline=deadline)
+
+    def deadline_for(self, goals: Iterable[Term] | None = None) -> float | None:
+        """The time by which ``goals`` (the problem's goals when None) must all be
+        achieved: the smallest of the request's ``deadline`` and the ``deadlines``
+        whose goal unifies with one of ``goals``; None when there is none."""
+        goals = self.goals if goals is None else tuple(goals)
+        found = [seconds for goal, seconds in self.deadlines
+                 if any(unify(goal, asked) is not None for asked in goals)]
+        if self.deadline is not None:
+            found.append(self.deadline)
+        return min(found, default=None)
 
     def line(self, loc: SourceLocation | None) -> str | None:
         """The source line at ``loc``, for a caret under a problem."""
@@ -71,8 +99,8 @@ class PlanningProblem:
 
 def problem_from_program(program, name: str = "problem") -> PlanningProblem:
     """The planning problem of a loaded ``.ap`` program (:func:`atlas_rap.lang.load`):
-    its operators, ``agents``, ``define-relation``s, ``initial`` and ``goals``
-    (every ``initial`` and ``goals`` form, in order)."""
+    its operators, ``agents``, ``define-relation``s, ``initial``, ``goals`` and
+    ``deadline``s (every ``initial``, ``goals`` and ``deadline`` form, in order)."""
     relations: dict[str, list[Relation]] = {}
     for rel in program.of_type(ast.RelationDef):
         relations.setdefault(rel.name, []).append(Relation(rel.head, rel.body))
@@ -83,6 +111,7 @@ def problem_from_program(program, name: str = "problem") -> PlanningProblem:
     goals = tuple(g for form in goals_forms for g in form.goals)
     goal_locations = tuple(loc for form in goals_forms
                            for loc in (form.goal_locs or (form.loc,) * len(form.goals)))
+    deadline_forms = program.of_type(ast.Deadline)
     return PlanningProblem(
         operators=tuple(program.of_type(ast.Operator)),
         initial=tuple(f for form in program.of_type(ast.Initial) for f in form.facts),
@@ -94,4 +123,6 @@ def problem_from_program(program, name: str = "problem") -> PlanningProblem:
         goal_locations=goal_locations,
         agents_location=agents[0].loc if agents else None,
         source_lines=dict(program.lines),
+        deadlines=tuple((form.goal, form.seconds) for form in deadline_forms),
+        deadline_locations=tuple(form.goal_loc or form.loc for form in deadline_forms),
     )

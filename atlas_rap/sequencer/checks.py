@@ -5,7 +5,9 @@ program and the skill link, so they run when a mission is loaded (and in
 ``atlas check``). Errors stop the run before anything moves:
 
 - a step whose task is neither a RAP nor a skill (with the nearest name as
-  a hint), or that has the wrong number of arguments;
+  a hint), or that has the wrong number of arguments (a ``(plan GOAL ...)``
+  item or step is no call: its goals are queries for the planner, so only
+  its ``wait-for``s and orderings are checked here);
 - a primitive that enables or disables a skill nobody provides;
 - a post of something that is not a RAP;
 - steps ordered in a circle by ``sequence``, ``(for L)`` and ``until-end``
@@ -96,7 +98,7 @@ class _Checker:
             for method in raps[key].methods:
                 if isinstance(method.body, ast.TaskNet):
                     todo.extend((node.task.functor, len(node.task.args)) for node in _walk(method.body)
-                                if isinstance(node, ast.Step))
+                                if isinstance(node, ast.Step) and node.plan is None)
         return seen
 
     # -- calls --------------------------------------------------------------
@@ -116,7 +118,8 @@ class _Checker:
             return
         for node in _walk(body):
             if isinstance(node, ast.Step):
-                self.call(node.task, node.loc)
+                if node.plan is None:
+                    self.call(node.task, node.loc)
                 for wait in node.waits:
                     self.wait_for(wait, node.loc)
             elif isinstance(node, ast.WaitFor):
@@ -318,7 +321,11 @@ def _walk(net: object) -> Iterator[object]:
 
 def _name(node: object) -> str:
     if isinstance(node, ast.Step):
-        return node.label or term_to_str(node.task)
+        return node.label or _name(node.task)
+    if isinstance(node, ast.PlanRequest):
+        return term_to_str(Compound("plan", node.goals))
+    if isinstance(node, Compound):
+        return term_to_str(node)
     if isinstance(node, ast.WaitFor):
         return f"(wait-for {term_to_str(node.query)})"
     return type(node).__name__

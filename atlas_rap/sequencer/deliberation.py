@@ -7,8 +7,10 @@ plan from memory, and a :class:`PlanExecution` carries it out:
 - **Dispatch.** Each plan step goes to the RAP whose ``succeed`` unifies with
   its purpose (``planner.dispatch``), as a subtask of the task that asked,
   with the agent the planner chose. A step starts as soon as every step
-  ordered before it has succeeded, so unordered steps run concurrently and
-  the steps of one ``simultaneous`` group start together.
+  ordered before it has succeeded and its agent has done its step before
+  (an agent does one step at a time, in the schedule's order), so the
+  steps of different agents run concurrently and the steps of one
+  ``simultaneous`` group start together.
 - **Monitoring.** The plan is watched step by step and against memory. It is
   in trouble when a step's RAP fails, when a fact that a causal link of the
   plan still needs is retracted (or, for ``(not F)``, asserted) while the
@@ -18,10 +20,12 @@ plan from memory, and a :class:`PlanExecution` carries it out:
   controlled agent the plan still uses is lost (``(agent-failed A)`` is
   asserted), and when every step is done but the goals do not hold.
 - **Repair.** The deliberator plans again from *current* memory (the steps
-  already done are in it; a lost agent is left out) while the running steps
+  already done are in it; a lost agent is left out; the actions that failed
+  are left out too while a plan exists without them, so another agent or
+  another route is tried before the same one again) while the running steps
   go on. The new plan is then adopted: a running step whose RAP task the new
-  plan also has (the same call, or the same purpose: its RAP may be
-  substituting another agent) keeps running; the other running steps are
+  plan also has (the same call, or the same work by another agent: its RAP
+  may be substituting that agent already) keeps running; the other running steps are
   halted (their skills disabled); new steps are dispatched. The
   ``replanned`` trace record says what changed: steps done, kept, new,
   halted, and agents re-assigned.
@@ -29,10 +33,13 @@ plan from memory, and a :class:`PlanExecution` carries it out:
   the request. A plan whose makespan does not fit in the time left is
   reported and not carried out, and a plan still running at the deadline is
   abandoned.
-- **Giving up.** Each failure (a failed step, a broken link, goals not met)
-  is charged to the goals its step serves. A goal charged ``max_failures``
-  times (default 3) is abandoned and the plan is repaired for the rest; when
-  no goal is left, when no plan exists, or when no plan meets the deadline,
+- **Giving up.** Each failure (a step whose RAP failed, or every step done
+  and goals still false) is charged to the goals its step serves. A goal
+  charged ``max_failures`` times (default 3) is abandoned and the plan is
+  repaired for the rest. A changed situation is no failure, but a plan
+  repaired ``MAX_REPAIRS`` times is abandoned (the world keeps changing
+  under it). When no goal is left, when no plan exists, or when no plan
+  meets the deadline,
   the plan is abandoned: its running steps are halted, ``(goal-abandoned G)``
   is asserted for each goal given up, and the plan step ends ``:fail`` with
   the reason, so the RAP that asked recovers through its other methods
@@ -71,6 +78,9 @@ if TYPE_CHECKING:
 DEFAULT_MAX_FAILURES = 3
 """Failures charged to one goal before it is abandoned (``:max-failures``)."""
 
+MAX_REPAIRS = 20
+"""Repairs of one plan (for failures and changed situations alike) before it is abandoned."""
+
 AGENT_FAILED = "agent-failed"
 """``(agent-failed AGENT)`` in memory: that controlled agent is lost; plans leave it out."""
 
@@ -93,12 +103,13 @@ class Deliberator(Protocol):
     """The planner as the sequencer sees it (the mission engine provides one).
 
     :meth:`request` plans for ``goals`` from memory as it is now, leaving out
-    the ``lost`` agents, and later calls ``deliver(plan, latency, wall)`` on the
+    the ``lost`` agents and, if a plan exists without them, the ground actions
+    in ``avoid`` (those that failed), and later calls ``deliver(plan, latency, wall)`` on the
     sequencer's clock: ``latency`` the simulated seconds it took, ``wall`` the
     planner's own seconds. It never calls ``deliver`` from inside ``request``.
     """
 
-    def request(self, goals: tuple[Term, ...], lost: frozenset[str],
+    def request(self, goals: tuple[Term, ...], lost: frozenset[str], avoid: frozenset[Term],
                 deliver: Callable[[Plan, float, float], None]) -> Ticket: ...
 
     def deadline_for(self, goals: tuple[Term, ...]) -> float | None:
@@ -124,6 +135,14 @@ class StepRun:
     @property
     def action(self) -> str:
         return term_to_str(self.step.action)
+
+    @property
+    def work(self) -> tuple[str, Term]:
+        """What the step does whoever does it: its operator and action with the agent left out,
+        so ``(repair-site left-arm site-b)`` and ``(repair-site right-arm site-b)`` are one work."""
+        action, agent = self.step.action, self.step.agent
+        return self.step.operator, Compound(action.functor, tuple(
+            _ANY if term_to_str(arg) == agent else arg for arg in action.args))
 
     def child_ended(self, task: Task) -> None:
         self.execution.step_ended(self, task)
@@ -158,6 +177,9 @@ class PlanExecution:
         self.plan: Plan | None = None
         self.steps: dict[int, StepRun] = {}
         self.failures: dict[Term, int] = {}
+        self.repairs = 0
+        self.done: list[str] = []  # the actions of the steps done, in every version of the plan
+        self.failed: dict[Term, None] = {}  # the operators' ground actions whose steps failed, in order
         self.serves: dict[int, frozenset[Term]] = {}
         self.ticket: Ticket | None = None
         self.cause = "the first plan"
@@ -207,7 +229,8 @@ class PlanExecution:
     def _ask(self) -> None:
         self.asked_at = self.seq.now()
         self.changed = []
-        self.ticket = self.deliberator.request(tuple(self.goals), self._lost_agents(), self._delivered)
+        self.ticket = self.deliberator.request(tuple(self.goals), self._lost_agents(), frozenset(self.failed),
+                                               self._delivered)
 
     def _lost_agents(self) -> frozenset[str]:
         return frozenset(term_to_str(fact.args[0]) for fact in self.seq.memory.facts(
@@ -240,8 +263,9 @@ class PlanExecution:
         self.steps = {}
         for d in dispatches:
             self.steps[d.step.id] = StepRun(self, d.step, d.task)
-        for a, b in plan.orderings:
-            self.steps[b].before.append(a)
+        for a, b in plan.orderings + _agent_turns(plan):
+            if a not in self.steps[b].before:
+                self.steps[b].before.append(a)
         self.serves = _goals_served(plan, self.goals)
         if self.version > 1:
             self._adopt(old)
@@ -255,7 +279,7 @@ class PlanExecution:
         for kind, fact in changed:  # what happened while the planner worked may break the new plan
             broken = self._breaks(kind, fact)
             if broken is not None and self._still(kind, fact):
-                self._trouble(*broken)
+                self._changed(broken)
                 return
         self._dispatch()
 
@@ -269,7 +293,7 @@ class PlanExecution:
         kept, new, reassigned = [], [], []
         for run in self.steps.values():
             match = next((o for o in running if o.call == run.call), None) or next(
-                (o for o in running if o.step.purpose is not None and o.step.purpose == run.step.purpose), None)
+                (o for o in running if o.work == run.work), None)
             if match is not None:
                 running.remove(match)
                 run.status, run.task = "running", match.task
@@ -281,7 +305,7 @@ class PlanExecution:
                 continue
             new.append(run.action)
             earlier = next((o for o in old.values() if o.status in ("waiting", "failed", "halted")
-                            and o.step.purpose == run.step.purpose and o.step.agent != run.step.agent), None)
+                            and o.work == run.work and o.step.agent != run.step.agent), None)
             if earlier is not None:
                 reassigned.append({"step": f"s{run.step.id}", "action": run.action, "from": earlier.step.agent,
                                    "to": run.step.agent})
@@ -290,7 +314,7 @@ class PlanExecution:
             o.status = "halted"
             self.seq.halt(o.task, f"re-plan {self.version} of plan {self.number} dropped this step")
         self.seq.trace.emit("replanned", plan=self.number, version=self.version, id=self.owner.id,
-                            cause=self.cause, done=[o.action for o in old.values() if o.status == "done"],
+                            cause=self.cause, done=list(self.done),
                             kept=kept, new=new, halted=halted, reassigned=reassigned,
                             lost_agents=sorted(self._lost_agents()))
 
@@ -323,14 +347,16 @@ class PlanExecution:
                   "agent": run.step.agent, "id": self.owner.id, "step_task": task.id, "task": task.text}
         if task.status == SUCCEEDED:
             run.status = "done"
+            self.done.append(run.action)
             seq.trace.emit("plan-step-done", **fields)
             unmet = self._unmet_links(run.step.id)
             if unmet is not None:
-                self._trouble(*unmet)
+                self._changed(unmet)
                 return
             self._dispatch()
             return
         run.status = "failed"
+        self.failed[self.plan.sequence[run.step.source]] = None  # type: ignore[union-attr]
         reason = _root_reason(task.failure)
         seq.trace.emit("plan-step-failed", reason=reason, **fields)
         self._trouble(f"step s{run.step.id} {run.action} failed: {reason}", self.serves.get(run.step.id))
@@ -361,30 +387,24 @@ class PlanExecution:
         elif self.trouble is None:
             broken = self._breaks(kind, fact)
             if broken is not None:
-                self._later(*broken)
+                self._later(broken)
 
-    def _breaks(self, kind: str, fact: Compound) -> tuple[str, frozenset[Term] | None] | None:
-        """Whether a change breaks a live causal link or loses an agent the plan still uses:
-        the cause and the goals it concerns."""
+    def _breaks(self, kind: str, fact: Compound) -> str | None:
+        """Whether a change breaks a live causal link or loses an agent the plan still uses: the cause."""
         if fact.functor == AGENT_FAILED and kind == "assert" and fact.args:
             agent = term_to_str(fact.args[0])
             users = [r for r in self.steps.values() if r.status in ("waiting", "running") and r.step.agent == agent]
-            if not users:
-                return None
-            return (f"agent {agent} was lost ({term_to_str(fact)})",
-                    frozenset().union(*(self.serves.get(r.step.id, frozenset()) for r in users)))
+            return f"agent {agent} was lost ({term_to_str(fact)})" if users else None
         text = term_to_str(fact)
         wanted = f"(not {text})" if kind == "assert" else text
         for producer, consumer, link in self.plan.links:  # type: ignore[union-attr]
             if link != wanted or not self._live(producer, consumer):
                 continue
             need = "the goals" if consumer == "goal" else f"step s{consumer}"
-            served = frozenset(g for g in self.goals if term_to_str(g) == text) if consumer == "goal" \
-                else self.serves.get(consumer)  # type: ignore[arg-type]
-            return f"{text} was {'asserted' if kind == 'assert' else 'retracted'}, which {need} needs", served
+            return f"{text} was {'asserted' if kind == 'assert' else 'retracted'}, which {need} needs"
         return None
 
-    def _unmet_links(self, done: int) -> tuple[str, frozenset[Term] | None] | None:
+    def _unmet_links(self, done: int) -> str | None:
         """When the last plot step of an operator is done: check the facts the operator was
         planned to make true (or false) for later steps or the goals, against memory.
 
@@ -392,8 +412,8 @@ class PlanExecution:
         planner's own bookkeeping (``(holding planner crate-1)``): it is asserted, as ROSPlan
         and PlanSys2 apply an action's effects. Any other fact that does not hold means the
         step's RAP succeeded otherwise than planned (another attach point, another arm): a
-        changed situation, returned as the cause and the goals concerned, so the rest of the
-        plan is made again from what is true.
+        changed situation, returned as the cause, so the rest of the plan is made again from
+        what is true.
         """
         source = self.steps[done].step.source
         mine = {i for i, run in self.steps.items() if run.step.source == source}
@@ -409,12 +429,11 @@ class PlanExecution:
             if memory.holds(fact, None, relations) != negative:
                 continue
             if not negative and isinstance(fact, Compound) and not any(memory.facts(
-                    Compound(fact.functor, tuple(_ANY for _ in fact.args)))):
+                    Compound(fact.functor, tuple(Var(f"%any{i}") for i in range(len(fact.args)))))):
                 believed.append(fact)
                 continue
             need = "the goals" if consumer == "goal" else f"step s{consumer}"
-            served = frozenset(self.goals) if consumer == "goal" else self.serves.get(consumer)  # type: ignore[arg-type]
-            return f"s{done} {self.steps[done].action} is done but {link} does not hold, which {need} needs", served
+            return f"s{done} {self.steps[done].action} is done but {link} does not hold, which {need} needs"
         if believed:
             self.seq.change([("assert", fact) for fact in dict.fromkeys(believed)], f"plan {self.number}")
         return None
@@ -424,17 +443,25 @@ class PlanExecution:
             return False
         return consumer == "goal" or self.steps[consumer].status == "waiting"  # type: ignore[index]
 
-    def _later(self, cause: str, served: frozenset[Term] | None) -> None:
+    def _later(self, cause: str) -> None:
         """Handle a change of memory after the change is done (not inside the rules' run)."""
         self.trouble = cause
-        self._timers.append(self.seq.timers.after(0.0, lambda: self._trouble(cause, served)))
+        self._timers.append(self.seq.timers.after(0.0, lambda: self._changed(cause)))
 
-    def _trouble(self, cause: str, served: frozenset[Term] | None) -> None:
-        """Something broke the plan: charge it to the goals concerned, then repair or give up."""
+    def _changed(self, cause: str) -> None:
+        """The situation changed under the plan (no failure): repair it."""
+        self._trouble(cause, None, failure=False)
+
+    def _trouble(self, cause: str, served: frozenset[Term] | None, *, failure: bool = True) -> None:
+        """Something broke the plan: charge a failure to the goals concerned, then repair or give up."""
         if self.ended:
             return
         self.trouble = cause
-        charged = [g for g in self.goals if served is None or not served or g in served]
+        self.repairs += 1
+        if self.repairs > MAX_REPAIRS:
+            self._abandon(f"repaired {MAX_REPAIRS} times and still broken; the last: {cause}")
+            return
+        charged = [g for g in self.goals if served is None or not served or g in served] if failure else []
         for goal in charged:
             self.failures[goal] = self.failures.get(goal, 0) + 1
         spent = [g for g in charged if self.failures[g] >= self.max_failures]
@@ -491,14 +518,28 @@ class PlanExecution:
             self._unsubscribe = None
 
 
+def _agent_turns(plan: Plan) -> list[tuple[int, int]]:
+    """An agent does one step at a time: each step of an agent waits for the agent's step
+    before it in the plan's schedule (the steps of one ``simultaneous`` group excepted)."""
+    together = {i: frozenset(group) for group in plan.simultaneous for i in group}
+    turns = []
+    last: dict[str, PlanStep] = {}
+    for step in sorted(plan.steps, key=lambda s: (s.start, s.id)):
+        if step.agent is None:
+            continue
+        previous = last.get(step.agent)
+        if previous is not None and previous.id not in together.get(step.id, ()):
+            turns.append((previous.id, step.id))
+        last[step.agent] = step
+    return turns
+
+
 def _goals_served(plan: Plan, goals: list[Term]) -> dict[int, frozenset[Term]]:
-    """For each step, the goals it works towards: those reached from it along links
-    and orderings (a step that reaches none, such as a counterplan step, serves all)."""
+    """For each step, the goals it works towards: those reached from it along causal links
+    (a step that reaches none, such as a counterplan step, serves all)."""
     by_text = {term_to_str(g): g for g in goals}
     after: dict[int, set[int]] = {s.id: set() for s in plan.steps}
     direct: dict[int, set[Term]] = {s.id: set() for s in plan.steps}
-    for a, b in plan.orderings:
-        after[a].add(b)
     for a, b, fact in plan.links:
         if a == "init":
             continue
