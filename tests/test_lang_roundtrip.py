@@ -23,6 +23,10 @@ and why (each is a property of the surface syntax, not of the printer):
 - an unlabelled step ``(TASK (X ...) ANNOTATION ...)``: it reads as the step
   labelled ``TASK``; an unlabelled step with a ``(for ...)`` or
   ``(until-end ...)`` argument is an error (validator.py documents both);
+- an unlabelled ``Step`` whose task is a plan request: ``(plan ...)`` in a net
+  reads as the bare PlanRequest net node (which the strategies build too);
+  ``plan`` is in ``RESERVED``: a net item headed ``plan`` is a plan request,
+  never a task or a label;
 - the ``wait-for`` outcome ``:timeout``: it reads as the ``:timeout`` option;
 - a positive effect whose fact is ``(not ...)``: it reads as a negative effect;
 - NaN and infinities: they print as symbols.
@@ -47,7 +51,7 @@ TAIL = LETTERS + "0123456789-" + "-_*/!<>=."  # hyphens are common; a few others
 RESERVED = frozenset({
     "t", "nil", "and", "or", "not", "sequence", "parallel", "simultaneous", "wait-for", "assert",
     "retract", "for", "until-end", "index", "enable", "disable", "finish", "after", "when", "on",
-    "method", "context", "task-net", "primitive",
+    "method", "context", "task-net", "primitive", "plan",
 })
 OPERATOR_SYMBOLS = ("+", "-", "*", "/", "<", "<=", ">", ">=", "=", "/=")
 
@@ -98,6 +102,7 @@ def facts(args: st.SearchStrategy = terms, functors: st.SearchStrategy = names) 
 
 
 ground_facts = facts(ground_terms)
+positive = st.one_of(st.integers(1, 10**6), st.floats(min_value=1e-6, max_value=1e9, allow_nan=False))
 
 
 def _query_forms(children: st.SearchStrategy) -> st.SearchStrategy:
@@ -114,6 +119,8 @@ queries = st.recursive(st.one_of(facts(), facts(), comparisons, st.sampled_from(
                        _query_forms, max_leaves=6)
 
 outcomes = st.one_of(st.just(":succeed"), st.just(":fail"), keywords.filter(lambda k: k != ":timeout"))
+plan_requests = st.builds(ast.PlanRequest, st.lists(queries, min_size=1, max_size=3).map(tuple),
+                          st.none() | positive, st.none() | st.integers(1, 1000))
 
 # ----------------------------------------------------------------- task nets and primitives
 
@@ -139,14 +146,16 @@ def task_nets(draw) -> ast.TaskNet:
     labelled: list[dict] = []  # specs of labelled steps, filled in once all labels are known
 
     def net(depth: int):
-        leaves = ["step", "labelled", "labelled", "labelled", "wait", "memory"]
+        leaves = ["step", "labelled", "labelled", "labelled", "wait", "memory", "plan"]
         kind = draw(st.sampled_from(leaves + ["sequence", "sequence", "parallel"] if depth < 3 else leaves))
         if kind == "step":
             return ast.Step(task=draw(bare_tasks))
         if kind == "labelled":
-            spec = {"task": draw(facts())}
+            spec = {"task": draw(st.one_of(facts(), facts(), facts(), plan_requests))}
             labelled.append(spec)
             return spec
+        if kind == "plan":
+            return draw(plan_requests)
         if kind == "wait":
             return draw(wait_fors)
         if kind == "memory":
@@ -221,7 +230,7 @@ includes = st.builds(ast.Include, paths)
 world_decls = st.builds(ast.WorldDecl, st.one_of(st.just("none"), paths))
 initial_memories = st.builds(ast.InitialMemory, st.lists(ground_facts, max_size=4).map(tuple))
 posts = st.builds(ast.Post, facts(), st.none() | numbers, st.none() | non_negative)
-plan_requests = st.builds(ast.PlanRequest, st.lists(queries, min_size=1, max_size=3).map(tuple))
+deadlines = st.builds(ast.Deadline, queries, positive)
 
 # ----------------------------------------------------------------- AP forms
 
@@ -259,7 +268,7 @@ goals = st.builds(ast.Goals, st.lists(queries, min_size=1, max_size=3).map(tuple
 
 top_level_forms = st.one_of(
     rap_defs, memory_rule_defs, virtual_skill_defs, at_times, includes, world_decls, initial_memories,
-    posts, plan_requests, operators(), agents, relation_defs, initials, goals,
+    posts, plan_requests, operators(), agents, relation_defs, initials, goals, deadlines,
 )
 
 # ----------------------------------------------------------------- the properties
@@ -301,8 +310,8 @@ def test_a_printed_operator_reads_back_as_the_same_operator(operator):
 
 
 @SETTINGS
-@given(st.one_of(agents, relation_defs, initials, goals))
-def test_printed_agents_relations_initial_states_and_goals_read_back_the_same(form):
+@given(st.one_of(agents, relation_defs, initials, goals, deadlines))
+def test_printed_agents_relations_initial_states_goals_and_deadlines_read_back_the_same(form):
     assert read_back(form) == form
 
 
@@ -350,4 +359,17 @@ def test_an_empty_sequence_in_a_task_net_reads_and_prints_back():
     # Sequence(parts=()) and must not crash checking the labels.
     (rap,) = parse_text("(define-rap (idle) (method (task-net (sequence) (parallel))))").forms
     assert rap.methods[0].body.nets == (ast.Sequence(parts=()), ast.Parallel(parts=()))
+    assert reread(format_node(rap)) == rap
+
+
+def test_plan_requests_in_a_task_net_bare_and_labelled_print_and_read_back():
+    text = ("(define-rap (fetch ?x)\n  (method (task-net\n"
+            "    (sequence (t1 (go ?x)) (plan (at robot ?x) :deadline 30 :max-failures 2))\n"
+            "    (parallel (plan (a)) (t3 (b)))\n"
+            "    (p1 (plan (c) :deadline 5.5) (for t2) (wait-for (d) :fail))\n"
+            "    (t2 (e)))))")
+    (rap,) = parse_text(text).forms
+    nets = rap.methods[0].body.nets
+    assert nets[0].parts[1] == ast.PlanRequest((Compound("at", ("robot", Var("x"))),), 30, 2)
+    assert nets[2].task == ast.PlanRequest((Compound("c", ()),), deadline=5.5)
     assert reread(format_node(rap)) == rap

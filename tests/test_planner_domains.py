@@ -8,7 +8,6 @@ step has a RAP in rap_library/plan_steps, and the same input gives the same plan
 from __future__ import annotations
 
 import json
-import re
 import subprocess
 from functools import lru_cache
 from pathlib import Path
@@ -100,15 +99,19 @@ def test_no_agent_does_two_steps_at_once(goals: str) -> None:
 # ============================================================================= office navigation
 
 def office_deadline() -> float:
-    """The deadline written (as a comment: the AP language has no deadline form) in office-goals.ap."""
-    match = re.search(r"Deadline: .* within (\d+) s", (OPERATORS / "office-goals.ap").read_text())
-    assert match, "office-goals.ap states its deadline"
-    return float(match.group(1))
+    """The deadline of the delivery, as the planner reads it from office-goals.ap's (deadline ...) form."""
+    from atlas_rap.lang import load
+    from atlas_rap.planner.problem import problem_from_program
+
+    deadline = problem_from_program(load(OPERATORS / "office-goals.ap")).deadline_for()
+    assert deadline is not None, "office-goals.ap states its deadline"
+    return deadline
 
 
 def test_office_mail_reaches_office_b_within_the_deadline() -> None:
     data = solved("office-goals.ap")
     assert 0 < data["makespan"] <= office_deadline() == 150
+    assert (data["deadline"], data["meets_deadline"]) == (150, True)
     assert data["makespan"] == max(s["end"] for s in data["steps"])
     last = max(data["steps"], key=lambda s: s["end"])
     assert last["action"] == "(hand-over-object robot mail office-b)"

@@ -1,4 +1,8 @@
-"""The AST as a rich tree, for ``atlas check --tree`` (and later the REPL)."""
+"""The AST as a rich tree, for ``atlas check --tree`` (and later the REPL).
+
+Every node is shown with its fields, generically, so new nodes (a ``(plan ...)``
+in a task net, a ``deadline``) need nothing here; fields that only say where
+something is written (``loc``, ``goal_loc``, ``goal_locs``) are left out."""
 
 from __future__ import annotations
 
@@ -46,7 +50,7 @@ def _node(parent: Tree, node: object) -> None:
     where = f" [dim]{loc.line}:{loc.column}[/]" if loc is not None and not isinstance(node, MemoryRule) else ""
     branch = parent.add(f"[bold]{type(node).__name__}[/]{where}")
     for field in dataclasses.fields(node):
-        if field.name != "loc":
+        if field.name != "loc" and not field.name.endswith(("_loc", "_locs")):  # positions: shown as line:col
             _add(branch, field.name, getattr(node, field.name))
 
 

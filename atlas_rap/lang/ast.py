@@ -52,6 +52,28 @@ class MemoryOp:
 
 
 @dataclass(frozen=True, slots=True)
+class PlanRequest:
+    """``(plan GOAL ... [:deadline S] [:max-failures N])``: plan for these goals and
+    execute the plan.
+
+    A top-level form of a mission, and a net item too (``NET := ... | PLAN``):
+    bare in a ``sequence``, ``parallel`` or ``task-net``, or as the task of a
+    labelled :class:`Step`. ``deadline`` (seconds, > 0) is for the whole
+    request: every goal must be achieved within it, counted from the request
+    (the planner's ``PlanningProblem.deadline``); ``max_failures`` (a whole
+    number, >= 1) is how many failures carrying the plan out may charge to a
+    goal before that goal is given up (``sequencer.deliberation`` says what a
+    failure is). Both None when not written (no deadline; the executor's
+    default limit).
+    """
+
+    goals: tuple[Term, ...]
+    deadline: float | None = None
+    max_failures: int | None = None
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
 class Step:
     """A subtask in a task net: ``(LABEL (TASK ARG ...) ANNOTATION ...)``.
 
@@ -60,14 +82,25 @@ class Step:
     before those start. ``until_end`` names the step whose end halts this
     one (a monitor). ``waits`` are the step's ``wait-for`` annotations: with
     any, the first to match decides the step's outcome.
+
+    ``task`` is the task call, or a :class:`PlanRequest` for a labelled plan
+    step ``(LABEL (plan GOAL ... [:deadline S] [:max-failures N]) ANNOTATION ...)``:
+    plan for the goals and carry the plan out, as one step that others may
+    be ordered against. (A bare ``(plan ...)`` in a net is a PlanRequest net
+    node, not a Step.) ``plan`` is that request, or None for a task call.
     """
 
-    task: Compound
+    task: Compound | PlanRequest
     label: str | None = None
     before: tuple[str, ...] = ()
     until_end: str | None = None
     waits: tuple[WaitFor, ...] = ()
     loc: SourceLocation = _loc()
+
+    @property
+    def plan(self) -> PlanRequest | None:
+        """The plan request of a labelled plan step, else None."""
+        return self.task if isinstance(self.task, PlanRequest) else None
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,7 +119,7 @@ class Parallel:
     loc: SourceLocation = _loc()
 
 
-Net = Union[Sequence, Parallel, Step, WaitFor, MemoryOp]
+Net = Union[Sequence, Parallel, Step, WaitFor, MemoryOp, PlanRequest]
 
 
 @dataclass(frozen=True, slots=True)
@@ -248,6 +281,7 @@ class AtTime:
 
 
 # ----------------------------------------------------------------- mission forms (§2.7)
+# (PlanRequest, also a net item, is with the task nets above.)
 
 @dataclass(frozen=True, slots=True)
 class Include:
@@ -280,14 +314,6 @@ class Post:
     task: Compound
     priority: float | None = None
     deadline: float | None = None
-    loc: SourceLocation = _loc()
-
-
-@dataclass(frozen=True, slots=True)
-class PlanRequest:
-    """``(plan GOAL ...)``: plan for these goals and execute the plan."""
-
-    goals: tuple[Term, ...]
     loc: SourceLocation = _loc()
 
 
@@ -399,8 +425,20 @@ class Goals:
     goal_locs: tuple[SourceLocation, ...] = field(default=(), compare=False, repr=False)
 
 
+@dataclass(frozen=True, slots=True)
+class Deadline:
+    """``(deadline GOAL SECONDS)``: GOAL (a goal as in ``goals``) must be achieved
+    within SECONDS (> 0) of the plan's start. ``goal_loc`` says where GOAL is
+    written (None when the node was not read from a file)."""
+
+    goal: Term
+    seconds: float
+    loc: SourceLocation = _loc()
+    goal_loc: SourceLocation | None = field(default=None, compare=False, repr=False)
+
+
 TopLevel = Union[RapDef, MemoryRuleDef, VirtualSkillDef, AtTime, Include, WorldDecl,
-                 InitialMemory, Post, PlanRequest, Operator, Agents, RelationDef, Initial, Goals]
+                 InitialMemory, Post, PlanRequest, Operator, Agents, RelationDef, Initial, Goals, Deadline]
 
 
 @dataclass(frozen=True, slots=True)

@@ -189,7 +189,12 @@ def _(node: ast.Post) -> Layout:
 
 @layout.register
 def _(node: ast.PlanRequest) -> Layout:
-    return ["plan", *(layout(g) for g in node.goals)]
+    out: list = ["plan", *(layout(g) for g in node.goals)]
+    if node.deadline is not None:
+        out += [":deadline", _num(node.deadline)]
+    if node.max_failures is not None:
+        out += [":max-failures", _num(node.max_failures)]
+    return out
 
 
 @layout.register
@@ -259,6 +264,11 @@ def _(node: ast.Initial) -> Layout:
 @layout.register
 def _(node: ast.Goals) -> Layout:
     return ["goals", *(layout(g) for g in node.goals)]
+
+
+@layout.register
+def _(node: ast.Deadline) -> Layout:
+    return ["deadline", layout(node.goal), _num(node.seconds)]
 
 
 def _flat(tree: Layout) -> str:

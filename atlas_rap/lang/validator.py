@@ -21,6 +21,13 @@ Choices where LANGUAGE.md is silent (also in the README's language notes):
 - Facts in ``initial-memory`` and ``initial`` must be ground.
 - ``(succeed Q)``-like clauses take exactly one query; write ``(and ...)``
   for several. ``define-relation`` bodies of several queries are their ``and``.
+- ``(plan GOAL ... [:deadline S] [:max-failures N])`` is a top-level form and a
+  net item: bare (``NET := ... | PLAN``, an :class:`ast.PlanRequest` node) or
+  labelled, ``(p1 (plan GOAL ...) (for t2))`` (an :class:`ast.Step` whose task
+  is the PlanRequest). So ``plan`` at the head of a net item is never a task
+  or a label. Its goals come first, then the options: ``:deadline`` a number
+  > 0, ``:max-failures`` a whole number >= 1, each at most once.
+- ``(deadline GOAL SECONDS)``: GOAL is a goal as in ``goals``, SECONDS > 0.
 """
 
 from __future__ import annotations
@@ -36,11 +43,12 @@ from atlas_rap.logic import Compound, MemoryRule, String, Term, Var, is_ground, 
 TOP_LEVEL_FORMS = (
     "define-rap", "define-memory-rule", "define-virtual-skill", "at-time", "include", "world",
     "initial-memory", "post", "plan", "operator", "agents", "define-relation", "initial", "goals",
+    "deadline",
 )
 RAP_CLAUSES = ("succeed", "constraints", "repeat-while", "repeat-until", "timeout", "priority",
                "retries", "method")
 METHOD_PARTS = ("context", "task-net", "primitive")
-NET_FORMS = ("sequence", "parallel", "wait-for", "assert", "retract")
+NET_FORMS = ("sequence", "parallel", "wait-for", "assert", "retract", "plan")
 ANNOTATIONS = ("for", "until-end", "wait-for")
 PRIMITIVE_ACTIONS = ("enable", "disable", "wait-for", "assert", "retract")
 SCRIPT_LINES = ("after", "when")
@@ -154,13 +162,16 @@ class Validator:
         return Compound(head, tuple(to_term(x) for x in form.items[1:]))
 
     def number(self, datum: Datum, where: tuple[int, int], what: str, *,
-               minimum: float | None = None, integer: bool = False) -> float:
+               minimum: float | None = None, integer: bool = False, positive: bool = False) -> float:
+        """A number; ``minimum`` is the least allowed, ``positive`` asks for one > 0."""
         ok = isinstance(datum, int) if integer else isinstance(datum, (int, float))
         if not ok or type(datum) is bool:
             kind = "a whole number" if integer else "a number"
             self.fail(f"{what} must be {kind}, found {_describe(datum)}", where)
         if minimum is not None and datum < minimum:
             self.fail(f"{what} must be at least {minimum}, found {datum}", where)
+        if positive and not datum > 0:
+            self.fail(f"{what} must be greater than 0, found {datum}", where)
         return datum
 
     def query(self, datum: Datum, where: tuple[int, int]) -> Term:
@@ -308,8 +319,10 @@ class Validator:
         return net
 
     def net(self, datum: Datum, where: tuple[int, int]) -> ast.Net:
-        form = self.list_form(datum, where, "a step, (sequence ...), (parallel ...) or (wait-for ...)")
+        form = self.list_form(datum, where, "a step, (sequence ...), (parallel ...), (wait-for ...) or (plan ...)")
         head = form.head
+        if head == "plan":
+            return self.plan(form)
         if head in ("sequence", "parallel"):
             parts = self.each(form, 1, self.net)
             cls = ast.Sequence if head == "sequence" else ast.Parallel
@@ -326,7 +339,10 @@ class Validator:
                 and items[1].head not in ANNOTATIONS
                 and all(type(x) is SList and x.head in ANNOTATIONS for x in items[2:])):
             label = self.name(items[0], locs[0], "a step label")
-            task = self.compound(items[1], locs[1], "a task call")
+            if items[1].head == "plan":
+                task = self.plan(items[1])
+            else:
+                task = self.compound(items[1], locs[1], "a task call")
             before: list[str] = []
             until_end = None
             waits = []
@@ -555,12 +571,14 @@ class Validator:
         if len(form.items) < 2:
             self.fail("post needs a task such as (deliver box-1 office)", self.at(form))
         task = self.compound(form.items[1], form.locs[1], "a task call")
-        options = self.keyword_options(form, 2, {":priority": None, ":deadline": 0})
+        options = self.keyword_options(form, 2, {":priority": {}, ":deadline": {"minimum": 0}})
         return ast.Post(task=task, priority=options.get(":priority"), deadline=options.get(":deadline"),
                         loc=self.loc(self.at(form)))
 
-    def keyword_options(self, form: SList, start: int, allowed: dict[str, float | None]) -> dict[str, float]:
-        """``:key NUMBER`` pairs; ``allowed`` maps each key to its minimum (or None)."""
+    def keyword_options(self, form: SList, start: int, allowed: dict[str, dict]) -> dict[str, float]:
+        """``:key NUMBER`` pairs from ``items[start:]``, each key at most once;
+        ``allowed`` maps each key to the keyword arguments of :meth:`number`
+        that its value must meet (``minimum``, ``integer``, ``positive``)."""
         options: dict[str, float] = {}
         items, locs = form.items, form.locs
         i = start
@@ -572,17 +590,27 @@ class Validator:
                     self.fail(f"unknown option {key}", loc, f"did you mean '{guess}'?" if guess else
                               "expected one of: " + ", ".join(allowed))
                 self.fail(f"expected an option ({', '.join(allowed)}), found {_describe(key)}", loc)
+            if key in options:
+                self.fail(f"option {key} given twice", loc, "keep one")
             if i + 1 >= len(items):
                 self.fail(f"{key} needs a number", loc)
-            options[key] = self.number(items[i + 1], locs[i + 1], key, minimum=allowed[key])
+            options[key] = self.number(items[i + 1], locs[i + 1], key, **allowed[key])
             i += 2
         return options
 
     def plan(self, form: SList) -> ast.PlanRequest:
-        if len(form.items) < 2:
-            self.fail("plan needs at least one goal", self.at(form))
-        goals = self.each(form, 1, self.query)
-        return ast.PlanRequest(goals=goals, loc=self.loc(self.at(form)))
+        """``(plan GOAL ... [:deadline S] [:max-failures N])``, at top level or in a net."""
+        items = form.items
+        end = next((i for i in range(1, len(items)) if type(items[i]) is str and items[i].startswith(":")),
+                   len(items))
+        if end < 2:
+            self.fail("plan needs at least one goal", self.at(form) if end == len(items) else form.locs[end],
+                      "write the goals first, then the options, e.g. (plan (delivered mail office-b) :deadline 150)")
+        goals = self.each(_Items(items[:end], form.locs[:end]), 1, self.query)
+        options = self.keyword_options(form, end, {":deadline": {"positive": True},
+                                                   ":max-failures": {"minimum": 1, "integer": True}})
+        return ast.PlanRequest(goals=goals, deadline=options.get(":deadline"),
+                               max_failures=options.get(":max-failures"), loc=self.loc(self.at(form)))
 
     # ------------------------------------------------------------ AP: operators
 
@@ -716,6 +744,17 @@ class Validator:
         return ast.Goals(goals=self.each(form, 1, self.query), loc=self.loc(self.at(form)),
                          goal_locs=tuple(self.loc(where) for where in form.locs[1:]))
 
+    def deadline(self, form: SList) -> ast.Deadline:
+        """``(deadline GOAL SECONDS)``: GOAL achieved within SECONDS of the plan's start."""
+        if len(form.items) != 3:
+            self.fail(f"deadline takes a goal and a number of seconds, found {len(form.items) - 1} "
+                      f"item{'' if len(form.items) == 2 else 's'}", self.at(form),
+                      "e.g. (deadline (delivered mail office-b) 150)")
+        goal = self.query(form.items[1], form.locs[1])
+        seconds = self.number(form.items[2], form.locs[2], "the seconds of deadline", positive=True)
+        return ast.Deadline(goal=goal, seconds=seconds, loc=self.loc(self.at(form)),
+                            goal_loc=self.loc(form.locs[1]))
+
 
 class _Items:
     """A run of items with locations, shaped like an SList for ``Validator.each``."""
@@ -752,6 +791,7 @@ _TOP_LEVEL: dict[str, Callable[[Validator, SList], ast.TopLevel]] = {
     "define-relation": Validator.define_relation,
     "initial": Validator.initial,
     "goals": Validator.goals,
+    "deadline": Validator.deadline,
 }
 
 

@@ -14,6 +14,12 @@ any search starts (also run by ``atlas check`` on ``.ap`` files with goals).
   never happens), and an agent declared both controlled and uncontrolled;
 - a plot cycle: an operator whose plot, through the purposes of other
   operators, comes back to itself.
+
+Warnings (``severity`` ``"warning"``) do not stop the planner:
+
+- a ``(deadline GOAL SECONDS)`` whose GOAL unifies with none of the problem's
+  goals (a misspelt goal, or a deadline of another goals file): it constrains
+  nothing here.
 """
 
 from __future__ import annotations
@@ -33,22 +39,39 @@ class UnreachableGoals(SourceError):
 
 
 def check_problem(problem: PlanningProblem) -> list[Problem]:
-    """Every problem found, in source order of the checks above."""
-    return [p for part in _check_parts(problem) for p in part]
+    """Every problem found, in the order of the checks above (errors, then warnings)."""
+    return [p for part in _check_parts(problem) for p in part] + _deadline_warnings(problem)
 
 
-def raise_problems(problem: PlanningProblem) -> None:
-    """Raise a :class:`SourceError` with every problem :func:`check_problem` finds;
-    an :class:`UnreachableGoals` when they are all goals no operator achieves."""
+def raise_problems(problem: PlanningProblem) -> list[Problem]:
+    """Raise a :class:`SourceError` with every error :func:`check_problem` finds
+    (an :class:`UnreachableGoals` when they are all goals no operator achieves);
+    else return the warnings, for the caller to show."""
     arity, goals, agents, cycles = _check_parts(problem)
     problems = arity + goals + agents + cycles
     if problems:
         raise (SourceError if arity or agents or cycles else UnreachableGoals)(problems)
+    return _deadline_warnings(problem)
 
 
 def _check_parts(problem: PlanningProblem) -> tuple[list[Problem], list[Problem], list[Problem], list[Problem]]:
     """The problems of each check above: arity, goals, agents, plot cycles."""
     return _arity_problems(problem), _goal_problems(problem), _agent_problems(problem), _plot_cycles(problem)
+
+
+def _deadline_warnings(problem: PlanningProblem) -> list[Problem]:
+    """A warning at each deadline whose goal is none of the problem's goals."""
+    found = []
+    locations = problem.deadline_locations or (None,) * len(problem.deadlines)
+    for (goal, _), loc in zip(problem.deadlines, locations):
+        if any(unify(goal, asked) is not None for asked in problem.goals):
+            continue
+        asked = " ".join(term_to_str(g) for g in problem.goals)
+        found.append(Problem(f"deadline for a goal the problem does not ask for: {term_to_str(goal)}",
+                             loc or SourceLocation(problem.name, 1, 1), problem.line(loc),
+                             f"the goals are {asked}; fix the goal's spelling, or add it to the goals"
+                             if asked else "add (goals ...) that include it", severity="warning"))
+    return found
 
 
 def _problem(problem: PlanningProblem, message: str, loc: SourceLocation | None, hint: str) -> Problem:

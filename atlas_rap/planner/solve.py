@@ -107,6 +107,7 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     timing["seconds"] = round(time.process_time() - started, 4)
     plan = build_plan(task, order, protected, stats)
     plan.timing = timing
+    plan.deadline = problem.deadline_for()
     return plan
 
 
