@@ -50,14 +50,18 @@ Choices a ROSPlan or PlanSys2 user should know: memory holds what skills
 and RAPs made true, so a plan's effects are not written into it blindly when
 an operator's steps end (a substituted arm or attach point is not mistaken
 for the planned one). The facts the operator was to provide for later steps
-are checked against memory instead: a fact of a predicate memory has no
-facts of is the planner's own bookkeeping and is asserted then (as ROSPlan
-and PlanSys2 apply effects); any other that does not hold is a changed
-situation, repaired. A step's purpose is checked by its RAP's ``succeed``
-test, and the goals by memory at the end. Trace records: ``plan-requested``, ``plan-ready`` (with the
-simulated ``latency`` and the planner's ``wall`` seconds), ``plan-step-started``,
+are checked against memory instead: a fact of a predicate of which memory
+holds no fact but the plans' own is the planner's bookkeeping (``(holding
+planner crate-1)``) and is asserted then, as ROSPlan and PlanSys2 apply
+effects; any other that does not hold is a changed situation, repaired. A
+step's purpose is checked by its RAP's ``succeed`` test, and the goals by
+memory at the end.
+
+Trace records: ``plan-requested``, ``plan-ready`` (with the simulated
+``latency`` and the planner's ``wall`` seconds), ``plan-step-started``,
 ``plan-step-done``, ``plan-step-failed``, ``replanned``, ``plan-abandoned``
-(with ``scope`` ``goal`` or ``plan``) and ``plan-done``.
+(with ``scope`` ``goal`` or ``plan``) and ``plan-done``; each with ``plan``
+(the plan's number in the run), ``version`` and ``id`` (the task that asked).
 """
 
 from __future__ import annotations
@@ -408,8 +412,8 @@ class PlanExecution:
         """When the last plot step of an operator is done: check the facts the operator was
         planned to make true (or false) for later steps or the goals, against memory.
 
-        A fact memory shows is fine. A fact of a predicate memory holds no fact of is the
-        planner's own bookkeeping (``(holding planner crate-1)``): it is asserted, as ROSPlan
+        A fact memory shows is fine. A fact of a predicate of which memory holds no fact but
+        the plans' own beliefs is the planner's bookkeeping (``(holding planner crate-1)``): it is asserted, as ROSPlan
         and PlanSys2 apply an action's effects. Any other fact that does not hold means the
         step's RAP succeeded otherwise than planned (another attach point, another arm): a
         changed situation, returned as the cause, so the rest of the plan is made again from
@@ -428,15 +432,22 @@ class PlanExecution:
             fact = parse_term(link[5:-1] if negative else link, "<plan link>")
             if memory.holds(fact, None, relations) != negative:
                 continue
-            if not negative and isinstance(fact, Compound) and not any(memory.facts(
-                    Compound(fact.functor, tuple(Var(f"%any{i}") for i in range(len(fact.args)))))):
+            if not negative and isinstance(fact, Compound) and self._bookkeeping(fact):
                 believed.append(fact)
                 continue
             need = "the goals" if consumer == "goal" else f"step s{consumer}"
             return f"s{done} {self.steps[done].action} is done but {link} does not hold, which {need} needs"
         if believed:
+            self.seq.plan_beliefs.update(believed)
             self.seq.change([("assert", fact) for fact in dict.fromkeys(believed)], f"plan {self.number}")
         return None
+
+    def _bookkeeping(self, fact: Compound) -> bool:
+        """Whether ``fact`` is of a predicate only plans keep: memory holds no fact of it that
+        a skill, a RAP or the program asserted (only the plans' own beliefs, if any)."""
+        pattern = Compound(fact.functor, tuple(Var(f"%any{i}") for i in range(len(fact.args))))
+        beliefs = self.seq.plan_beliefs
+        return all(known in beliefs for known in self.seq.memory.facts(pattern))
 
     def _live(self, producer: int | str, consumer: int | str) -> bool:
         if producer != "init" and self.steps[producer].status != "done":  # type: ignore[index]

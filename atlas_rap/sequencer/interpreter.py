@@ -138,6 +138,7 @@ class Sequencer:
         self.fault: str | None = None  # why memory rules stopped the run, until the runner takes it
         self.deliberator: Deliberator | None = None  # the planner, for (plan GOAL ...) steps
         self._plan_numbers = count(1)
+        self.plan_beliefs: set[Compound] = set()  # facts plans asserted as the planner's bookkeeping
         self.skills: SkillLink = skills if skills is not None else NoSkills()
         self.skills.connect(self)
         self._skill_names = self.skills.skills()
