@@ -1,4 +1,4 @@
-"""What a world is: walls, named places, doors, disturbances, the robot and its sonar.
+"""What a world is: walls, named places, doors, disturbances, objects, the robot and its sonar.
 
 These frozen dataclasses are the contract between the world files
 (``sim.world`` reads YAML into them), the physics (``sim.physics`` builds a
@@ -111,6 +111,42 @@ class Disturbance:
     speed: float = 0.8
 
 
+OBJECT_KINDS = ("object", "trash", "bin")
+"""What an object can be: a thing to find (``object``), a piece of ``trash`` the gripper can pick
+up, or a ``bin`` trash is dropped into (bins stay where they are)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ObjectMove:
+    """The world moving an object (someone picks it up and puts it elsewhere): the object is
+    at ``to`` from time ``at``, or from the moment the robot first comes within ``near``
+    metres of it. Exactly one of ``at`` and ``near`` is given. A move happens only to an
+    object lying on the floor: not to one in the robot's gripper or in a bin.
+    """
+
+    to: Point
+    at: float | None = None
+    near: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class WorldObject:
+    """A coloured object on the floor, seen by the colour camera: a ball to find, trash, a bin.
+
+    ``position`` is where it starts; ``size`` its width (for pictures and reach);
+    ``moves`` the world's changes to where it is, in order. Objects are not
+    bodies of the physics: the robot drives over them and the sonar does not
+    see them; walls and closed doors hide them from the camera.
+    """
+
+    name: str
+    colour: str
+    position: Point
+    kind: str = "object"
+    size: float = 0.25
+    moves: tuple[ObjectMove, ...] = ()
+
+
 @dataclass(frozen=True, slots=True)
 class RobotConfig:
     """The robot: a disc of ``radius`` starting at ``start`` = (x, y, heading)."""
@@ -143,7 +179,8 @@ class World:
     """A whole world: geometry, named places and doors, disturbances, robot and sonar settings.
 
     ``bounds`` is (xmin, ymin, xmax, ymax) around everything. ``source`` is
-    the file it was read from (for messages and pictures).
+    the file it was read from (for messages and pictures). ``objects`` are the
+    coloured things on the floor (the simulation's truth, not the prior map).
     """
 
     name: str
@@ -155,6 +192,7 @@ class World:
     sonar: SonarConfig = SonarConfig()
     bounds: tuple[float, float, float, float] = (0.0, 0.0, 10.0, 10.0)
     source: str = ""
+    objects: dict[str, WorldObject] = field(default_factory=dict)
 
     def place_shapes(self) -> dict[str, tuple[Point, ...] | Point]:
         """Each place's region (a polygon), or its point when it has none: what names a map's places."""
@@ -163,7 +201,7 @@ class World:
     def without_map(self) -> World:
         """What a robot with no prior map knows of this world: the names and points of its
         places (as point places), the extent of the area, its own body and sonar; no walls,
-        no doors, no regions (``atlas run --no-prior-map``)."""
+        no doors, no regions, no objects (``atlas run --no-prior-map``)."""
         places = {name: Place(name, place.point, None, place.radius) for name, place in self.places.items()}
         return World(self.name, (), places, {}, (), self.robot, self.sonar, self.bounds, self.source)
 

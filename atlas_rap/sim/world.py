@@ -29,12 +29,20 @@ the model. An example with every key::
     disturbances:
       - {name: visitor, kind: person, start: 10, end: 30, path: [[12, 5.6], [12, 4.4]], size: 0.45, speed: 0.5}
       - {name: crate, kind: box, start: 0, path: [[1.5, 5]], size: 0.6}    # no end: for ever
+    objects:                           # coloured things the colour camera sees (atlas_rap.sim.objects)
+      red-ball: {colour: red, at: [10.8, 4.6]}                 # kind: object (default), size: 0.25 m
+      can-1: {colour: yellow, kind: trash, at: [5.5, 1.0]}     # trash the gripper can pick up
+      bin-1: {colour: green, kind: bin, at: [7.3, 0.7], size: 0.4}   # a bin to drop trash into
+      blue-box:
+        colour: blue
+        at: [9, 9.3]
+        moves: [{near: 2.0, to: [19, 9]}, {at: 120, to: [9, 9.3]}]   # when the robot comes near / at a time
     robot: {start: [1.5, 1.5, 0], radius: 0.2, max_speed: 0.6, max_turn_rate_deg: 115, odometry_drift: 0.0}
     sonar: {count: 16, beam_width_deg: 15, max_range: 5, min_range: 0.05, range_noise: 0.01,
             range_noise_per_m: 0.01, specular_angle_deg: 60, specular_dropout: 0.8, rays_per_beam: 3, rate: 10}
 
-A *variant* of a world changes only its doors and its disturbances (a
-``disturbances`` list replaces the base's)::
+A *variant* of a world changes only its doors, its disturbances and its
+objects (a ``disturbances`` or ``objects`` list replaces the base's)::
 
     base: lab-corridor-office          # a shipped world, or a path relative to this file
     name: lab-corridor-office-door-closed
@@ -48,7 +56,10 @@ region or closer than the robot's radius + 0.15 m to a wall, a robot that
 starts inside a wall (closer than its radius to a segment, or inside a
 polygon that no place is in) or, with a ``map:``, on a cell of the image that
 is not free (occupied, unknown, or off the image), a schedule out of time
-order, duplicate names. A bad start is reported at ``robot.start`` with the
+order, duplicate names; objects: a colour and a name RAPs can use, a kind
+(object, trash, bin), a position and moves in free space (at least half the
+object's size from walls, outside solid polygons), each move with one of
+``at`` (times in order) and ``near``, names that no place or door has. A bad start is reported at ``robot.start`` with the
 nearest point where the robot would fit; a variant reports its base's
 problems, then the ``base:`` line.
 
@@ -73,10 +84,24 @@ from atlas_rap.lang.validator import nearest
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, RosMap, load_ros_map, wall_segments
 from atlas_rap.yamlsource import YamlSource
 from atlas_rap.shipped import resolve_user_path, shipped_root, shipped_worlds
-from atlas_rap.model import Disturbance, Door, Place, Point, RobotConfig, Segment, SonarConfig, World, _inside
+from atlas_rap.model import (
+    OBJECT_KINDS,
+    Disturbance,
+    Door,
+    ObjectMove,
+    Place,
+    Point,
+    RobotConfig,
+    Segment,
+    SonarConfig,
+    World,
+    WorldObject,
+    _inside,
+)
 
-TOP_KEYS = ("name", "description", "walls", "polygons", "map", "places", "doors", "disturbances", "robot", "sonar")
-VARIANT_KEYS = ("name", "description", "base", "doors", "disturbances")
+TOP_KEYS = ("name", "description", "walls", "polygons", "map", "places", "doors", "disturbances", "objects",
+            "robot", "sonar")
+VARIANT_KEYS = ("name", "description", "base", "doors", "disturbances", "objects")
 VARIANT_DOOR_KEYS = ("open", "openable", "schedule")
 PLACE_KEYS = ("point", "region", "radius")
 DOOR_KEYS = ("between", "center", "segment", "open", "openable", "schedule")
@@ -85,6 +110,8 @@ ROBOT_KEYS = ("start", "radius", "max_speed", "max_turn_rate_deg", "odometry_dri
 SONAR_KEYS = ("count", "beam_width_deg", "max_range", "min_range", "range_noise", "range_noise_per_m",
               "specular_angle_deg", "specular_dropout", "rays_per_beam", "rate")
 DISTURBANCE_KINDS = ("person", "box")
+OBJECT_KEYS = ("colour", "kind", "at", "size", "moves")
+MOVE_KEYS = ("at", "near", "to")
 WALL_CLEARANCE_MARGIN = 0.15  # a place point must be this much more than the robot's radius from walls
 FREE_POINT_SEARCH = 5.0  # metres around a bad start searched for a free point to suggest (worlds without a map)
 FREE_POINT_STEP = 0.05
@@ -172,17 +199,18 @@ class _WorldReader:
         doors = self.doors(node["doors"], places) if "doors" in node else {}
         disturbances = self.disturbances(node["disturbances"]) if "disturbances" in node else ()
         all_walls = tuple(walls) + tuple(map_walls)
+        objects = self.objects(node["objects"], places, doors, all_walls) if "objects" in node else {}
         self.check_clearances(all_walls, places, place_nodes, robot)
         src.check()
         return World(name, all_walls, places, doors, disturbances, robot, sonar,
-                     _bounds(all_walls, places, robot), src.file)
+                     _bounds(all_walls, places, robot), src.file, objects)
 
     def variant(self) -> World:
         """A world file with ``base: WORLD``: that world with its doors changed (open, openable,
         schedule) and, if given, other disturbances (the list replaces the base's)."""
         src = self.src
         top = src.keys(src.root, "", VARIANT_KEYS,
-                       what=" (a world variant: base, name, description, doors, disturbances)")
+                       what=" (a world variant: base, name, description, doors, disturbances, objects)")
         src.check()
         assert top is not None
         base_node = top["base"][1]
@@ -219,9 +247,12 @@ class _WorldReader:
             if all(v is not None for v in changes.values()):
                 doors[name] = replace(door, **changes)
         disturbances = self.disturbances(top["disturbances"][1]) if "disturbances" in top else world.disturbances
+        objects = self.objects(top["objects"][1], world.places, doors, world.walls) \
+            if "objects" in top else world.objects
         name = src.string(top["name"][1], "name") if "name" in top else self.path.stem
         src.check()
-        return replace(world, name=name or self.path.stem, doors=doors, disturbances=disturbances, source=src.file)
+        return replace(world, name=name or self.path.stem, doors=doors, disturbances=disturbances, objects=objects,
+                       source=src.file)
 
     def _base_world(self, node: Node, name: str, target: str) -> World:
         """The world a variant is based on, read and checked as any world; its problems are raised located."""
@@ -380,7 +411,8 @@ class _WorldReader:
     def _check_name(self, node: Node, name: str, what: str) -> None:
         if not NAME_PATTERN.match(name):
             suggestion = re.sub(r"[^a-z0-9_-]+", "-", name.lower()).strip("-")
-            self.src.error(node, f"'{name}' cannot be a {what} name: RAPs could not refer to it",
+            article = "an" if what[0] in "aeiou" else "a"
+            self.src.error(node, f"'{name}' cannot be {article} {what} name: RAPs could not refer to it",
                            f"use lower-case letters, digits, '-' and '_', starting with a letter, "
                            f"e.g. '{suggestion or what + '-1'}'")
 
@@ -478,6 +510,110 @@ class _WorldReader:
                 continue
             found.append(Disturbance(name, kind, start, tuple(points), end, size, speed))
         return tuple(found)
+
+    # -- objects ----------------------------------------------------------------------
+
+    def objects(self, node: Node, places: dict[str, Place], doors: dict[str, Door],
+                walls: tuple[Segment, ...]) -> dict[str, WorldObject]:
+        """The ``objects:`` mapping: name → {colour, kind, at, size, moves}; see the module docstring."""
+        src = self.src
+        entries = src.keys(node, "objects", None, what=" such as {red-ball: {colour: red, at: [x, y]}}") \
+            if _given(node) else {}
+        found: dict[str, WorldObject] = {}
+        for name, (key, value) in (entries or {}).items():
+            path = f"objects.{name}"
+            self._check_name(key, name, "object")
+            if name in places or name in doors:
+                src.error(key, f"object '{name}' has the name of a {'place' if name in places else 'door'}",
+                          "give objects, places and doors different names")
+            fields = src.keys(value, path, OBJECT_KEYS, ("colour", "at"),
+                              what=" such as {colour: red, at: [x, y]}")
+            if fields is None:
+                continue
+            colour = src.string(fields["colour"][1], f"{path}.colour", "a colour name such as red") \
+                if "colour" in fields else None
+            if colour is not None and not NAME_PATTERN.match(colour):
+                src.error(fields["colour"][1], f"'{colour}' cannot be a colour: RAPs could not refer to it",
+                          "use lower-case letters, digits, '-' and '_', starting with a letter, e.g. red")
+                colour = None
+            kind = "object"
+            if "kind" in fields:
+                kind = src.string(fields["kind"][1], f"{path}.kind", "kinds: " + ", ".join(OBJECT_KINDS))
+                if kind is not None and kind not in OBJECT_KINDS:
+                    guess = nearest(kind, list(OBJECT_KINDS))
+                    src.error(fields["kind"][1], f"unknown object kind '{kind}'",
+                              (f"did you mean '{guess}'? " if guess else "") + "kinds: " + ", ".join(OBJECT_KINDS))
+                    kind = None
+            size = src.number(fields["size"][1], f"{path}.size", above=0.0, maximum=2.0) if "size" in fields else 0.25
+            at = src.point(fields["at"][1], f"{path}.at") if "at" in fields else None
+            if at is not None and size is not None:
+                at = self._object_point(fields["at"][1], at, f"the object '{name}'", size, walls, places)
+            moves = self._moves(fields["moves"][1], f"{path}.moves", size or 0.25, walls, places) \
+                if "moves" in fields else ()
+            if colour is None or kind is None or size is None or at is None or moves is None:
+                continue
+            found[name] = WorldObject(name, colour, at, kind, size, moves)
+        return found
+
+    def _moves(self, node: Node, path: str, size: float, walls: tuple[Segment, ...],
+               places: dict[str, Place]) -> tuple[ObjectMove, ...] | None:
+        """An object's ``moves:`` list: [{at: SECONDS | near: METRES, to: [x, y]}, ...]."""
+        src = self.src
+        shape = "[{at: SECONDS, to: [x, y]}, {near: METRES, to: [x, y]}, ...]"
+        items = src.items(node, path, f"write it as {shape}")
+        if items is None:
+            return None
+        moves: list[ObjectMove] = []
+        ok, last = True, 0.0
+        for i, item in enumerate(items):
+            here = f"{path}[{i}]"
+            fields = src.keys(item, here, MOVE_KEYS, ("to",), what=" such as {at: 30, to: [x, y]}")
+            if fields is None:
+                ok = False
+                continue
+            if ("at" in fields) == ("near" in fields):
+                src.error(fields["near"][0] if "near" in fields else item,
+                          f"{here} needs one of at: (a time) and near: (a distance from the robot), "
+                          f"not {'both' if 'at' in fields else 'neither'}",
+                          "write {at: SECONDS, to: [x, y]} or {near: METRES, to: [x, y]}")
+                ok = False
+                continue
+            at = near = None
+            if "at" in fields:
+                at = src.number(fields["at"][1], f"{here}.at", minimum=0.0)
+                if at is not None and at < last:
+                    src.error(fields["at"][1], f"{here} at {at:g} s comes before the move above it ({last:g} s)",
+                              "list timed moves in time order")
+                    at = None
+                if at is not None:
+                    last = at
+            else:
+                near = src.number(fields["near"][1], f"{here}.near", above=0.0)
+            to = src.point(fields["to"][1], f"{here}.to") if "to" in fields else None
+            if to is not None:
+                to = self._object_point(fields["to"][1], to, f"{here}.to", size, walls, places)
+            if to is None or (at is None and near is None):
+                ok = False
+                continue
+            moves.append(ObjectMove(to, at, near))
+        return tuple(moves) if ok else None
+
+    def _object_point(self, node: Node, point: Point, what: str, size: float, walls: tuple[Segment, ...],
+                      places: dict[str, Place]) -> Point | None:
+        """``point`` if an object of ``size`` fits there (off the walls, outside solid blocks), else None."""
+        gap, wall = nearest_wall(walls, point)
+        if gap < size / 2:
+            self.src.error(node, f"{what} at ({point[0]:g}, {point[1]:g}) is {gap:.2f} m from a wall "
+                                 f"({self._wall_text(wall)}), less than half its size ({size:g} m)",
+                           "move it off the wall")
+            return None
+        solid = self._solid_polygon_at(point, places)
+        if solid is not None:
+            self.src.error(node, f"{what} at ({point[0]:g}, {point[1]:g}) is inside {solid[0]} "
+                                 f"(line {self.src.location(solid[1]).line}), a closed outline with no place in it",
+                           "put it where the robot can get to it")
+            return None
+        return point
 
     def robot(self, node: Node | None, places: dict[str, Place]) -> RobotConfig:
         src, default = self.src, RobotConfig()

@@ -15,7 +15,8 @@ it, and a wrong value is refused where it is written, not where it is read:
 
 The keys the toolkit uses are declared here with the small value types that
 have no other home (:class:`Goal`, :class:`FollowedRoute`,
-:class:`PlannedRoute`, :class:`RouteSource`). This is ROS's parameter /
+:class:`PlannedRoute`, :class:`RouteSource`, :class:`Sighting`,
+:class:`ObjectDevices`). This is ROS's parameter /
 blackboard idea with a type per key, like BehaviorTree.CPP's typed ports.
 """
 
@@ -142,6 +143,44 @@ class RouteSource(Protocol):
         """A route from ``start`` to the place ``goal`` avoiding ``closed`` doors, or why not."""
 
 
+@dataclass(frozen=True, slots=True)
+class Sighting:
+    """An object as the colour camera last saw it: its colour and kind, where it was on the
+    robot's map (``x``, ``y``, from the believed pose, and the ``place`` there), its bearing
+    (radians from the heading, counter-clockwise) and range (metres) then, and when (``time``)."""
+
+    name: str
+    colour: str
+    kind: str
+    x: float
+    y: float
+    place: str | None
+    bearing: float
+    range: float
+    time: float
+
+
+class ObjectDevices(Protocol):
+    """The robot's colour camera and gripper on the world's objects (in a simulated world,
+    :class:`atlas_rap.sim.objects.ObjectSim`): what the camera skill looks with and the
+    handling skills pick up and drop with. Refusals come back as the reason, in words."""
+
+    def look(self, fov: float, max_range: float) -> list:
+        """What the camera sees now: views with ``name``, ``colour``, ``kind``, ``bearing``, ``range``."""
+
+    def why_not_pick_up(self, name: str, reach: float) -> str | None:
+        """Why the gripper cannot pick up ``name`` now (None: it can)."""
+
+    def pick_up(self, name: str, reach: float) -> str | None:
+        """Take ``name`` into the gripper; None when done, else why not."""
+
+    def why_not_drop(self, name: str, bin_name: str, reach: float) -> str | None:
+        """Why the gripper cannot drop ``name`` into ``bin_name`` now (None: it can)."""
+
+    def drop(self, name: str, bin_name: str, reach: float) -> str | None:
+        """Drop ``name`` into the bin ``bin_name``; None when done, else why not."""
+
+
 # -- the keys ---------------------------------------------------------------------------
 
 POSE: Belief[tuple] = Belief("pose", tuple, "(x, y, heading) the robot believes it has (odometry)")
@@ -157,3 +196,6 @@ OBSTACLE: Belief[tuple] = Belief("obstacle", tuple, "(x, y) of the obstacle in t
 REFLEXES: Belief[bool] = Belief("reflexes", bool, "False when Layer I is not enabled: no slowing, stopping, backing off")
 HOLD: Belief[str] = Belief("hold", str, "why Layer I holds the robot still (absent: not held)")
 SPEED_LIMIT: Belief[float] = Belief("speed-limit", float, "the fraction of top speed motion skills may use")
+OBJECTS: Belief[Any] = Belief("objects", object, "the camera and gripper on the world's objects (ObjectDevices; "
+                                                 "absent in a world without objects)")
+SIGHTINGS: Belief[dict] = Belief("sightings", dict, "object name → its latest Sighting by the colour camera")

@@ -7,9 +7,11 @@ skills themselves import numpy, which would slow the check's start.
 
 STOCK_SKILLS: dict[str, set[int]] = {
     "move-to": {2}, "follow-route": {1}, "turn-to": {1}, "wander": {0}, "wall-follow": {1},
-    "stop": {0}, "navigate-to": {1}, "open-door": {1},
+    "stop": {0}, "navigate-to": {1}, "open-door": {1}, "look-around": {0}, "approach": {1}, "pick-up": {1},
+    "drop": {2},
 }
 """Skills RAPs can enable in a world: name → arities."""
 
-STOCK_EVENTS: set[str] = {"done", "why", "blocked", "at", "door-open", "door-closed", "edge-blocked", "bumped"}
+STOCK_EVENTS: set[str] = {"done", "why", "blocked", "at", "door-open", "door-closed", "edge-blocked", "bumped",
+                          "in-view", "seen", "is-a", "lost", "holding", "in-bin"}
 """Predicates the stock skills may assert."""
