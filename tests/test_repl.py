@@ -129,8 +129,8 @@ def test_plan_shows_a_plan_from_memory_and_a_plan_form_carries_it_out(tmp_path: 
     done = repl(PACKING + ":plan (have cup)\n(plan (have cup))\n:run\n(? (have cup))\n", cwd=tmp_path)
     assert_no_traceback(done)
     assert done.returncode == 0, done.stdout
-    assert done.stdout.count("solved: 1 steps") == 2  # shown by :plan, then planned again by (plan ...)
-    assert "(take arm-1 cup) [arm-1]" in done.stdout
+    assert done.stdout.count("solved: 1 steps") == 1  # shown by :plan
+    assert "◆ plan 1 ready" in done.stdout and "s1 (take arm-1 cup) [arm-1]" in done.stdout  # planned by (plan ...)
     assert "✓ [1] (carry-out-plan-" in done.stdout
     assert done.stdout.rstrip().endswith("yes")
 

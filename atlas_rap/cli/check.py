@@ -92,7 +92,7 @@ def _planner_problems(program, path: str) -> list:
 _KINDS = {"RapDef": "RAP", "MemoryRuleDef": "memory rule", "VirtualSkillDef": "virtual skill",
           "AtTime": "at-time event", "WorldDecl": "world", "InitialMemory": "initial-memory",
           "Post": "post", "PlanRequest": "plan request", "Operator": "operator", "Agents": "agents",
-          "RelationDef": "relation", "Initial": "initial", "Goals": "goals"}
+          "RelationDef": "relation", "Initial": "initial", "Goals": "goals", "Deadline": "deadline"}
 
 
 def _plural(n: int, word: str) -> str:

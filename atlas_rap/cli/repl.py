@@ -3,7 +3,8 @@
 Interactive on a terminal (prompt_toolkit: multi-line input that submits
 when the parentheses balance, history, completion, colours; the world runs
 in the background, paced to the wall clock, and trace lines print above the
-prompt). From a pipe or a file (``atlas repl < session.txt``) it reads the
+prompt); the planner runs on a worker thread, so the robot and the prompt go
+on while a ``(plan ...)`` is being made. From a pipe or a file (``atlas repl < session.txt``) it reads the
 same forms and commands, prints plain results, lets time pass only when
 told (``:run``, ``:step``), and exits 1 if any submission failed. The
 engine is :class:`~atlas_rap.cli.repl_session.Session`.
@@ -116,6 +117,7 @@ def _interactive(session, speed: float) -> None:
     )
 
     prompt = make_prompt_session(ReplCompleter(lambda: _names(session)), history_path())
+    session.engine.plan_in_worker()  # the robot and the prompt go on while the planner thinks
     stop = threading.Event()
     clock = threading.Thread(target=_background_clock, args=(session, speed, stop), daemon=True)
     session.out.print("atlas repl: type :help for commands, Ctrl-D to leave", style="dim")

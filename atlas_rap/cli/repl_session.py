@@ -29,9 +29,10 @@ Choices where the issue is silent:
 - Time moves only by ``:step``, ``:run`` or, interactively, the background
   clock (paced to the wall clock, off with ``:pause``), so a piped session
   is reproducible.
-- ``(plan GOAL ...)`` plans from the current memory with the operators
-  typed or included so far and posts the RAP that carries the plan out;
-  ``:plan GOAL ...`` only shows the plan.
+- ``(plan GOAL ...)`` posts a RAP whose one step plans from memory when it
+  runs (on a worker thread on a terminal: the robot goes on meanwhile),
+  with the operators typed or included so far, then carries the plan out,
+  watching and repairing it; ``:plan GOAL ...`` only shows a plan.
 - Results go to standard output, errors to standard error.
 - Ending the session (Ctrl-D, end of input) halts the live tasks, so their
   skills are disabled in the trace, before the trace is written.
@@ -164,8 +165,6 @@ class Session:
             loaded = self.engine.load(program)
             for warning in loaded.warnings:
                 self.err.print(warning.render(), style="yellow", markup=False)
-            for plan in loaded.plans:
-                self.out.print(plan.to_text(), markup=False)
             self._describe(program, loaded)
         for kind, value in specials:
             if kind == "?":
@@ -181,7 +180,9 @@ class Session:
                 self.note(f"defined memory rule {form.name}")
             elif isinstance(form, ast.VirtualSkillDef):
                 self.note(f"defined virtual skill {term_to_str(form.head)}")
-            elif isinstance(form, (ast.Operator, ast.Agents, ast.RelationDef, ast.Initial, ast.Goals)):
+            elif isinstance(form, ast.Initial):
+                self.note("noted initial for the planner; its facts are in memory")
+            elif isinstance(form, (ast.Operator, ast.Agents, ast.RelationDef, ast.Goals, ast.Deadline)):
                 self.note(f"noted {type(form).__name__.lower()} for the planner")
         for task in loaded.posted:
             self.note(f"posted [{task.id}] {task.text}")

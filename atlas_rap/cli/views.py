@@ -99,14 +99,16 @@ class LiveTrace:
 
 def _plan_line(text: Text, indent: str, record: dict) -> Text:
     """A plan executive's record (``sequencer.deliberation``) as one line marked ◆."""
-    event, n = record["event"], record["plan"]
+    event = record["event"]
     version = f" v{record['version']}" if record.get("version", 1) > 1 else ""
+    n = f"{record['plan']}{version}" if event.startswith("plan-step") else record["plan"]
     if event == "plan-requested":
         deadline = f" by t={record['deadline']:g} s" if "deadline" in record else ""
         return text.append(f"{indent}  ◆ plan {n}: planning for {' '.join(record['goals'])}{deadline}", style="cyan")
     if event == "plan-ready":
+        steps = f"{record['steps']} step{'' if record['steps'] == 1 else 's'}"
         return text.append(f"{indent}  ◆ plan {n}{version} ready after {record['latency']:g} s: "
-                           f"{record['steps']} steps, makespan {record['makespan']:g} s: "
+                           f"{steps}, makespan {record['makespan']:g} s: "
                            + ", ".join(record["actions"]), style="bold cyan")
     if event == "plan-step-started":
         agent = f" [{record['agent']}]" if record.get("agent") else ""

@@ -93,11 +93,10 @@ class RunResult:
 
 @dataclass
 class Loaded:
-    """What loading one program did: the names it defined, the tasks it posted, the plans it made."""
+    """What loading one program did: the names it defined, the tasks it posted, its warnings."""
 
     names: list[str] = field(default_factory=list)
     posted: list[Task] = field(default_factory=list)
-    plans: list[Any] = field(default_factory=list)
     warnings: list[Problem] = field(default_factory=list)
 
 
@@ -151,6 +150,7 @@ class MissionEngine:
         self.files: set[str] = set()
         self.plans_made = 0
         self.deliberation: Deliberation | None = None
+        self.worker_planning = False
 
     # -- the running system ----------------------------------------------------
 
@@ -234,13 +234,16 @@ class MissionEngine:
 
     def _deliberate(self) -> None:
         """The planner beside the sequencer: in simulated time, or on a worker in real time."""
-        self.deliberation = Deliberation(self.planning_problem, self._sequencer.timers, worker=self.realtime)
+        self.deliberation = Deliberation(self.planning_problem, self._sequencer.timers,
+                                         worker=self.realtime or self.worker_planning)
         self._sequencer.deliberator = self.deliberation
 
     def plan_in_worker(self, worker: bool = True) -> None:
-        """Plan on a worker thread (the REPL on a terminal, ``--realtime``) or in simulated time."""
-        self.sequencer
-        self.deliberation.worker = worker
+        """Plan on a worker thread (the REPL on a terminal, ``--realtime``) or in simulated time
+        (the default: the planner's latency charged by a rule, so runs are reproducible)."""
+        self.worker_planning = worker
+        if self.deliberation is not None:
+            self.deliberation.worker = worker or self.realtime
 
     def _layer_stack(self, believed: Any) -> LayerStack:
         """The four layers over the robot's beliefs; Layer IV only when there is a map to build."""
@@ -343,7 +346,7 @@ class MissionEngine:
         self._choose_world(program)
         loaded = Loaded()
         if program.of_type(ast.PlanRequest) and not definitions_only:
-            program, loaded.plans = self._carry_out_plans(program)
+            program = self._carry_out_plans(program)
         loaded.warnings = self._check(program, require_post and not definitions_only)
         self.warnings += loaded.warnings
         loaded.names = self._define(program)
@@ -458,7 +461,7 @@ class MissionEngine:
         raise_problems(problem)
         return solve(problem, timeout=PLAN_TIMEOUT)
 
-    def _carry_out_plans(self, program: Program) -> tuple[Program, list]:
+    def _carry_out_plans(self, program: Program) -> Program:
         """Step 2: each ``(plan GOAL ...)`` of ``program`` is checked (every goal achievable by
         some operator, the operators' constraints sound) and replaced by a RAP
         ``(carry-out-plan-N)`` whose task net is that plan step, and a post of it. The plan
@@ -484,7 +487,7 @@ class MissionEngine:
         if problems:
             raise SourceError(problems)
         forms = tuple(new for form in program.forms for new in replaced.get(id(form), [form]))
-        return dataclasses.replace(program, forms=forms), []
+        return dataclasses.replace(program, forms=forms)
 
     # -- time ---------------------------------------------------------------------------
 

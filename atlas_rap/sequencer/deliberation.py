@@ -14,7 +14,9 @@ plan from memory, and a :class:`PlanExecution` carries it out:
 - **Monitoring.** The plan is watched step by step and against memory. It is
   in trouble when a step's RAP fails, when a fact that a causal link of the
   plan still needs is retracted (or, for ``(not F)``, asserted) while the
-  link is live (its producer done, its consumer not yet started), when a
+  link is live (its producer done, its consumer not yet started), or a
+  precondition of a step not yet started that no operator changes (a
+  static fact, such as a passage: the planner makes no link for it), when a
   step is done but a fact it was to make true for a later step does not
   hold (its RAP succeeded another way: another attach point), when a
   controlled agent the plan still uses is lost (``(agent-failed A)`` is
@@ -58,7 +60,8 @@ step's purpose is checked by its RAP's ``succeed`` test, and the goals by
 memory at the end.
 
 Trace records: ``plan-requested``, ``plan-ready`` (with the simulated
-``latency`` and the planner's ``wall`` seconds), ``plan-step-started``,
+``latency``; in simulated time a count, so the trace is the same on every
+machine), ``plan-step-started``,
 ``plan-step-done``, ``plan-step-failed``, ``replanned``, ``plan-abandoned``
 (with ``scope`` ``goal`` or ``plan``) and ``plan-done``; each with ``plan``
 (the plan's number in the run), ``version`` and ``id`` (the task that asked).
@@ -182,6 +185,7 @@ class PlanExecution:
         self.steps: dict[int, StepRun] = {}
         self.failures: dict[Term, int] = {}
         self.repairs = 0
+        self.wall = 0.0
         self.done: list[str] = []  # the actions of the steps done, in every version of the plan
         self.failed: dict[Term, None] = {}  # the operators' ground actions whose steps failed, in order
         self.serves: dict[int, frozenset[Term]] = {}
@@ -242,6 +246,7 @@ class PlanExecution:
 
     def _delivered(self, plan: Plan, latency: float, wall: float) -> None:
         self.ticket = None
+        self.wall += wall  # the planner's own seconds: for benchmarks, never in the trace
         if self.ended:
             return
         self.trouble = None
@@ -276,7 +281,7 @@ class PlanExecution:
         agents = sorted({s.step.agent for s in self.steps.values() if s.step.agent})
         self.seq.trace.emit("plan-ready", plan=self.number, version=self.version, id=self.owner.id,
                             goals=_terms(self.goals), steps=len(plan.steps), makespan=_num(plan.makespan),
-                            agents=agents, latency=round(latency, 6), wall=round(wall, 4),
+                            agents=agents, latency=round(latency, 6),
                             actions=[f"s{s.id} {term_to_str(s.action)}" + (f" [{s.agent}]" if s.agent else "")
                                      for s in plan.steps])
         changed, self.changed = self.changed, []
@@ -400,12 +405,17 @@ class PlanExecution:
             users = [r for r in self.steps.values() if r.status in ("waiting", "running") and r.step.agent == agent]
             return f"agent {agent} was lost ({term_to_str(fact)})" if users else None
         text = term_to_str(fact)
+        change = "asserted" if kind == "assert" else "retracted"
         wanted = f"(not {text})" if kind == "assert" else text
         for producer, consumer, link in self.plan.links:  # type: ignore[union-attr]
             if link != wanted or not self._live(producer, consumer):
                 continue
             need = "the goals" if consumer == "goal" else f"step s{consumer}"
-            return f"{text} was {'asserted' if kind == 'assert' else 'retracted'}, which {need} needs"
+            return f"{text} was {change}, which {need} needs"
+        needed = Compound("not", (fact,)) if kind == "assert" else fact
+        for run in self.steps.values():  # a fact no operator changes is in no link, but a step needs it
+            if run.status == "waiting" and needed in run.step.needs:
+                return f"{text} was {change}, which step s{run.step.id} needs"
         return None
 
     def _unmet_links(self, done: int) -> str | None:
