@@ -96,14 +96,16 @@ class Deliberation:
 
     ``problem_for(goals, lost_agents)`` builds the problem from memory now;
     ``timers`` are the sequencer's. ``worker`` True plans on a thread.
+    ``planner(problem, timeout)`` makes the plan (:func:`plan_for`).
     """
 
     def __init__(self, problem_for: ProblemFor, timers: Timers, *, worker: bool = False,
-                 timeout: float = PLAN_TIMEOUT) -> None:
+                 timeout: float = PLAN_TIMEOUT, planner: Callable[[PlanningProblem, float], Plan] | None = None) -> None:
         self.problem_for = problem_for
         self.timers = timers
         self.worker = worker
         self.timeout = timeout
+        self.planner = planner if planner is not None else plan_for
 
     def deadline_for(self, goals: tuple[Term, ...]) -> float | None:
         """The AP ``(deadline GOAL SECONDS)`` that binds these goals soonest, if any."""
@@ -126,7 +128,7 @@ class Deliberation:
             return request
         if not self.worker:
             started = time.perf_counter()
-            plan = plan_for(problem, self.timeout)
+            plan = self.planner(problem, self.timeout)
             wall = time.perf_counter() - started
             latency = charged_latency(plan)
             request.timer = self.timers.after(latency, lambda: deliver(plan, latency, wall))
@@ -134,7 +136,7 @@ class Deliberation:
 
         def work() -> None:
             started = time.perf_counter()
-            plan = plan_for(problem, self.timeout)
+            plan = self.planner(problem, self.timeout)
             request.result = (plan, time.perf_counter() - started)
 
         threading.Thread(target=work, name="atlas-planner", daemon=True).start()

@@ -68,7 +68,7 @@ DEFAULT_TIME_LIMIT = 3600.0
 PLAN_TASK = "carry-out-plan-{n}"
 """The RAP that a top-level ``(plan GOAL ...)`` of a mission becomes: one plan step."""
 
-_PLANNING_FORMS = (ast.Operator, ast.Agents, ast.RelationDef, ast.Initial, ast.Goals)
+_PLANNING_FORMS = (ast.Operator, ast.Agents, ast.RelationDef, ast.Initial, ast.Goals, ast.Deadline)
 
 
 @dataclass

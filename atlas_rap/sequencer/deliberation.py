@@ -15,8 +15,8 @@ plan from memory, and a :class:`PlanExecution` carries it out:
   in trouble when a step's RAP fails, when a fact that a causal link of the
   plan still needs is retracted (or, for ``(not F)``, asserted) while the
   link is live (its producer done, its consumer not yet started), or a
-  precondition of a step not yet started that no operator changes (a
-  static fact, such as a passage: the planner makes no link for it), when a
+  precondition of a step not yet started that no step of the plan provides
+  (a static fact, such as a passage, is in no link), when a
   step is done but a fact it was to make true for a later step does not
   hold (its RAP succeeded another way: another attach point), when a
   controlled agent the plan still uses is lost (``(agent-failed A)`` is
@@ -189,6 +189,7 @@ class PlanExecution:
         self.done: list[str] = []  # the actions of the steps done, in every version of the plan
         self.failed: dict[Term, None] = {}  # the operators' ground actions whose steps failed, in order
         self.serves: dict[int, frozenset[Term]] = {}
+        self.provided: dict[int, set[str]] = {}
         self.ticket: Ticket | None = None
         self.cause = "the first plan"
         self.asked_at = 0.0
@@ -276,6 +277,10 @@ class PlanExecution:
             if a not in self.steps[b].before:
                 self.steps[b].before.append(a)
         self.serves = _goals_served(plan, self.goals)
+        self.provided = {i: set() for i in self.steps}  # what other steps of the plan make true for each
+        for producer, consumer, link in plan.links:
+            if producer != "init" and consumer != "goal":
+                self.provided[consumer].add(link)  # type: ignore[index]
         if self.version > 1:
             self._adopt(old)
         agents = sorted({s.step.agent for s in self.steps.values() if s.step.agent})
@@ -414,7 +419,7 @@ class PlanExecution:
             return f"{text} was {change}, which {need} needs"
         needed = Compound("not", (fact,)) if kind == "assert" else fact
         for run in self.steps.values():  # a fact no operator changes is in no link, but a step needs it
-            if run.status == "waiting" and needed in run.step.needs:
+            if run.status == "waiting" and needed in run.step.needs and wanted not in self.provided[run.step.id]:
                 return f"{text} was {change}, which step s{run.step.id} needs"
         return None
 
