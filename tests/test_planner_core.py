@@ -24,6 +24,7 @@ from planner_cases import (
     sequential_plan,
 )
 
+from atlas_rap.planner.dot import plan_dot
 from atlas_rap.logic import Compound, Subst, Term, Var, substitute
 from atlas_rap.planner.agents import AgentProblem, assign_agents
 from atlas_rap.planner.checks import check_problem
@@ -488,7 +489,7 @@ def test_plan_json_text_and_dot_forms(tmp_path: Path) -> None:
     assert any(link["to"] == "goal" and link["fact"] == "(holding planner box-1)" for link in data["links"])
     text = plan.to_text()
     assert text.startswith("solved: 2 steps") and "(grip left-arm box-1) [left-arm]" in text
-    dot = plan.to_dot()
+    dot = plan_dot(plan)
     assert dot.startswith("digraph plan {") and dot.rstrip().endswith("}")
     for step in plan.steps:
         assert f"s{step.id} [label=\"{step.action}" in dot

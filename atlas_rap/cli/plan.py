@@ -17,6 +17,12 @@ stderr are the same as without ``--json``.
 - ``"status": "error"`` (exit 1): the input is bad: a syntax error, a
   check that fails, a missing file, a file with no goals. ``reason`` and
   ``problems`` as above, the caret report on stderr.
+- a plan for goals with a ``(deadline GOAL SECONDS)`` has ``deadline`` (the
+  smallest that applies) and ``meets_deadline``. A solved plan whose makespan
+  breaks it is not a usable plan: still ``"status": "solved"`` with its steps,
+  but ``meets_deadline`` false, the located problem (at the deadline's goal)
+  in ``problems`` and on stderr, exit 1, and no ``--plan-file`` or ``--render``.
+  A deadline for a goal the file does not ask for is a warning on stderr.
 
 Every result has the same keys (``steps`` and the others empty when there
 is no plan). Mistakes in the options themselves print no JSON: bad usage
@@ -47,7 +53,12 @@ from atlas_rap.cli.options import POSITIVE, OutputFile
 @click.option("--plan-file", type=OutputFile(), metavar="FILE",
               help="Also write one linearisation, an action a line, for a PDDL plan validator.")
 @click.option("--render", type=OutputFile(), metavar="OUT.png",
-              help="Draw the plan's schedule: a lane per agent, orderings as arrows, the threats left.")
+              help="Draw the plan's schedule: a lane per agent (in order of first use), the orderings no "
+                   "others imply as arrows, the threat each counterplan step answers, the threats left.")
+@click.option("--render-order", type=OutputFile(), metavar="OUT.png",
+              help="Draw the partial order as a graph, left to right from init to goal: steps coloured by "
+                   "agent, causal links labelled with their facts, pure orderings dashed, counterplan steps "
+                   "outlined orange with their threat. Needs no Graphviz.")
 @click.option("--check-raps", type=click.Path(file_okay=False), metavar="DIR",
               help="Report the plan steps that no RAP in DIR (its .rap files) can execute; exit 1 if any.")
 @click.option("--timeout", type=POSITIVE, default=60.0, show_default=True, metavar="SECONDS",
@@ -56,16 +67,18 @@ from atlas_rap.cli.options import POSITIVE, OutputFile
 @click.option("--no-counterplan", is_flag=True, help="Do not protect the plan from uncontrolled agents "
                                                      "(the risk is still reported).")
 def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_file: str | None,
-         render: str | None, check_raps: str | None, timeout: float, timing: bool, no_counterplan: bool) -> None:
+         render: str | None, render_order: str | None, check_raps: str | None, timeout: float, timing: bool,
+         no_counterplan: bool) -> None:
     """Plan for the goals of GOALS.ap (with the operators it includes), or for a
     PDDL problem with --pddl.
 
     Prints a partially ordered plan: steps with agents and times, orderings,
     causal links, simultaneous steps, the counterplan steps that protect it
     from uncontrolled agents, the risk left and each threat it is made of.
-    Exits 0 when solved, 1 when unsolvable, out of time or the input is bad
-    (a file with no goals, a syntax error: reported with a caret on stderr),
-    2 on bad usage. With --json the result is always JSON on stdout, also
+    Exits 0 when solved, 1 when unsolvable, out of time, when the plan
+    breaks a (deadline GOAL SECONDS) of the file, or the input is bad (a file
+    with no goals, a syntax error: reported with a caret on stderr), 2 on bad
+    usage. With --json the result is always JSON on stdout, also
     without a plan: status 'unsolvable', 'timeout' or (bad input) 'error',
     with the reason and its located problems.
     """
@@ -76,21 +89,28 @@ def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_f
     if as_json and as_dot:
         raise click.UsageError("choose one of --json and --dot")
     try:
-        problem = _read_problem(files, pddl)
+        problem, warnings = _read_problem(files, pddl)
         result = solve(problem, timeout=timeout, protect=not no_counterplan)
     except AtlasError as exc:
         if as_json:
             click.echo(plan_of_error(exc).to_json(timing))
         raise
+    for found in warnings:
+        click.echo(found.render(), err=True)
+    late = result.status == "solved" and not result.meets_deadline
+    if late:
+        result.problems.append(_broken_deadline(problem, result))
     if as_json:
         click.echo(result.to_json(timing))
     elif as_dot:
-        click.echo(result.to_dot())
+        from atlas_rap.planner.dot import plan_dot
+
+        click.echo(plan_dot(result))
     else:
         click.echo(result.to_text())
     for found in result.problems:
         click.echo(found.render(), err=True)
-    if result.status != "solved":
+    if result.status != "solved" or late:
         sys.exit(1)
     if plan_file:
         from atlas_rap.planner.plan_file import write_plan_file
@@ -101,6 +121,11 @@ def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_f
 
         _write("--render", render, lambda: render_plan(result, render))
         click.echo(f"wrote {render}", err=True)
+    if render_order:
+        from atlas_rap.planner.order_picture import render_order as draw_order
+
+        _write("--render-order", render_order, lambda: draw_order(result, render_order))
+        click.echo(f"wrote {render_order}", err=True)
     if check_raps and not _raps_cover(result, check_raps):
         sys.exit(1)
 
@@ -115,7 +140,24 @@ def _write(option: str, path: str, write) -> None:
         raise OutputError(f"{option} {path}: cannot write it ({exc.strerror or exc})") from None
 
 
+def _broken_deadline(problem, result):
+    """The located problem of a plan whose makespan breaks its deadline: at the goal
+    of the ``deadline`` form that set it (the first, if several set the same time)."""
+    from atlas_rap.errors import Problem, SourceLocation
+    from atlas_rap.logic import term_to_str, unify
+
+    found = [(goal, loc) for (goal, seconds), loc in zip(problem.deadlines, problem.deadline_locations)
+             if seconds == result.deadline and any(unify(goal, g) is not None for g in problem.goals)]
+    goal, loc = found[0] if found else (None, None)
+    what = f" for {term_to_str(goal)}" if goal is not None else ""
+    return Problem(f"the plan's {result.deadline_text()}{what}: it is not a usable plan",
+                   loc or SourceLocation(problem.name, 1, 1), problem.line(loc),
+                   "the planner does not look for the fastest plan: loosen the deadline, or change the "
+                   "operators' durations or the agents")
+
+
 def _read_problem(files: tuple[str, ...], pddl: bool):
+    """The problem of ``files`` and the warnings of its load-time checks."""
     from atlas_rap.lang import load
     from atlas_rap.planner.checks import raise_problems
     from atlas_rap.planner.problem import problem_from_program
@@ -126,14 +168,13 @@ def _read_problem(files: tuple[str, ...], pddl: bool):
             raise click.UsageError("--pddl takes two files: DOMAIN.pddl PROBLEM.pddl")
         from atlas_rap.planner.pddl import load_pddl
 
-        return _with_goals(load_pddl(files[0], files[1]), files[1], "add (:goal ...) to the problem")
+        return _with_goals(load_pddl(files[0], files[1]), files[1], "add (:goal ...) to the problem"), []
     if len(files) != 1:
         raise click.UsageError("give one goals file (GOALS.ap), or --pddl DOMAIN.pddl PROBLEM.pddl")
     path = resolve_user_path(files[0])
     problem = _with_goals(problem_from_program(load(path), name=str(files[0])), files[0],
                           "add (goals FACT ...), or plan a goals file that includes this one")
-    raise_problems(problem)
-    return problem
+    return problem, raise_problems(problem)
 
 
 def _with_goals(problem, file: str, hint: str):

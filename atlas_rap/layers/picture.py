@@ -8,7 +8,8 @@ a failed or interrupted run)::
     picture.render("run.png", "deliver.rap")
 
 It marks where each task at most one level below a posted one started
-(first selection) and ended, on the robot's path.
+(first selection) and ended, on the robot's path, and where each plan step
+started and how it ended (the plan executive's records, ``sim.render.PLAN_EVENTS``).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ class RunPicture:
         self.engine = engine
         self.events: list[dict] = []
         self.depth: dict[int, int] = {}
+        self.plan_events: list[dict] = []
         engine.trace.add_sink(self)
 
     def __call__(self, record: dict) -> None:
@@ -37,6 +39,8 @@ class RunPicture:
             self.depth[record["id"]] = self.depth.get(parent, 0) + 1 if parent is not None else 0
         elif event in _KINDS and self.depth.get(record["id"], 9) <= 1:
             self.events.append(record)
+        elif event.startswith("plan-") or event == "replanned":
+            self.plan_events.append(record)
 
     def render(self, out_png: str, title: str) -> None:
         """Draw the run so far: world, doors as they are, obstacles, path, task marks."""
@@ -47,16 +51,20 @@ class RunPicture:
             raise AtlasError("a picture of the run needs a world; this run has none (--world none)")
         sim = engine.simulation
         render_run(engine.world, out_png, path=sim.path, doors_open=sim.doors_open, obstacles=sim.obstacles(),
-                   task_marks=self.marks(), title=f"{title}, seed {engine.seed}")
+                   task_marks=self.marks(), title=f"{title}, seed {engine.seed}", plan_events=self.plan_events)
 
     def marks(self) -> list:
-        """Where each marked task started (first selection) and ended, on the robot's path."""
+        """Where each marked task started (first selection) and ended, on the robot's path
+        (a plan step's task is drawn as the plan step, not again as a task)."""
         from atlas_rap.sim.render import TaskMark
 
         path = self.engine.simulation.path
         times = [p[0] for p in path]
         marks, started = [], set()
+        plan_steps = {r["step_task"] for r in self.plan_events if r["event"] == "plan-step-started"}
         for record in self.events:
+            if record["id"] in plan_steps:
+                continue
             kind = _KINDS[record["event"]]
             if kind == "started":
                 if record["id"] in started:

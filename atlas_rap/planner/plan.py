@@ -37,6 +37,7 @@ from atlas_rap.planner.ground import GroundAction, GroundTask
 from atlas_rap.planner.partial_order import INIT, PartialOrder
 
 MAX_PLOT_DEPTH = 16
+DEADLINE_SLACK = 1e-9  # seconds: a makespan this much past a deadline (rounding of shared durations) meets it
 
 
 @dataclass
@@ -45,7 +46,10 @@ class PlanStep:
     operator's name and values), the ``operator`` it belongs to, its agent, its
     times, and the index of the operator step of the partial order it expands.
     ``purpose`` is the operator's purpose with bindings when the step is a whole
-    operator that has one (RAPs are matched to it), else the action itself."""
+    operator that has one (RAPs are matched to it), else the action itself.
+    ``needs`` are the operator's preconditions with its bindings, static facts
+    included: the causal links leave out facts that no operator changes, and a
+    plan being carried out watches these too."""
 
     id: int
     action: Compound
@@ -56,6 +60,7 @@ class PlanStep:
     source: int
     purpose: Term | None = None
     binding: dict = field(default_factory=dict, repr=False)
+    needs: tuple[Term, ...] = field(default=(), repr=False)
 
 
 @dataclass(frozen=True)
@@ -95,7 +100,10 @@ class PlanThreat:
 class Plan:
     """The planner's answer; ``status`` is ``solved``, ``unsolvable`` or ``timeout``
     (or ``error`` for bad input, :func:`plan_of_error`). ``threats`` are what the
-    ``risk`` is made of; ``problems`` the located reasons there is no plan."""
+    ``risk`` is made of; ``problems`` the located reasons there is no plan.
+    ``deadline`` is the time (seconds from the plan's start) by which its goals
+    must be achieved (``PlanningProblem.deadline_for``), or None; a solved plan
+    whose makespan is past it is still a plan, but :attr:`meets_deadline` is False."""
 
     status: str
     steps: list[PlanStep] = field(default_factory=list)
@@ -112,10 +120,17 @@ class Plan:
     timing: dict[str, float] = field(default_factory=dict)
     reason: str = ""
     problems: list[Problem] = field(default_factory=list)
+    deadline: float | None = None
+
+    @property
+    def meets_deadline(self) -> bool:
+        """True when there is no deadline or the makespan is within it."""
+        return self.deadline is None or self.makespan <= self.deadline + DEADLINE_SLACK
 
     def to_dict(self, timing: bool = False) -> dict[str, object]:
         """The JSON form of LANGUAGE.md §3.3. ``stats`` holds counts only, so the same
-        input gives the same JSON; ``timing`` (CPU seconds) only when asked for."""
+        input gives the same JSON; ``timing`` (CPU seconds) only when asked for;
+        ``deadline`` and ``meets_deadline`` only when the plan has a deadline."""
         return {
             "status": self.status,
             "steps": [{"id": s.id, "action": term_to_str(s.action), "operator": s.operator, "agent": s.agent,
@@ -128,6 +143,8 @@ class Plan:
             "threats": [t.to_dict() for t in self.threats],
             "risk_before_counterplanning": self.risk_before_counterplanning,
             "makespan": _number(self.makespan),
+            **({"deadline": _number(self.deadline), "meets_deadline": self.meets_deadline}
+               if self.deadline is not None else {}),
             "stats": self.stats,
             **({"timing": self.timing} if timing else {}),
             **({"reason": self.reason} if self.reason else {}),
@@ -141,7 +158,8 @@ class Plan:
         """A readable listing: the steps by start time, then links and counterplan."""
         if self.status != "solved":
             return f"{self.status}" + (f": {self.reason}" if self.reason else "")
-        lines = [f"solved: {len(self.steps)} steps, makespan {_number(self.makespan)}, "
+        makespan = self.deadline_text() or f"makespan {_number(self.makespan)}"
+        lines = [f"solved: {len(self.steps)} steps, {makespan}, "
                  f"parallel length {self.stats.get('parallel_length', '?')}, risk {self.risk:g}"]
         before = {s.id: [] for s in self.steps}
         for a, b in self.orderings:
@@ -166,28 +184,13 @@ class Plan:
             lines.extend(f"  {t.describe()}" for t in self.threats)
         return "\n".join(lines)
 
-    def to_dot(self) -> str:
-        """The partial order as a Graphviz digraph: steps, orderings, links labelled with
-        their facts, simultaneous steps side by side, counterplan steps shaded."""
-        counter_steps = {c["step"] for c in self.counterplan}
-        out = ["digraph plan {", "  rankdir=LR;", '  node [shape=box, fontname="Helvetica"];',
-               '  init [shape=circle, label="init"];', '  goal [shape=doublecircle, label="goal"];']
-        for s in self.steps:
-            label = _dot_escape(term_to_str(s.action)) + (f"\\n[{_dot_escape(s.agent)}]" if s.agent else "")
-            style = ', style=filled, fillcolor="#ffd8a8"' if s.id in counter_steps else ""
-            out.append(f'  s{s.id} [label="{label}"{style}];')
-        linked = {(a, b) for a, b, _ in self.links}
-        for a, b in self.orderings:
-            if (a, b) not in linked:
-                out.append(f"  s{a} -> s{b} [style=dashed];")
-        for a, b, fact in self.links:
-            src = "init" if a == "init" else f"s{a}"
-            dst = "goal" if b == "goal" else f"s{b}"
-            out.append(f'  {src} -> {dst} [label="{_dot_escape(fact)}", fontsize=9];')
-        for group in self.simultaneous:
-            out.append("  { rank=same; " + " ".join(f"s{i};" for i in group) + " }")
-        out.append("}")
-        return "\n".join(out)
+    def deadline_text(self) -> str:
+        """How the makespan stands to the deadline, e.g. ``makespan 160 breaks the
+        deadline of 150 s`` (or ``... within the deadline ...``); "" without a deadline."""
+        if self.deadline is None:
+            return ""
+        verb = "within" if self.meets_deadline else "breaks"
+        return f"makespan {_number(self.makespan)} {verb} the deadline of {_number(self.deadline)} s"
 
 
 def build_plan(task: GroundTask, order: PartialOrder, protected: Protected, stats: dict) -> Plan:
@@ -306,6 +309,7 @@ def _place(tree: tuple, index: int, unit: float, steps: list[PlanStep],
         step = PlanStep(id=len(steps) + 1, action=term, operator=action.operator.name,
                         agent=None if agent is None else str(agent), start=0.0, end=unit, source=index,
                         purpose=term if purpose is None else substitute(purpose, action.binding),
+                        needs=tuple(substitute(pre, action.binding) for pre in action.operator.preconditions),
                         binding=action.binding)
         steps.append(step)
         return [step.id], [step.id]
@@ -353,7 +357,3 @@ def _problem_dict(problem: Problem) -> dict[str, object]:
 
 def _number(x: float) -> float | int:
     return int(x) if float(x).is_integer() else round(x, 6)
-
-
-def _dot_escape(text: str) -> str:
-    return text.replace("\\", "\\\\").replace('"', '\\"')

@@ -16,7 +16,16 @@
 * task marks (:class:`TaskMark`) as small markers, numbered in time order;
   the legend beside the map lists them ("1 (go-to office) started at
   3.0 s"), so the map itself carries only numbers, and marks that fall
-  in the same spot share one label ("3–5").
+  in the same spot share one label ("3–5");
+* plan steps (``plan_events``: the plan executive's trace records,
+  :data:`PLAN_EVENTS`) as small squares where the robot was when each
+  step started, green when it was done, red when it failed, grey when it
+  was halted (a re-plan dropped it, or the plan was abandoned), blue while
+  it still runs; numbered ``s3`` on the map (``v2 s3`` when a plan was
+  re-planned, ``p2 s3`` when a run has several plans); a re-plan as a
+  purple star and an abandoned plan as a dark red cross where they
+  happened. The legend lists them in time order
+  (:func:`plan_legend_rows`: "s3 (go-to office) [robot] ✓ 3.0–12.5 s").
 
 matplotlib is imported inside :func:`render_run` (object-oriented
 ``Figure`` + Agg canvas, no pyplot and no global state), so importing this
@@ -27,6 +36,7 @@ version or date is written into the file.
 from __future__ import annotations
 
 import math
+from bisect import bisect_left
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,7 +46,8 @@ from atlas_rap.model import World
 from atlas_rap.pictures import DPI as _DPI
 from atlas_rap.pictures import map_layout
 
-__all__ = ["TASK_MARK_KINDS", "TaskMark", "render_run"]
+__all__ = ["PLAN_EVENTS", "TASK_MARK_KINDS", "PlanNote", "PlanStepMark", "TaskMark", "plan_legend_rows",
+           "plan_marks", "render_run"]
 
 TASK_MARK_KINDS = ("started", "succeeded", "failed")
 
@@ -50,6 +61,48 @@ class TaskMark:
     y: float
     label: str
     kind: str
+
+
+PLAN_EVENTS = frozenset({"plan-ready", "plan-step-started", "plan-step-done", "plan-step-failed", "replanned",
+                         "plan-abandoned", "plan-done"})
+"""The trace events of the plan executive that the picture shows."""
+
+
+@dataclass(frozen=True, slots=True)
+class PlanStepMark:
+    """A plan step: where the robot was when it started (``time``), and how it ended.
+
+    ``outcome`` is done, failed, halted (a re-plan dropped it, or the plan
+    was abandoned) or running (not ended when the picture was drawn);
+    ``end`` is when it ended, ``reason`` why it failed or was halted.
+    ``version`` is the plan's version when the step started.
+    """
+
+    time: float
+    x: float
+    y: float
+    plan: int
+    version: int
+    step: int
+    action: str
+    agent: str | None
+    outcome: str
+    end: float | None = None
+    reason: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class PlanNote:
+    """A moment of a plan, where the robot was: ``kind`` is ready, replanned, abandoned or finished;
+    ``text`` is its legend row. Re-plans and abandoned plans are also marked on the map."""
+
+    time: float
+    x: float
+    y: float
+    plan: int
+    version: int
+    kind: str
+    text: str
 
 
 # Look of the picture -------------------------------------------------------
@@ -75,6 +128,14 @@ _MARK_STYLE: dict[str, tuple[str, str, float]] = {
     "failed": ("X", "#d62728", 8.0),
 }
 _OTHER_MARK = ("o", "#666666", 6.0)
+_MAX_LISTED_PLAN_ROWS = 36
+_MAX_ROW_CHARS = 84
+_STEP_COLOURS = {"done": "#1a9641", "failed": "#d62728", "halted": "#8c8c8c", "running": "#1f63c6"}
+_STEP_SIGNS = {"done": "\u2713", "failed": "\u2717", "halted": "halted", "running": "running"}
+_NOTE_STYLE: dict[str, tuple[str, str, float]] = {
+    "replanned": ("*", "#9c36b5", 11.0),
+    "abandoned": ("X", "#862e2e", 9.0),
+}
 
 
 def render_run(
@@ -86,6 +147,7 @@ def render_run(
     task_marks: Sequence[TaskMark] = (),
     title: str | None = None,
     obstacles: Sequence[tuple[str, tuple[float, float], float]] = (),
+    plan_events: Sequence[Mapping[str, Any]] = (),
 ) -> Path:
     """Draw ``world`` and a run in it to the PNG ``out_png``; return its path.
 
@@ -97,7 +159,10 @@ def render_run(
     ``title`` follows the world's name in the title (e.g. ``"deliver.rap,
     seed 0"``). ``obstacles`` are ``(kind, (x, y), size)``: ``box`` is a
     square of side ``size``, anything else (``person``) a disc of diameter
-    ``size``. The parent directory of ``out_png`` is created if needed.
+    ``size``. ``plan_events`` are trace records of the plan executive
+    (:data:`PLAN_EVENTS`, others are ignored), in time order: each plan
+    step is drawn where the robot was when it started (:func:`plan_marks`).
+    The parent directory of ``out_png`` is created if needed.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -106,7 +171,9 @@ def render_run(
     out.parent.mkdir(parents=True, exist_ok=True)
 
     marks = sorted(task_marks, key=lambda m: m.time)  # stable: ties keep their given order
-    (xmin, xmax, ymin, ymax), map_w, map_h = map_layout(*_extent(world, path, marks, obstacles))
+    steps, notes = plan_marks(plan_events, path, start=world.robot.start[:2])
+    placed = [TaskMark(m.time, m.x, m.y, "", "") for m in [*steps, *notes]]  # (only to size the map)
+    (xmin, xmax, ymin, ymax), map_w, map_h = map_layout(*_extent(world, path, [*marks, *placed], obstacles))
 
     left, bottom, top, right = 0.75, 1.05 if path else 0.6, 0.55, 0.25
     fig_w, fig_h = left + map_w + right, bottom + map_h + top
@@ -134,7 +201,9 @@ def render_run(
         _draw_obstacles(ax, obstacles, handles)
         _draw_path(fig, ax, path, handles, left / fig_w, (bottom - 0.78) / fig_h, map_w / fig_w)
         _draw_robot(ax, world, path, handles)
-        _draw_marks(fig, ax, marks, handles)
+        taken: list[tuple[float, float, float, float]] = []
+        _draw_marks(fig, ax, marks, handles, taken)
+        _draw_plan(fig, ax, steps, notes, handles, taken)
 
         if handles:
             ax.legend(
@@ -355,61 +424,18 @@ def _draw_robot(ax, world: World, path, handles: list) -> None:
                           markeredgecolor=_ROBOT_EDGE, label=label))
 
 
-def _draw_marks(fig, ax, marks: list[TaskMark], handles: list) -> None:
+def _draw_marks(fig, ax, marks: list[TaskMark], handles: list, taken: list) -> None:
     from matplotlib.lines import Line2D
-    from matplotlib.transforms import offset_copy
 
     if not marks:
         return
-    # Marks that fall in (nearly) the same spot share one label; their markers sit side by side.
-    xlo, xhi = ax.get_xlim()
-    ylo, yhi = ax.get_ylim()
-    near = 0.025 * max(xhi - xlo, yhi - ylo)
-    groups: list[tuple[float, float, list[int]]] = []
-    for i, m in enumerate(marks):
-        for gx, gy, members in groups:
-            if math.hypot(m.x - gx, m.y - gy) <= near:
-                members.append(i)
-                break
-        else:
-            groups.append((m.x, m.y, [i]))
-
-    step = 8.0  # points between markers of one group
-    fontsize = 7.5
-    pos = ax.get_position()
-    ppm = pos.width * fig.get_figwidth() * 72 / (xhi - xlo)  # points per metre (equal aspect)
-    anchors = [((gx - xlo) * ppm, (gy - ylo) * ppm) for gx, gy, _ in groups]
-    # Every marker row is taken; each label then goes where it hits nothing placed so far.
-    taken = [(ax0 - 5, ay0 - 5, ax0 + (min(len(g[2]), 8) - 1) * step + 5, ay0 + 5)
-             for (ax0, ay0), g in zip(anchors, groups)]
-    for (gx, gy, members), (px, py) in zip(groups, anchors):
-        shown = members[:8]
-        for k, i in enumerate(shown):
-            marker, colour, size = _MARK_STYLE.get(marks[i].kind, _OTHER_MARK)
-            tr = offset_copy(ax.transData, fig=fig, x=k * step, y=0.0, units="points")
-            ax.plot(gx, gy, transform=tr, linestyle="none", marker=marker, markersize=size,
-                    color=colour, markeredgecolor="white" if marker in (">", "X", "o") else colour,
-                    markeredgewidth=0.6, zorder=8)
-        text = _ranges([i + 1 for i in members])
-        w, h = 0.62 * fontsize * len(text) + 2, 1.2 * fontsize
-        right = (len(shown) - 1) * step + 6
-        mid = (len(shown) - 1) * step / 2
-        candidates = [  # (x offset, y offset) of the label's lower-left corner, in points
-            (right, 3), (right, -3 - h), (-6 - w, 3), (-6 - w, -3 - h),
-            (mid - w / 2, 7), (mid - w / 2, -7 - h), (right, -h / 2), (-6 - w, -h / 2),
-        ]
-        # the first of the least crowded places
-        best = min(candidates, key=lambda c: _overlap((px + c[0], py + c[1], px + c[0] + w, py + c[1] + h), taken))
-        taken.append((px + best[0], py + best[1], px + best[0] + w, py + best[1] + h))
-        ax.annotate(
-            text, (gx, gy), xytext=best, textcoords="offset points",
-            ha="left", va="bottom", fontsize=fontsize, color="#222222", fontweight="bold",
-            path_effects=_halo(2.2), zorder=9,
-        )
+    styles = [_MARK_STYLE.get(m.kind, _OTHER_MARK) for m in marks]
+    _place_groups(fig, ax, [(m.x, m.y) for m in marks], styles, lambda members: _ranges([i + 1 for i in members]),
+                  taken)
 
     handles.append(Line2D([], [], linestyle="none", label="task marks:"))
     for i, m in enumerate(marks[:_MAX_LISTED_MARKS]):
-        marker, colour, size = _MARK_STYLE.get(m.kind, _OTHER_MARK)
+        marker, colour, size = styles[i]
         handles.append(Line2D(
             [], [], linestyle="none", marker=marker, markersize=size, color=colour,
             markeredgecolor="white" if marker in (">", "X", "o") else colour, markeredgewidth=0.6,
@@ -418,6 +444,256 @@ def _draw_marks(fig, ax, marks: list[TaskMark], handles: list) -> None:
     if len(marks) > _MAX_LISTED_MARKS:
         handles.append(Line2D([], [], linestyle="none",
                               label=f"\u2026 and {len(marks) - _MAX_LISTED_MARKS} more"))
+
+
+def _draw_plan(fig, ax, steps: list[PlanStepMark], notes: list[PlanNote], handles: list, taken: list) -> None:
+    """The plan steps as squares coloured by outcome, numbered; re-plans and abandoned plans
+    as their own markers with a word; then the legend rows."""
+    from matplotlib.lines import Line2D
+
+    if not steps and not notes:
+        return
+    if steps:
+        tags = _step_prefixes(steps, notes)
+        styles = [("s", _STEP_COLOURS.get(m.outcome, "#666666"), 6.5) for m in steps]
+
+        def text_of(members: list[int]) -> str:
+            by_prefix: dict[str, list[int]] = {}
+            for i in members:
+                by_prefix.setdefault(tags[i], []).append(steps[i].step)
+            return "; ".join(f"{prefix}s{_ranges(sorted(set(numbers)))}" for prefix, numbers in by_prefix.items())
+
+        _place_groups(fig, ax, [(m.x, m.y) for m in steps], styles, text_of, taken, colour="#1b3a5c")
+    shown = [n for n in notes if n.kind in _NOTE_STYLE]
+    if shown:
+        styles = [_NOTE_STYLE[n.kind] for n in shown]
+        words = {"replanned": "re-plan", "abandoned": "abandoned"}
+
+        def note_text(members: list[int]) -> str:
+            return ", ".join(dict.fromkeys(
+                f"{words[shown[i].kind]} v{shown[i].version}" if shown[i].kind == "replanned" else words[shown[i].kind]
+                for i in members))
+
+        _place_groups(fig, ax, [(n.x, n.y) for n in shown], styles, note_text, taken, colour="#5f1e6e")
+
+    handles.append(Line2D([], [], linestyle="none", label="plan steps (where each started):"))
+    rows = plan_legend_rows(steps, notes)
+    for kind, text in rows[:_MAX_LISTED_PLAN_ROWS]:
+        if kind in _STEP_COLOURS:
+            handles.append(Line2D([], [], linestyle="none", marker="s", markersize=6.5, color=_STEP_COLOURS[kind],
+                                  markeredgecolor="white", markeredgewidth=0.6, label=_plain(text)))
+        elif kind in _NOTE_STYLE:
+            marker, colour, size = _NOTE_STYLE[kind]
+            handles.append(Line2D([], [], linestyle="none", marker=marker, markersize=size, color=colour,
+                                  markeredgecolor="white", markeredgewidth=0.6, label=_plain(text)))
+        else:
+            handles.append(Line2D([], [], linestyle="none", label=_plain(text)))
+    if len(rows) > _MAX_LISTED_PLAN_ROWS:
+        handles.append(Line2D([], [], linestyle="none", label=f"\u2026 and {len(rows) - _MAX_LISTED_PLAN_ROWS} more"))
+
+
+def _place_groups(fig, ax, points: list[tuple[float, float]], styles: list[tuple[str, str, float]],
+                  text_of, taken: list, colour: str = "#222222") -> None:
+    """Markers at ``points``; those in (nearly) the same spot share one label (``text_of``
+    their indices) and sit side by side. Each label goes where it hits least of ``taken``
+    (the markers and labels placed so far, in points), which it then joins."""
+    from matplotlib.transforms import offset_copy
+
+    xlo, xhi = ax.get_xlim()
+    ylo, yhi = ax.get_ylim()
+    near = 0.025 * max(xhi - xlo, yhi - ylo)
+    groups: list[tuple[float, float, list[int]]] = []
+    for i, (x, y) in enumerate(points):
+        for gx, gy, members in groups:
+            if math.hypot(x - gx, y - gy) <= near:
+                members.append(i)
+                break
+        else:
+            groups.append((x, y, [i]))
+
+    step = 8.0  # points between markers of one group
+    fontsize = 7.5
+    pos = ax.get_position()
+    ppm = pos.width * fig.get_figwidth() * 72 / (xhi - xlo)  # points per metre (equal aspect)
+    anchors = [((gx - xlo) * ppm, (gy - ylo) * ppm) for gx, gy, _ in groups]
+    # A row of markers that would cover markers or labels of an earlier call moves down a row or more.
+    earlier = list(taken)
+    rows: list[tuple[float, float, float, float]] = []
+    for i, ((ax0, ay0), g) in enumerate(zip(anchors, groups)):
+        box = (ax0 - 5, ay0 - 5, ax0 + (min(len(g[2]), 8) - 1) * step + 5, ay0 + 5)
+        for _ in range(4):
+            if _overlap(box, earlier) == 0:
+                break
+            box = (box[0], box[1] - 10, box[2], box[3] - 10)
+        anchors[i] = (ax0, box[1] + 5)
+        rows.append(box)
+    # Every marker row is taken; each label then goes where it hits nothing placed so far.
+    taken += rows
+    for (gx, gy, members), (px, py), (_, y0) in zip(groups, anchors, [((gx - xlo) * ppm, (gy - ylo) * ppm)
+                                                                     for gx, gy, _ in groups]):
+        shown = members[:8]
+        lower = py - y0  # points the row moved down (0: on the spot)
+        for k, i in enumerate(shown):
+            marker, mark_colour, size = styles[i]
+            tr = offset_copy(ax.transData, fig=fig, x=k * step, y=lower, units="points")
+            ax.plot(gx, gy, transform=tr, linestyle="none", marker=marker, markersize=size,
+                    color=mark_colour, markeredgecolor="white" if marker in (">", "X", "o", "s", "*") else mark_colour,
+                    markeredgewidth=0.6, zorder=8)
+        text = text_of(members)
+        w, h = 0.62 * fontsize * len(text) + 2, 1.2 * fontsize
+        right = (len(shown) - 1) * step + 6
+        mid = (len(shown) - 1) * step / 2
+        candidates = [  # (x offset, y offset) of the label's lower-left corner, in points
+            (right, 3), (right, -3 - h), (-6 - w, 3), (-6 - w, -3 - h),
+            (mid - w / 2, 7), (mid - w / 2, -7 - h), (right, -h / 2), (-6 - w, -h / 2),
+        ]
+        if lower:  # a row moved off the spot: its label level with it, clear of the row above
+            candidates.insert(0, (right, -h / 2))
+        # the first of the least crowded places
+        best = min(candidates, key=lambda c: _overlap((px + c[0], py + c[1], px + c[0] + w, py + c[1] + h), taken))
+        taken.append((px + best[0], py + best[1], px + best[0] + w, py + best[1] + h))
+        ax.annotate(
+            _plain(text), (gx, gy), xytext=(best[0], best[1] + lower), textcoords="offset points",
+            ha="left", va="bottom", fontsize=fontsize, color=colour, fontweight="bold",
+            path_effects=_halo(2.2), zorder=9,
+        )
+
+
+# The plan executive's trace, read ------------------------------------------
+
+
+def plan_marks(
+    records: Sequence[Mapping[str, Any]],
+    path: Sequence[tuple[float, float, float, float]] = (),
+    start: Sequence[float] = (0.0, 0.0),
+) -> tuple[list[PlanStepMark], list[PlanNote]]:
+    """The plan steps and the plan's moments in ``records`` (trace records in time order;
+    those not in :data:`PLAN_EVENTS` are ignored), placed where the robot was then on
+    ``path`` (``(t, x, y, heading)`` items; with no path, at ``start``).
+
+    A step is matched to its end by its RAP task (``step_task``), else by plan, version
+    and step. A step still running when its plan is re-planned without it (``halted``
+    of ``replanned``) or abandoned is halted then; one with no end is still running.
+    """
+    times = [float(p[0]) for p in path]
+
+    def where(t: float) -> tuple[float, float]:
+        if not path:
+            return float(start[0]), float(start[1])
+        _, x, y, _ = path[min(bisect_left(times, t), len(path) - 1)]
+        return float(x), float(y)
+
+    started: dict[object, dict[str, Any]] = {}  # key -> the step as it goes
+    notes: list[PlanNote] = []
+    version: dict[int, int] = {}
+    for record in records:
+        event = record.get("event")
+        if event not in PLAN_EVENTS:
+            continue
+        t = float(record.get("t", 0.0))
+        plan = int(record.get("plan", 0))
+        ver = int(record.get("version", version.get(plan, 1)))
+        version[plan] = ver
+        if event == "plan-step-started":
+            key = _step_key(record)
+            if key in started:  # started again (the same task): the first start counts
+                continue
+            x, y = where(t)
+            started[key] = {"time": t, "x": x, "y": y, "plan": plan, "version": ver,
+                            "step": int(record.get("step", 0)), "action": str(record.get("action", "")),
+                            "agent": record.get("agent"), "outcome": "running", "end": None, "reason": ""}
+        elif event in ("plan-step-done", "plan-step-failed"):
+            step = started.get(_step_key(record))
+            if step is not None and step["outcome"] == "running":
+                step.update(outcome="done" if event == "plan-step-done" else "failed", end=t,
+                            reason=str(record.get("reason", "")))
+        else:
+            x, y = where(t)
+            if event == "replanned":
+                halted = set(map(str, record.get("halted", ())))
+                for step in started.values():
+                    if step["plan"] == plan and step["outcome"] == "running" and step["action"] in halted:
+                        step.update(outcome="halted", end=t, reason=f"re-plan v{ver} dropped it")
+            elif event == "plan-abandoned" and record.get("scope", "plan") == "plan":
+                for step in started.values():
+                    if step["plan"] == plan and step["outcome"] == "running":
+                        step.update(outcome="halted", end=t, reason="the plan was abandoned")
+            kind = {"plan-ready": "ready", "replanned": "replanned", "plan-abandoned": "abandoned",
+                    "plan-done": "finished"}[event]
+            notes.append(PlanNote(t, x, y, plan, ver, kind, _note_text(kind, t, plan, ver, record)))
+    steps = sorted((PlanStepMark(**s) for s in started.values()), key=lambda m: m.time)
+    return steps, notes
+
+
+def plan_legend_rows(steps: Sequence[PlanStepMark], notes: Sequence[PlanNote] = ()) -> list[tuple[str, str]]:
+    """The legend's rows for the plan, in time order (a moment before the steps that start
+    with it): ``(kind, text)``, where ``kind`` is a step's outcome (done, failed, halted,
+    running) or a note's kind (ready, replanned, abandoned, finished), and ``text`` e.g.
+    ``"s3 (go-to office) [robot] ✓ 3.0–12.5 s"``. A plan's ``ready`` is listed for its
+    first version only (a re-plan's row says what changed)."""
+    prefixes = _step_prefixes(steps, notes)
+    rows: list[tuple[float, int, int, tuple[str, str]]] = []
+    for i, n in enumerate(notes):
+        if n.kind == "ready" and n.version > 1:
+            continue
+        rows.append((n.time, 0, i, (n.kind, n.text)))
+    for i, m in enumerate(steps):
+        agent = f" [{m.agent}]" if m.agent else ""
+        head = f"{prefixes[i]}s{m.step} {_one_line(m.action)}{agent} {_STEP_SIGNS.get(m.outcome, m.outcome)}"
+        if m.outcome == "done":
+            text = f"{head} {m.time:.1f}\u2013{m.end:.1f} s"
+        elif m.outcome == "running":
+            text = f"{head} from {m.time:.1f} s"
+        else:
+            text = f"{head} {m.time:.1f}\u2013{m.end:.1f} s" + (f": {_one_line(m.reason)}" if m.reason else "")
+        rows.append((m.time, 1, i, (m.outcome, _cut(text))))
+    return [row for *_, row in sorted(rows, key=lambda r: r[:3])]
+
+
+def _step_key(record: Mapping[str, Any]) -> object:
+    task = record.get("step_task")
+    if task is not None:
+        return ("task", task)
+    return ("step", record.get("plan"), record.get("version"), record.get("step"))
+
+
+def _step_prefixes(steps: Sequence[PlanStepMark], notes: Sequence[PlanNote] = ()) -> list[str]:
+    """What goes before each step's ``s3``: ``p2 `` when the run has several plans,
+    ``v2 `` when its plan has several versions."""
+    plans = {m.plan for m in steps} | {n.plan for n in notes}
+    versions: dict[int, set[int]] = {}
+    for item in [*steps, *notes]:
+        versions.setdefault(item.plan, set()).add(item.version)
+    return [(f"p{m.plan} " if len(plans) > 1 else "") + (f"v{m.version} " if len(versions[m.plan]) > 1 else "")
+            for m in steps]
+
+
+def _note_text(kind: str, t: float, plan: int, version: int, record: Mapping[str, Any]) -> str:
+    """A moment's legend row."""
+    if kind == "ready":
+        goals = " ".join(map(str, record.get("goals", ())))
+        text = f"plan {plan} at {t:.1f} s: {record.get('steps', '?')} steps, makespan {record.get('makespan', '?')}"
+        return _cut(text + (f", for {goals}" if goals else ""))
+    if kind == "replanned":
+        counts = ", ".join(f"{len(record.get(k) or ())} {k}" for k in ("kept", "new", "halted", "reassigned")
+                           if record.get(k))
+        counts = f"; {counts}" if counts else ""
+        cause = _one_line(str(record.get("cause", "")))
+        return _cut(f"re-planned at {t:.1f} s (plan {plan} v{version}{counts}): {cause}")
+    if kind == "abandoned":
+        what = "gave up " + " ".join(map(str, record.get("goals", ()))) if record.get("scope") == "goal" \
+            else f"plan {plan} abandoned"
+        return _cut(f"{what} at {t:.1f} s: {_one_line(str(record.get('reason', '')))}")
+    given_up = " ".join(map(str, record.get("abandoned", ())))
+    return _cut(f"plan {plan} done at {t:.1f} s" + (f", gave up {given_up}" if given_up else ""))
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def _cut(text: str) -> str:
+    return text if len(text) <= _MAX_ROW_CHARS else text[: _MAX_ROW_CHARS - 1] + "\u2026"
 
 
 # Helpers --------------------------------------------------------------------
