@@ -100,10 +100,7 @@ def test_the_planner_plans_from_rap_memory_as_it_is_when_the_step_runs() -> None
 
 
 def test_the_planner_sees_the_prior_map_of_a_world_and_raps_drive_the_plan(tmp_path: Path) -> None:
-    done = atlas("run", str(MISSIONS / "plan-errand.rap"), "--quiet", "--trace", "t.jsonl", cwd=tmp_path)
-    assert_no_traceback(done)
-    assert done.returncode == 0, done.stdout
-    records = [json.loads(line) for line in (tmp_path / "t.jsonl").read_text(encoding="utf-8").splitlines()]
+    records = run_demo("plan-errand.rap", tmp_path)
     ready = events(records, "plan-ready")[0]
     # (connected lab corridor) and (connected corridor storeroom) come from the world's prior map
     assert ready["actions"] == ["s1 (travel-to robot corridor) [robot]", "s2 (travel-to robot storeroom) [robot]"]
@@ -190,22 +187,22 @@ def test_a_broken_causal_link_is_repaired_keeping_the_steps_done_and_the_running
 
 # -- the EVAHR demos ---------------------------------------------------------------------------
 
-@pytest.fixture(scope="module")
-def evahr(tmp_path_factory) -> list[dict]:
-    cwd = tmp_path_factory.mktemp("evahr")
-    done = atlas("run", str(MISSIONS / "evahr.rap"), "--quiet", "--trace", "t.jsonl", cwd=cwd)
+def run_demo(name: str, cwd: Path) -> list[dict]:
+    """Run a shipped mission with ``atlas run``; it must end well; its trace records."""
+    done = atlas("run", str(MISSIONS / name), "--quiet", "--trace", "t.jsonl", cwd=cwd)
     assert_no_traceback(done)
     assert done.returncode == 0, done.stdout
     return [json.loads(line) for line in (cwd / "t.jsonl").read_text(encoding="utf-8").splitlines()]
+
+
+@pytest.fixture(scope="module")
+def evahr(tmp_path_factory) -> list[dict]:
+    return run_demo("evahr.rap", tmp_path_factory.mktemp("evahr"))
 
 
 @pytest.fixture(scope="module")
 def evahr_failures(tmp_path_factory) -> list[dict]:
-    cwd = tmp_path_factory.mktemp("evahr-failures")
-    done = atlas("run", str(MISSIONS / "evahr-failures.rap"), "--quiet", "--trace", "t.jsonl", cwd=cwd)
-    assert_no_traceback(done)
-    assert done.returncode == 0, done.stdout
-    return [json.loads(line) for line in (cwd / "t.jsonl").read_text(encoding="utf-8").splitlines()]
+    return run_demo("evahr-failures.rap", tmp_path_factory.mktemp("evahr-failures"))
 
 
 def test_evahr_attaches_at_the_handrail_when_the_grapple_fixture_fails(evahr) -> None:
