@@ -353,8 +353,18 @@ class Session:
         goals = term.args if type(term) is Compound and term.functor == "" else ()
         if not goals or any(type(goal) is not Compound for goal in goals):
             raise AtlasError(":plan takes goals such as (at robot lab) (seen box)")
+        from atlas_rap.layers.deliberation import plan_for
+        from atlas_rap.planner.checks import raise_problems
+
         self.engine.start()
-        self.out.print(self.engine.plan(tuple(goals)).to_text(), markup=False)
+        problem = self.engine.planning_problem(tuple(goals))
+        raise_problems(problem)  # bad input is shown with its caret
+        self.lock.release()  # the world goes on while the planner thinks (submit holds the lock once)
+        try:
+            plan = plan_for(problem)
+        finally:
+            self.lock.acquire()
+        self.out.print(plan.to_text(), markup=False)
 
     def _save(self, rest: str) -> None:
         from atlas_rap.outputs import output_file

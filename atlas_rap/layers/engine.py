@@ -42,7 +42,7 @@ from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation
 from atlas_rap.lang import ast, load
 from atlas_rap.lang.loader import Program
 from atlas_rap.layers.clock import Clock, WallClock, wall_clock_pacer
-from atlas_rap.layers.deliberation import PLAN_TIMEOUT, Deliberation
+from atlas_rap.layers.deliberation import Deliberation
 from atlas_rap.layers.executive import Driver, Executive, Pace, Rates, Stop, VirtualExecutive
 from atlas_rap.layers.layer import LAYER_NAMES, LayerStack
 from atlas_rap.layers.monitoring import MonitoringLayer
@@ -450,16 +450,6 @@ class MissionEngine:
         if lost:
             base = dataclasses.replace(base, controlled=tuple(a for a in base.controlled if a not in lost))
         return base.asked(goals, tuple(self.sequencer.memory) + facts, loc)  # initial facts are in memory (_act)
-
-    def plan(self, goals: tuple[Term, ...], loc: SourceLocation | None = None, program: Program | None = None,
-             facts: tuple[Compound, ...] = ()):
-        """A plan for ``goals`` now, from memory and ``facts`` (the REPL's ``:plan``: shown, not carried out)."""
-        from atlas_rap.planner.checks import raise_problems
-        from atlas_rap.planner.solve import solve
-
-        problem = self.planning_problem(goals, frozenset(), loc, program, facts)
-        raise_problems(problem)
-        return solve(problem, timeout=PLAN_TIMEOUT)
 
     def _carry_out_plans(self, program: Program) -> Program:
         """Step 2: each ``(plan GOAL ...)`` of ``program`` is checked (every goal achievable by
