@@ -278,7 +278,7 @@ def test_on_a_worker_the_clock_keeps_ticking_while_the_planner_works() -> None:
     delivered = []
     ticks = 0
     deliberation.request((parse_term("(packed cup)"),), frozenset(), frozenset(),
-                         lambda plan, latency, wall: delivered.append((plan, latency, timers.now)))
+                         lambda plan, latency: delivered.append((plan, latency, timers.now)))
     while ticks < 20:  # the clock ticks while the planner is held: nothing is delivered yet
         timers.fire_due(timers.now + 0.05)
         ticks += 1
@@ -301,7 +301,7 @@ def test_in_simulated_time_the_latency_is_a_count_and_the_clock_is_not_held() ->
     deliberation = Deliberation(engine.planning_problem, timers)
     delivered = []
     deliberation.request((parse_term("(packed cup)"),), frozenset(), frozenset(),
-                         lambda plan, latency, wall: delivered.append((plan, timers.now)))
+                         lambda plan, latency: delivered.append((plan, timers.now)))
     assert not delivered  # never from inside the request
     while not delivered and timers.now < 10:
         timers.fire_due(timers.now + 0.001)

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import dataclasses
 import threading
-import time
 from typing import Callable
 
 from atlas_rap.errors import AtlasError
@@ -49,7 +48,8 @@ POLL = 0.05
 PLAN_TIMEOUT = 60.0
 """CPU seconds the planner may take for one plan."""
 
-Deliver = Callable[[Plan, float, float], None]
+Deliver = Callable[[Plan, float], None]
+"""``deliver(plan, latency)``: the plan, and the simulated seconds it took."""
 ProblemFor = Callable[[tuple[Term, ...], frozenset[str]], PlanningProblem]
 """``problem_for(goals, lost_agents)``: the planning problem from memory now."""
 
@@ -83,7 +83,7 @@ class _Request:
     def __init__(self) -> None:
         self.cancelled = False
         self.timer: Timer | None = None
-        self.result: tuple[Plan, float] | None = None
+        self.result: Plan | None = None
 
     def cancel(self) -> None:
         self.cancelled = True
@@ -117,27 +117,23 @@ class Deliberation:
     def request(self, goals: tuple[Term, ...], lost: frozenset[str], avoid: frozenset[Term],
                 deliver: Deliver) -> _Request:
         """Start a plan for ``goals`` without ``lost`` agents and, when it can, without the actions
-        in ``avoid``; ``deliver(plan, latency, wall)`` later."""
+        in ``avoid``; ``deliver(plan, latency)`` later."""
         request = _Request()
         asked = self.timers.now
         try:
             problem = dataclasses.replace(self.problem_for(goals, lost), avoid=avoid)
         except AtlasError as exc:
             plan = plan_of_error(exc)
-            request.timer = self.timers.after(0.0, lambda: deliver(plan, 0.0, 0.0))
+            request.timer = self.timers.after(0.0, lambda: deliver(plan, 0.0))
             return request
         if not self.worker:
-            started = time.perf_counter()
             plan = self.planner(problem, self.timeout)
-            wall = time.perf_counter() - started
             latency = charged_latency(plan)
-            request.timer = self.timers.after(latency, lambda: deliver(plan, latency, wall))
+            request.timer = self.timers.after(latency, lambda: deliver(plan, latency))
             return request
 
         def work() -> None:
-            started = time.perf_counter()
-            plan = self.planner(problem, self.timeout)
-            request.result = (plan, time.perf_counter() - started)
+            request.result = self.planner(problem, self.timeout)
 
         threading.Thread(target=work, name="atlas-planner", daemon=True).start()
 
@@ -147,8 +143,7 @@ class Deliberation:
             if request.result is None:
                 request.timer = self.timers.after(POLL, poll)
                 return
-            plan, wall = request.result
-            deliver(plan, self.timers.now - asked, wall)
+            deliver(request.result, self.timers.now - asked)
 
         request.timer = self.timers.after(POLL, poll)
         return request

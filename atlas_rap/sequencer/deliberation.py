@@ -111,13 +111,13 @@ class Deliberator(Protocol):
 
     :meth:`request` plans for ``goals`` from memory as it is now, leaving out
     the ``lost`` agents and, if a plan exists without them, the ground actions
-    in ``avoid`` (those that failed), and later calls ``deliver(plan, latency, wall)`` on the
-    sequencer's clock: ``latency`` the simulated seconds it took, ``wall`` the
-    planner's own seconds. It never calls ``deliver`` from inside ``request``.
+    in ``avoid`` (those that failed), and later calls ``deliver(plan, latency)``
+    on the sequencer's clock, ``latency`` being the simulated seconds it took.
+    It never calls ``deliver`` from inside ``request``.
     """
 
     def request(self, goals: tuple[Term, ...], lost: frozenset[str], avoid: frozenset[Term],
-                deliver: Callable[[Plan, float, float], None]) -> Ticket: ...
+                deliver: Callable[[Plan, float], None]) -> Ticket: ...
 
     def deadline_for(self, goals: tuple[Term, ...]) -> float | None:
         """The deadline (seconds) the planning problem sets for these goals, if any."""
@@ -185,14 +185,12 @@ class PlanExecution:
         self.steps: dict[int, StepRun] = {}
         self.failures: dict[Term, int] = {}
         self.repairs = 0
-        self.wall = 0.0
         self.done: list[str] = []  # the actions of the steps done, in every version of the plan
         self.failed: dict[Term, None] = {}  # the operators' ground actions whose steps failed, in order
         self.serves: dict[int, frozenset[Term]] = {}
         self.provided: dict[int, set[str]] = {}
         self.ticket: Ticket | None = None
         self.cause = "the first plan"
-        self.asked_at = 0.0
         self.deadline_at: float | None = None
         self.ended = False
         self.trouble: str | None = None
@@ -236,7 +234,6 @@ class PlanExecution:
     # -- planning -----------------------------------------------------------------
 
     def _ask(self) -> None:
-        self.asked_at = self.seq.now()
         self.changed = []
         self.ticket = self.deliberator.request(tuple(self.goals), self._lost_agents(), frozenset(self.failed),
                                                self._delivered)
@@ -245,9 +242,8 @@ class PlanExecution:
         return frozenset(term_to_str(fact.args[0]) for fact in self.seq.memory.facts(
             Compound(AGENT_FAILED, (_ANY,))))
 
-    def _delivered(self, plan: Plan, latency: float, wall: float) -> None:
+    def _delivered(self, plan: Plan, latency: float) -> None:
         self.ticket = None
-        self.wall += wall  # the planner's own seconds: for benchmarks, never in the trace
         if self.ended:
             return
         self.trouble = None
