@@ -51,7 +51,23 @@ class RunPicture:
             raise AtlasError("a picture of the run needs a world; this run has none (--world none)")
         sim = engine.simulation
         render_run(engine.world, out_png, path=sim.path, doors_open=sim.doors_open, obstacles=sim.obstacles(),
-                   task_marks=self.marks(), title=f"{title}, seed {engine.seed}", plan_events=self.plan_events)
+                   task_marks=self.marks(), title=f"{title}, seed {engine.seed}", plan_events=self.plan_events,
+                   objects=self.objects())
+
+    def objects(self) -> list[tuple[str, str, str, tuple[float, float]]]:
+        """The world's objects where they are now: (name, colour, kind, (x, y)); what lies in a
+        bin is named with the bin (``bin-lab: can-1, cup-1``) rather than drawn on it."""
+        from atlas_rap.skills.beliefs import OBJECTS
+
+        devices = self.engine.manager.context.beliefs.get(OBJECTS)
+        if devices is None:
+            return []
+        inside: dict[str, list[str]] = {}
+        for item, bin_ in sorted(devices.in_bin.items()):
+            inside.setdefault(bin_, []).append(item)
+        return [(f"{name}: {', '.join(inside[name])}" if name in inside else name, obj.colour, obj.kind,
+                 devices.position(name))
+                for name, obj in sorted(devices.objects.items()) if name not in devices.in_bin]
 
     def marks(self) -> list:
         """Where each marked task started (first selection) and ended, on the robot's path

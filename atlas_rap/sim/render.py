@@ -148,6 +148,7 @@ def render_run(
     title: str | None = None,
     obstacles: Sequence[tuple[str, tuple[float, float], float]] = (),
     plan_events: Sequence[Mapping[str, Any]] = (),
+    objects: Sequence[tuple[str, str, str, tuple[float, float]]] = (),
 ) -> Path:
     """Draw ``world`` and a run in it to the PNG ``out_png``; return its path.
 
@@ -162,7 +163,9 @@ def render_run(
     ``size``. ``plan_events`` are trace records of the plan executive
     (:data:`PLAN_EVENTS`, others are ignored), in time order: each plan
     step is drawn where the robot was when it started (:func:`plan_marks`).
-    The parent directory of ``out_png`` is created if needed.
+    ``objects`` are the world's objects where they are at the end,
+    ``(name, colour, kind, (x, y))``: a disc of their colour, named (a bin
+    is a square). The parent directory of ``out_png`` is created if needed.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -199,6 +202,7 @@ def render_run(
         _draw_walls(ax, world, handles)
         _draw_doors(ax, world, doors_open or {}, handles)
         _draw_obstacles(ax, obstacles, handles)
+        _draw_objects(ax, objects, handles)
         _draw_path(fig, ax, path, handles, left / fig_w, (bottom - 0.78) / fig_h, map_w / fig_w)
         _draw_robot(ax, world, path, handles)
         taken: list[tuple[float, float, float, float]] = []
@@ -367,6 +371,23 @@ def _draw_obstacles(ax, obstacles, handles: list) -> None:
         if kind in kinds:
             handles.append(Line2D([], [], linestyle="none", marker="o", markersize=7,
                                   markerfacecolor=_PERSON, markeredgecolor="#a35400", label=kind))
+
+
+def _draw_objects(ax, objects, handles: list) -> None:
+    """The world's coloured objects where they ended: discs (bins: squares), each named."""
+    from matplotlib.colors import is_color_like
+    from matplotlib.lines import Line2D
+
+    if not objects:
+        return
+    for name, colour, kind, (x, y) in objects:
+        face = colour if is_color_like(colour) else "#868e96"
+        ax.plot([x], [y], linestyle="none", marker="s" if kind == "bin" else "o", markersize=7 if kind == "bin" else 6,
+                markerfacecolor=face, markeredgecolor="#212529", markeredgewidth=0.7, zorder=4.5)
+        ax.annotate(_plain(name), (x, y), xytext=(4, -9), textcoords="offset points", fontsize=6.5,
+                    color="#343a40", zorder=4.5)
+    handles.append(Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="#ffffff",
+                          markeredgecolor="#212529", label="object at the end (its colour; bins square)"))
 
 
 def _draw_path(fig, ax, path, handles: list, cb_left: float, cb_bottom: float, cb_width: float) -> None:
