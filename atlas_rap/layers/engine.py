@@ -413,16 +413,16 @@ class MissionEngine:
         The planner's ``(initial ...)`` facts are what the robot believes too: they go into
         memory with the program's ``initial-memory``, each once."""
         seq = self.sequencer
-        memory = seq.memory
         believed = tuple(f for f in dict.fromkeys(f for form in program.of_type(ast.Initial) for f in form.facts)
-                         if f not in memory)
-        if believed:
-            seq.change([("assert", fact) for fact in believed], "initial")
-        for form in program.of_type(ast.InitialMemory):
-            seq.change([("assert", fact) for fact in form.facts], "initial-memory")
+                         if f not in seq.memory)
+        batches = [("initial", believed)] + [("initial-memory", form.facts)
+                                             for form in program.of_type(ast.InitialMemory)]
+        for source, facts in batches:
+            if facts:
+                seq.change([("assert", fact) for fact in facts], source)
             fault = self.take_fault()
             if fault is not None:
-                raise AtlasError(f"{program.root}: the initial memory broke a memory rule: {fault}")
+                raise AtlasError(f"{program.root}: the {source} facts broke a memory rule: {fault}")
         for event in program.of_type(ast.AtTime):
             changes = [(op.kind, op.fact) for op in event.actions]
             seq.timers.at(event.time, lambda changes=changes, t=event.time: seq.change(changes, f"at-time {t:g}"))
