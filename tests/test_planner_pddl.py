@@ -57,6 +57,40 @@ def test_gripper_operators_have_declared_parameters_and_type_preconditions_first
     assert move.loc.file.endswith("domain.pddl") and move.loc.line == 8
 
 
+GLUED_DOMAIN = """(define (domain zeno-glued)
+  (:requirements :strips)
+  (:predicates (aircraft?a) (at?x ?c) (city ?c))
+  (:action fly :parameters (?a ?c1 ?c2)
+    :precondition (and (aircraft?a) (at?a ?c1) (city?c2))
+    :effect (and (at ?a ?c2) (not (at?a?c1)))))"""
+
+GLUED_PROBLEM = """(define (problem hop) (:domain zeno-glued)
+  (:objects plane-1 rome paris)
+  (:init (aircraft plane-1) (at plane-1 rome) (city rome) (city paris))
+  (:goal (at plane-1 paris)))"""
+
+
+def test_a_name_glued_to_a_variable_is_read_as_pddl_lexers_split_it() -> None:
+    # zenotravel as the IPC distributes it writes (aircraft?a); Fast Downward and pyperplan read (aircraft ?a)
+    problem = parse_pddl(GLUED_DOMAIN, GLUED_PROBLEM)
+    fly = problem.operator("fly")
+    assert fly.preconditions == (C("aircraft", V("a")), C("at", V("a"), V("c1")), C("city", V("c2")))
+    assert fly.effects[1] == ast.Effect(C("at", V("a"), V("c1")), False)
+    from atlas_rap.planner.solve import solve
+
+    assert solve(problem).sequence == [C("fly", "plane-1", "rome", "paris")]
+
+
+def test_a_glued_variable_keeps_its_column_for_errors() -> None:
+    domain = GLUED_DOMAIN.replace("(at?a ?c1) (city?c2)", "(at?a ?c1 ?c2)")
+    with pytest.raises(SourceError) as caught:
+        parse_pddl(domain, GLUED_PROBLEM)
+    problem = caught.value.problems[0]
+    line = domain.splitlines()[4]
+    assert "'at' takes 2 arguments, not 3" in problem.message
+    assert (problem.location.line, problem.location.column) == (5, line.index("(at?a") + 1)
+
+
 def test_gripper_initial_state_goals_and_objects(tmp_path: Path) -> None:
     domain, prob = gripper_problem(tmp_path, balls=2, rooms=3)
     problem = load_pddl(domain, prob)

@@ -121,7 +121,7 @@ class _Source:
 
     def __init__(self, name: str, forms: list, text: str) -> None:
         self.name = name
-        self.forms = forms
+        self.forms = [_unglued(form) for form in forms]
         self.lines = source_lines(text)
 
     @classmethod
@@ -134,6 +134,29 @@ class _Source:
 
     def error(self, message: str, where: Where, hint: str | None = None) -> SourceError:
         return SourceError(Problem(message, self.loc(where), line_of(self.lines, where[0]), hint))
+
+
+def _unglued(datum):
+    """PDDL's tokens, as Fast Downward's and pyperplan's lexers split them: a name glued to a
+    variable, ``(aircraft?a)``, is the name and the variable (zenotravel as the IPC ships it).
+    The RAP reader reads ``aircraft?a`` as one symbol; it is split here, keeping positions."""
+    if type(datum) is not SList:
+        return datum
+    items, locs = [], []
+    for item, (line, column) in zip(datum.items, datum.locs):
+        if type(item) is str and "?" in item[1:] and not item.startswith(("?", ":")):
+            name, *names = item.split("?")
+            items.append(name)
+            locs.append((line, column))
+            column += len(name)
+            for var in names:
+                items.append(Var(var) if var else Var("_"))
+                locs.append((line, column))
+                column += len(var) + 1
+            continue
+        items.append(_unglued(item))
+        locs.append((line, column))
+    return SList(tuple(items), tuple(locs), datum.line, datum.column, datum.end_line, datum.end_column, datum.depth)
 
 
 def _at(form: SList) -> Where:
