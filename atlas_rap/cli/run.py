@@ -28,7 +28,8 @@ from atlas_rap.cli.options import POSITIVE, OutputFile, layer_engine_options, la
 @click.option("--map", "topology_file", type=click.Path(dir_okay=False, exists=True), metavar="TOPOLOGY.json",
               help="A topological map built from sonar (atlas map build): navigate-to plans its routes on it.")
 @click.option("--render", type=OutputFile(), metavar="OUT.png",
-              help="Draw the world, the robot's path, the places and where each task started and ended.")
+              help="Draw the world, the robot's path, the places and where each task started and ended "
+                   "(with no world: a timeline of the plan steps, re-plans and tasks).")
 @layer_options
 def run(mission_file: str, world: str | None, seed: int, trace_file: str | None, quiet: bool, verbose: bool,
         until: float, realtime: bool, show_agenda: bool, show_memory: bool, topology_file: str | None,
@@ -42,7 +43,6 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     """
     from atlas_rap.cli.console import console
     from atlas_rap.cli.views import LiveTrace, memory_table, summary, task_tree
-    from atlas_rap.errors import AtlasError
     from atlas_rap.layers import MissionEngine, RunPicture
     from atlas_rap.sequencer import JsonlSink, agenda_tree
     from atlas_rap.shipped import resolve_user_path
@@ -64,8 +64,6 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         raise
     for warning in loaded.warnings:
         err.print(warning.render(), style="yellow", markup=False)
-    if render and engine.world is None:
-        raise AtlasError("--render needs a world; this run has none (--world none)")
     started = time.perf_counter()
     try:
         result = engine.run_mission(until)

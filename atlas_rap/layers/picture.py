@@ -1,4 +1,5 @@
-"""The picture of a run: an observer that watches the trace, then draws the world and the robot's path.
+"""The picture of a run: an observer that watches the trace, then draws the world and the robot's path
+(or, for a run with no world, a timeline of what the 3T loop did).
 
 Attach one to an engine before it runs, render it when you like (also after
 a failed or interrupted run)::
@@ -10,6 +11,13 @@ a failed or interrupted run)::
 It marks where each task at most one level below a posted one started
 (first selection) and ended, on the robot's path, and where each plan step
 started and how it ended (the plan executive's records, ``sim.render.PLAN_EVENTS``).
+
+A run with no world (``--world none``: virtual skills only) has no map, so
+:meth:`RunPicture.render` draws its timeline instead (``layers.timeline``):
+a lane per agent of the plan steps, re-plans and abandoned plans, and the
+tasks at most one level below a posted one, in simulated time. For it the
+picture keeps those tasks' posting, first selection, methods and end, and
+the methods and halts of the plan steps' tasks.
 """
 
 from __future__ import annotations
@@ -17,9 +25,8 @@ from __future__ import annotations
 from bisect import bisect_left
 from typing import Any
 
-from atlas_rap.errors import AtlasError
-
 _KINDS = {"task-selected": "started", "task-succeeded": "succeeded", "task-failed": "failed"}
+_TIMELINE_TASK_EVENTS = frozenset({"task-selected", "method-selected", "task-succeeded", "task-failed", "task-halted"})
 
 
 class RunPicture:
@@ -30,25 +37,54 @@ class RunPicture:
         self.events: list[dict] = []
         self.depth: dict[int, int] = {}
         self.plan_events: list[dict] = []
+        self.timeline: list[dict] = []  # the records the timeline of a run with no world needs
+        self._selected: set[int] = set()
+        self._step_tasks: set[int] = set()
         engine.trace.add_sink(self)
 
     def __call__(self, record: dict) -> None:
         event = record["event"]
         if event == "task-posted":
             parent = record.get("parent")
-            self.depth[record["id"]] = self.depth.get(parent, 0) + 1 if parent is not None else 0
-        elif event in _KINDS and self.depth.get(record["id"], 9) <= 1:
+            depth = self.depth[record["id"]] = self.depth.get(parent, 0) + 1 if parent is not None else 0
+            if depth <= 1:
+                self.timeline.append(record)
+            return
+        if event in _TIMELINE_TASK_EVENTS:
+            self._keep_for_timeline(record)
+        if event in _KINDS and self.depth.get(record["id"], 9) <= 1:
             self.events.append(record)
         elif event.startswith("plan-") or event == "replanned":
             self.plan_events.append(record)
+            self.timeline.append(record)
+            if event == "plan-step-started" and record.get("step_task") is not None:
+                self._step_tasks.add(record["step_task"])
+
+    def _keep_for_timeline(self, record: dict) -> None:
+        """A task record the timeline shows: of a task at most one level below a posted one
+        (its first selection, methods and end), or of a plan step's task (methods, halt)."""
+        event, task = record["event"], record["id"]
+        if self.depth.get(task, 9) <= 1:
+            if event == "task-selected":
+                if task in self._selected:
+                    return
+                self._selected.add(task)
+            self.timeline.append(record)
+        elif task in self._step_tasks and event in ("method-selected", "task-halted"):
+            self.timeline.append(record)
 
     def render(self, out_png: str, title: str) -> None:
-        """Draw the run so far: world, doors as they are, obstacles, path, task marks."""
+        """Draw the run so far: world, doors as they are, obstacles, path, task marks; with no
+        world, the timeline of the run (plan steps by agent, re-plans, tasks)."""
         from atlas_rap.sim.render import render_run
 
         engine = self.engine
         if engine.world is None:
-            raise AtlasError("a picture of the run needs a world; this run has none (--world none)")
+            from atlas_rap.layers.timeline import render_timeline
+
+            end = engine.now() if engine.built else None
+            render_timeline(self.timeline, out_png, f"{title}, seed {engine.seed}", end=end)
+            return
         sim = engine.simulation
         render_run(engine.world, out_png, path=sim.path, doors_open=sim.doors_open, obstacles=sim.obstacles(),
                    task_marks=self.marks(), title=f"{title}, seed {engine.seed}", plan_events=self.plan_events,
