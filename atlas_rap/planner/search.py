@@ -31,7 +31,7 @@ from __future__ import annotations
 import heapq
 import time
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Callable, Collection, Sequence
 
 from atlas_rap.planner.ground import GroundAction, GroundTask
 
@@ -148,9 +148,11 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
                       actions: Sequence[GroundAction] | None = None,
                       init: frozenset[int] | None = None, settle: Settle | None = None, *,
                       shallow_first: bool = True, max_evaluations: int | None = None,
-                      heuristic: RelaxedPlanHeuristic | None = None) -> SearchResult:
+                      heuristic: RelaxedPlanHeuristic | None = None,
+                      stop: Callable[[], bool] | None = None) -> SearchResult:
     """Search ``task`` from ``init`` (default the task's initial state) with ``actions``
     (default the task's own). Stops with ``timeout`` after that many CPU seconds,
+    when ``stop()`` says so (a run's :class:`~atlas_rap.planner.limits.Limits`),
     or (status ``timeout``) after ``max_evaluations`` heuristic evaluations.
 
     ``settle(state, action)``, when given, changes each state an action
@@ -218,7 +220,8 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
         parents[child] = (state, a)
         depth[child] = g
         expanded += 1
-        if timeout is not None and expanded % 64 == 0 and time.process_time() - started > timeout:
+        if expanded % 64 == 0 and ((timeout is not None and time.process_time() - started > timeout)
+                                   or (stop is not None and stop())):
             return result("timeout")
         if is_goal(child):
             return result("solved", child)
@@ -249,46 +252,234 @@ def _path_to(state: frozenset[int], parents: dict[frozenset[int], tuple[frozense
     return plan
 
 
+@dataclass
+class EliminationWork:
+    """The work :func:`eliminate_redundant` did, counted (so a test can check its cost
+    without a clock): ``applied``, actions applied to a state (each a copy of the
+    state and a ``settle`` call: the expensive operation); ``copied``, other
+    copies of a whole state (moving on to the next step, confirming that two
+    states are equal); ``checked``, applicability tests (a few membership tests
+    each); ``trials``, candidate removals tried. Pass one as ``work=``; it is
+    added to, never reset."""
+
+    applied: int = 0
+    copied: int = 0
+    checked: int = 0
+    trials: int = 0
+
+
+_MASK = (1 << 64) - 1
+
+
+def _fact_key(fact: int) -> int:
+    """A pseudo-random 64-bit number for a fact (splitmix64): a state's fingerprint is
+    the sum of its facts' numbers, so it follows a state's changes at their cost."""
+    z = (fact * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & _MASK
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & _MASK
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & _MASK
+    return z ^ (z >> 31)
+
+
 def eliminate_redundant(task: GroundTask, plan: list[GroundAction],
-                        init: frozenset[int] | None = None, settle: Settle | None = None) -> list[GroundAction]:
+                        init: frozenset[int] | None = None, settle: Settle | None = None, *,
+                        deadline: object | None = None, work: EliminationWork | None = None,
+                        settle_adds: Collection[int] | None = None) -> list[GroundAction]:
     """The plan without the actions it does not need: repeatedly drop the first action
-    whose removal (with the actions that then become inapplicable) leaves a valid plan."""
+    whose removal (with the actions that then become inapplicable) leaves a valid plan.
+
+    Greedy action elimination. The *trial* for step ``i`` runs the plan from the
+    start without step ``i``: a later action that has become inapplicable is
+    dropped too (an earlier one ends the trial: the plan was not executable
+    there), and the trial succeeds when its last state meets the goals. A
+    success replaces the plan by what the trial kept, and step ``i`` (now
+    another action) is tried again; a failure moves on to ``i + 1``.
+
+    Doing each trial from the start costs O(length) applications, each a copy
+    of the state (and a ``settle``): O(length² × state) in all. Instead one run
+    of the current plan is kept (each action skipped when inapplicable, as a
+    trial does), as what each step changed and a fingerprint of the state
+    before it (``settle`` must be a function of state and action), and the
+    state before the candidate step ``i``. A trial computes the same outcome
+    from there on, stopping as soon as it is known:
+
+    - **Prefix.** Before ``i`` a trial runs the unchanged steps from the same
+      state, so it reaches the kept run's state before ``i`` exactly when every
+      step before ``i`` was applicable (else it fails, as does every later ``i``).
+    - **Meeting the kept run.** If the trial's state before step ``j`` equals the
+      kept run's (same fingerprint, then confirmed fact by fact), the rest of it
+      is the kept run from there (the same state, the same actions): it keeps
+      the actions that run applied and ends in its last state, so it succeeds
+      exactly when the kept run reached the goals.
+    - **A goal no one can add.** If a (positive) goal is missing from the trial's
+      state and no later step has it in its ``add`` (nor can ``settle`` add it:
+      when ``settle`` is given, only goals outside ``settle_adds``, the facts it
+      may add, count; by default none), the trial fails: a state gains facts
+      only from the adds of the actions applied and from ``settle``.
+
+    So every trial has the outcome, and keeps the actions, that it has when run
+    from the start, and the plans are the same, step for step. Only a success
+    changes the kept run (the trial's changes replace those of the steps it
+    covered). A redundant step is mostly found by the second test within a
+    few steps (a detour), a needed one by the second or the third (what
+    depended on it is dropped until a goal has no adder left), so the
+    applications and copies of states are about linear in the length, not
+    quadratic, and the memory is a few states and the changes. Applicability
+    tests (a few membership tests each) can still add up to length² when what
+    depends on a needed step runs to the end of the plan (a route: every later
+    move is tested and dropped). What is counted goes into ``work``.
+
+    ``deadline`` (an object with ``expired()``, such as the run's ``Limits``, or
+    a callable returning True once time is up) is asked before each trial; when
+    it has expired the plan so far is returned, valid if the given one was:
+    plan shortening is anytime.
+    """
     start = task.init if init is None else init
-    i = 0
-    while i < len(plan):
-        trial = _without(task, plan, i, start, settle)
-        if trial is not None:
-            plan = trial
-        else:
-            i += 1
-    return plan
+    plan = list(plan)
+    stop = getattr(deadline, "expired", deadline)
+    if stop is not None and stop():
+        return plan
+    work = work if work is not None else EliminationWork()
+    applicable, apply, is_goal = task.applicable, task.apply, task.is_goal
 
+    def step(state: frozenset[int],
+             action: GroundAction) -> tuple[frozenset[int], tuple[int, ...], tuple[int, ...], int]:
+        """The state after ``action``, the facts it added and removed, and the change of fingerprint."""
+        after = apply(action, state)
+        if settle is not None:
+            after = settle(after, action)
+        work.applied += 1
+        changed = state.symmetric_difference(after)
+        added = tuple(f for f in changed if f in after)
+        removed = tuple(f for f in changed if f not in after)
+        return after, added, removed, sum(map(_fact_key, added)) - sum(map(_fact_key, removed))
 
-def _without(task: GroundTask, plan: list[GroundAction], i: int,
-             start: frozenset[int], settle: Settle | None) -> list[GroundAction] | None:
+    # The kept run: changes[j] what step j changed (nothing when it was not applied,
+    # done[j] False), marks[j] the fingerprint of the state before step j relative to
+    # the start's (marks[-1] the last state's), here the state before candidate i.
     state = start
-    kept: list[GroundAction] = []
-    for j, action in enumerate(plan):
-        if j == i:
+    changes: list[tuple[tuple[int, ...], tuple[int, ...]]] = []
+    marks = [0]
+    done: list[bool] = []
+    for action in plan:
+        work.checked += 1
+        if applicable(action, state):
+            state, added, removed, shift = step(state, action)
+            changes.append((added, removed))
+            marks.append((marks[-1] + shift) & _MASK)
+            done.append(True)
+        else:
+            changes.append(((), ()))
+            marks.append(marks[-1])
+            done.append(False)
+    executable = all(done)
+    last_candidate = len(plan) if executable else done.index(False)
+    reaches = is_goal(state)
+    here = start
+
+    def kept_state(i: int, j: int) -> frozenset[int]:
+        """The kept run's state before step ``j``, from ``here`` (before step ``i``)."""
+        work.copied += 1
+        facts = set(here)
+        for added, removed in changes[i:j]:
+            facts.difference_update(removed)
+            facts.update(added)
+        return frozenset(facts)
+
+    # For each goal fact no settle may add: how many steps of plan[i:] add it.
+    goals = set(task.goal)
+    if settle is not None:
+        goals = goals.difference(settle_adds) if settle_adds is not None else set()
+    goal_adds: dict[GroundAction, tuple[int, ...]] = {}
+
+    def adds_goals(action: GroundAction) -> tuple[int, ...]:
+        found = goal_adds.get(action)
+        if found is None:
+            found = goal_adds[action] = tuple(f for f in action.add if f in goals)
+        return found
+
+    rest: dict[int, int] = {}
+    for action in plan:
+        for g in adds_goals(action):
+            rest[g] = rest.get(g, 0) + 1
+
+    i = 0
+    while i < len(plan) and i <= last_candidate:
+        if stop is not None and stop():
+            break
+        work.trials += 1
+        n = len(plan)
+        removed_step = plan[i]
+        state, mark = here, marks[i]
+        kept: list[GroundAction] = []
+        kept_changes: list[tuple[tuple[int, ...], tuple[int, ...]]] = []
+        kept_marks: list[int] = []
+        skipped = [removed_step]
+        used: dict[int, int] = {}
+        ok: bool | None = None
+        for g in adds_goals(removed_step):
+            used[g] = used.get(g, 0) + 1
+            if used[g] == rest[g] and g not in state:
+                ok = False
+        j = i + 1
+        while ok is None and j < n:
+            if mark == marks[j] and state == kept_state(i, j):
+                ok = reaches  # the kept run from here on
+                break
+            action = plan[j]
+            work.checked += 1
+            if applicable(action, state):
+                state, added, removed, shift = step(state, action)
+                mark = (mark + shift) & _MASK
+                kept.append(action)
+                kept_changes.append((added, removed))
+                kept_marks.append(mark)
+            else:
+                skipped.append(action)
+            for g in adds_goals(action):
+                used[g] = used.get(g, 0) + 1
+                if used[g] == rest[g] and g not in state:
+                    ok = False
+            j += 1
+        if ok is None:
+            ok = is_goal(state)  # the trial ran to the end
+        if not ok:
+            for g in adds_goals(removed_step):
+                rest[g] -= 1
+            if i < last_candidate:
+                added, removed = changes[i]
+                if added or removed:
+                    work.copied += 1
+                    here = here.difference(removed).union(added)
+            i += 1
             continue
-        if task.applicable(action, state):
-            state = task.apply(action, state)
-            if settle is not None:
-                state = settle(state, action)
-            kept.append(action)
-        elif j < i:
-            return None
-    return kept if task.is_goal(state) else None
+        if executable or j == n:
+            plan[i:j] = kept
+            changes[i:j] = kept_changes
+            marks[i + 1:j + 1] = kept_marks
+        else:  # met a kept run that skips inapplicable steps: keep the ones it applied
+            tail = [m for m in range(j, n) if done[m]]
+            skipped.extend(plan[m] for m in range(j, n) if not done[m])
+            plan[i:] = kept + [plan[m] for m in tail]
+            changes[i:] = kept_changes + [changes[m] for m in tail]
+            marks[i + 1:] = kept_marks + [marks[m + 1] for m in tail]
+        for action in skipped:
+            for g in adds_goals(action):
+                rest[g] -= 1
+        executable = reaches = True
+        last_candidate = len(plan)
+    return plan
 
 
 def shorter_plan(task: GroundTask, plan: list[GroundAction], budget: int, weight: float = 3.0,
                  timeout: float | None = None,
-                 heuristic: RelaxedPlanHeuristic | None = None) -> list[GroundAction] | None:
+                 heuristic: RelaxedPlanHeuristic | None = None,
+                 stop: Callable[[], bool] | None = None) -> list[GroundAction] | None:
     """A plan shorter than ``plan``, or None: lazy weighted A* (f = g + weight * hFF,
     helpful actions first among equals) that prunes every node that cannot beat
     ``plan``'s length, within ``budget`` heuristic evaluations (a count, so the
     result does not depend on the machine's speed). A later iteration of a
-    LAMA-style planner; pass the first search's ``heuristic`` to reuse it."""
+    LAMA-style planner; pass the first search's ``heuristic`` to reuse it.
+    ``timeout`` (CPU seconds) and ``stop()`` end it early, with None."""
     started = time.process_time()
     heuristic = heuristic or RelaxedPlanHeuristic(task)
     acts = heuristic.actions
@@ -323,7 +514,8 @@ def shorter_plan(task: GroundTask, plan: list[GroundAction], budget: int, weight
         parents[child] = (state, a)
         if task.is_goal(child):
             return _path_to(child, parents, acts)
-        if timeout is not None and evaluated % 64 == 0 and time.process_time() - started > timeout:
+        if evaluated % 64 == 0 and ((timeout is not None and time.process_time() - started > timeout)
+                                    or (stop is not None and stop())):
             return None
         h, applicable, helpful = heuristic.evaluate(child)
         evaluated += 1
