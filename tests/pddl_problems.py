@@ -155,3 +155,49 @@ def tireworld_problem(folder: Path) -> tuple[Path, Path]:
   (:goal (vehicle-at c)))
 """
     return write_problem(folder, TIREWORLD_DOMAIN, problem, "tire-small.pddl")
+
+
+TRIANGLE_TIRE_DOMAIN = """\
+(define (domain triangle-tire)
+  (:requirements :typing :strips :non-deterministic)
+  (:types location)
+  (:predicates (vehicle-at ?loc - location) (spare-in ?loc - location)
+               (road ?from - location ?to - location) (not-flattire))
+  (:action move-car
+    :parameters (?from - location ?to - location)
+    :precondition (and (vehicle-at ?from) (road ?from ?to) (not-flattire))
+    :effect (and (vehicle-at ?to) (not (vehicle-at ?from)) (oneof (and) (not (not-flattire)))))
+  (:action changetire
+    :parameters (?loc - location)
+    :precondition (and (spare-in ?loc) (vehicle-at ?loc))
+    :effect (and (not (spare-in ?loc)) (not-flattire))))
+"""
+
+
+def triangle_tireworld_problem(folder: Path, n: int) -> tuple[Path, Path]:
+    """FOND triangle-tireworld problem ``n`` (Little and Thiebaux's family, as the IPC ships
+    p1-p10 in ../shared/data, fact for fact): a triangle of 2n+1 rows; a flat tyre may happen
+    on any move, and spares lie on the even rows and at the ends of the odd ones, so the only
+    safe routes go by the spares."""
+    size = 2 * n + 1
+
+    def cell(row: int, col: int) -> str:
+        return f"l-{row}-{col}"
+
+    facts = [f"(vehicle-at {cell(1, 1)})"]
+    facts += [f"(road {cell(1, i)} {cell(1, i + 1)})" for i in range(1, size)]
+    for row in range(2, size + 1):
+        width = size - row + 1
+        cols = range(1, width + 1) if row % 2 == 0 else range(1, width + 1, 2)
+        if row % 2 == 1:
+            facts += [f"(road {cell(row, i)} {cell(row, i + 1)})" for i in range(1, width)]
+        facts += [f"(road {cell(row - 1, i)} {cell(row, i)})" for i in cols]
+        facts += [f"(road {cell(row, i)} {cell(row - 1, i + 1)})" for i in cols]
+        spares = cols if row % 2 == 0 else sorted({1, width})  # odd rows: a spare at either end only
+        facts += [f"(spare-in {cell(row, i)})" for i in spares]
+    facts.append("(not-flattire)")
+    objects = " ".join(cell(r, c) for r in range(1, size + 1) for c in range(1, size + 1))
+    problem = (f"(define (problem triangle-tire-{n})\n  (:domain triangle-tire)\n"
+               f"  (:objects {objects} - location)\n  (:init {' '.join(facts)})\n"
+               f"  (:goal (vehicle-at {cell(1, size)})))\n")
+    return write_problem(folder, TRIANGLE_TIRE_DOMAIN, problem, f"p{n}.pddl")

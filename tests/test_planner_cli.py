@@ -196,11 +196,11 @@ def test_unsupported_pddl_feature_is_named(tmp_path: Path) -> None:
   (:action a
     :parameters (?x)
     :precondition (p ?x)
-    :effect (forall (?y) (q ?y))))
+    :effect (and (q ?x) (increase (total-cost) 1))))
 """
     write_problem(tmp_path, domain, "(define (problem pr) (:domain d) (:objects o) (:init (p o)) (:goal (q o)))\n")
     done = atlas("plan", "--pddl", "domain.pddl", "problem.pddl", cwd=tmp_path)
-    assert_located_error(done, "domain.pddl", 7, "forall")
+    assert_located_error(done, "domain.pddl", 7, "numeric fluents")
 
 
 def test_missing_file_and_bad_usage(tmp_path: Path) -> None:

@@ -10,8 +10,9 @@ stderr are the same as without ``--json``.
   ``links``), with its ``probability``; threats with the same ``event``
   number are one happening, so ``risk = 1 - prod(1 - probability)`` over
   distinct events.
-- ``"status": "unsolvable"`` or ``"timeout"`` (exit 1): no plan; ``reason``
-  says why. When a goal is out of reach of every operator, ``problems``
+- ``"status": "unsolvable"``, ``"timeout"`` or ``"memory"`` (exit 1): no plan
+  (or none that can be given as safe: counterplanning cut short while threats
+  were left); ``reason`` says why. When a goal is out of reach of every operator, ``problems``
   locates it (``file``, ``line``, ``column``, ``message``, ``hint``,
   ``severity``), and the report with a caret goes to stderr.
 - ``"status": "error"`` (exit 1): the input is bad: a syntax error, a
@@ -23,6 +24,11 @@ stderr are the same as without ``--json``.
   but ``meets_deadline`` false, the located problem (at the deadline's goal)
   in ``problems`` and on stderr, exit 1, and no ``--plan-file`` or ``--render``.
   A deadline for a goal the file does not ask for is a warning on stderr.
+
+- ``limits``: ``timeout_s``, ``memory_mb``, and which one was ``reached``
+  ``during`` which phase (null when none; ``limits`` is null for bad input). A
+  plan found before a limit ran out is still ``solved`` (exit 0): the best by
+  then, its text output says so.
 
 Every result has the same keys (``steps`` and the others empty when there
 is no plan). Mistakes in the options themselves print no JSON: bad usage
@@ -42,7 +48,8 @@ from atlas_rap.cli.options import POSITIVE, OutputFile
 @click.command()
 @click.argument("files", nargs=-1, metavar="GOALS.ap | DOMAIN.pddl PROBLEM.pddl", type=click.Path(dir_okay=False))
 @click.option("--pddl", is_flag=True, help="Read FILES as a PDDL domain and problem (STRIPS, typing, negative "
-                                           "preconditions, equality; FOND oneof as uncontrolled outcomes).")
+                                           "preconditions, equality; ADL: or, imply, exists, forall, when, "
+                                           "compiled away; FOND oneof as uncontrolled outcomes).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print the result as JSON (LANGUAGE.md §3.3), whatever it is: the plan with its risk and "
                    "the threats it is made of; status 'unsolvable' or 'timeout' with the reason; status 'error' "
@@ -62,25 +69,31 @@ from atlas_rap.cli.options import POSITIVE, OutputFile
 @click.option("--check-raps", type=click.Path(file_okay=False), metavar="DIR",
               help="Report the plan steps that no RAP in DIR (its .rap files) can execute; exit 1 if any.")
 @click.option("--timeout", type=POSITIVE, default=60.0, show_default=True, metavar="SECONDS",
-              help="CPU time for the whole planner; the status is 'timeout' past it.")
-@click.option("--timing", is_flag=True, help="Add CPU times (grounding, search, total) to --json.")
+              help="CPU time for the whole planner (grounding, search, shortening, counterplanning). Past it: "
+                   "status 'timeout' without a plan, or the plan found by then, marked as such (never a "
+                   "less safe plan without saying so).")
+@click.option("--memory", type=POSITIVE, default=None, metavar="MB",
+              help="Peak memory for the planner, in MiB, held as --timeout is; the status is 'memory' past it.")
+@click.option("--timing", is_flag=True,
+              help="Add the CPU seconds of every phase to --json: startup (the interpreter and reading the "
+                   "files), ground, search, shorten, counterplan, order, and seconds (the total).")
 @click.option("--no-counterplan", is_flag=True, help="Do not protect the plan from uncontrolled agents "
                                                      "(the risk is still reported).")
 def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_file: str | None,
-         render: str | None, render_order: str | None, check_raps: str | None, timeout: float, timing: bool,
-         no_counterplan: bool) -> None:
+         render: str | None, render_order: str | None, check_raps: str | None, timeout: float,
+         memory: float | None, timing: bool, no_counterplan: bool) -> None:
     """Plan for the goals of GOALS.ap (with the operators it includes), or for a
     PDDL problem with --pddl.
 
     Prints a partially ordered plan: steps with agents and times, orderings,
     causal links, simultaneous steps, the counterplan steps that protect it
     from uncontrolled agents, the risk left and each threat it is made of.
-    Exits 0 when solved, 1 when unsolvable, out of time, when the plan
+    Exits 0 when solved, 1 when unsolvable, out of time or memory, when the plan
     breaks a (deadline GOAL SECONDS) of the file, or the input is bad (a file
     with no goals, a syntax error: reported with a caret on stderr), 2 on bad
     usage. With --json the result is always JSON on stdout, also
-    without a plan: status 'unsolvable', 'timeout' or (bad input) 'error',
-    with the reason and its located problems.
+    without a plan: status 'unsolvable', 'timeout', 'memory' or (bad input)
+    'error', with the reason and its located problems.
     """
     from atlas_rap.errors import AtlasError
     from atlas_rap.planner.plan import plan_of_error
@@ -88,9 +101,12 @@ def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_f
 
     if as_json and as_dot:
         raise click.UsageError("choose one of --json and --dot")
+    from atlas_rap.planner.limits import Limits
+
+    limits = Limits(timeout, memory, whole_process=True)  # start-up and reading the files count too
     try:
         problem, warnings = _read_problem(files, pddl)
-        result = solve(problem, timeout=timeout, protect=not no_counterplan)
+        result = solve(problem, protect=not no_counterplan, limits=limits)
     except AtlasError as exc:
         if as_json:
             click.echo(plan_of_error(exc).to_json(timing))

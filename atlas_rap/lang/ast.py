@@ -349,6 +349,27 @@ class Effect:
 
 
 @dataclass(frozen=True, slots=True)
+class ConditionalEffect:
+    """A PDDL conditional or universal effect literal (read from ``when`` and
+    ``forall`` effects; AP files have none): for every value of ``variables``
+    (each over the problem's objects) for which ``condition`` holds in the state
+    *before* the action, ``fact`` is made true, or false when ``positive`` is False.
+
+    ``condition`` is a precondition formula as :mod:`atlas_rap.planner.pddl`
+    writes it (``(adl:and)`` when there is none: a plain universal effect); it
+    may use ``variables`` and the operator's parameters, and so may ``fact``.
+    Like :class:`Effect` it has ``fact`` and ``positive``, so code that only
+    asks which facts an operator may change reads both alike.
+    """
+
+    fact: Compound
+    positive: bool = True
+    condition: Term = Compound("adl:and", ())
+    variables: tuple[Var, ...] = ()
+    loc: SourceLocation = _loc()
+
+
+@dataclass(frozen=True, slots=True)
 class Argument:
     """``(?var EXPR)`` in ``:arguments``: a derived value."""
 

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
-from typing import Iterable
+from typing import Callable, Iterable
 
 from atlas_rap.logic import Compound, variables
 from atlas_rap.planner.ground import GroundAction, GroundTask
@@ -229,25 +229,36 @@ def counters(task: GroundTask, plan: list[GroundAction], adversary: Adversary) -
 class Protected:
     """A plan after counterplanning: the steps, which of them are counters, and the
     threats left (``assessment.risk``). ``first_risk`` is the risk of the plan
-    before counterplanning."""
+    before counterplanning; ``complete`` is False when a limit cut it short."""
 
     plan: list[GroundAction]
     counters: list[Counter]
     assessment: Assessment
     first_risk: float
+    complete: bool = True
 
 
-def counterplan(task: GroundTask, plan: list[GroundAction], timeout: float | None = None) -> Protected:
+def counterplan(task: GroundTask, plan: list[GroundAction], timeout: float | None = None,
+                stop: Callable[[], bool] | None = None) -> Protected:
     """Protect ``plan`` (a valid sequential plan of ``task``) from uncontrolled actions;
-    see the module docstring. ``timeout`` bounds the extra searches (seconds)."""
+    see the module docstring. ``timeout`` bounds each extra search (CPU seconds);
+    ``stop()`` (a run's limits) ends all of them, and the result then says it is not
+    ``complete``: a safer plan might have been found with more time."""
     full = Adversary(task)
     first = assess(task, plan, full)
     if not first.threats:
         return Protected(plan, [], first, 0.0)
+    cut = False
 
     def robust(adversary: Adversary) -> list[GroundAction] | None:
+        nonlocal cut
+        if stop is not None and stop():
+            cut = True
+            return None
         worst, settle = adversary.robust_task()
-        found = greedy_best_first(worst, timeout=timeout, settle=settle)
+        found = greedy_best_first(worst, timeout=timeout, settle=settle, stop=stop)
+        if found.status == "timeout":
+            cut = True
         if found.status != "solved":
             return None
         shortened = eliminate_redundant(worst, found.plan, settle=settle)
@@ -263,11 +274,11 @@ def counterplan(task: GroundTask, plan: list[GroundAction], timeout: float | Non
                 allowed.append(u)
                 best, best_adversary = trial, trial_adversary
     if best is None:
-        return Protected(plan, [], first, first.risk)
+        return Protected(plan, [], first, first.risk, complete=not cut)
     final = assess(task, best, full)
     if final.risk >= first.risk:
-        return Protected(plan, [], first, first.risk)
-    return Protected(best, counters(task, best, best_adversary), final, first.risk)
+        return Protected(plan, [], first, first.risk, complete=not cut)
+    return Protected(best, counters(task, best, best_adversary), final, first.risk, complete=not cut)
 
 
 def shorten_exposure(task: GroundTask, plan: list[GroundAction], before: list[set[int]]) -> list[GroundAction]:

@@ -24,14 +24,55 @@ How bindings are found (the choices, in order):
 
 Negative preconditions ``(not F)`` are kept as a separate tuple (``neg``);
 a negated fact that can never become true is dropped.
+
+**ADL** (PDDL's ``or``, ``imply``, ``exists``, ``forall``, ``when``, as
+:mod:`atlas_rap.planner.pddl` writes them) is compiled away here, so the
+search, the partial order and counterplanning see plain STRIPS actions:
+
+- Quantifiers are expanded over the problem's objects (their types are
+  static guards), atoms of *static* predicates (that no operator changes),
+  type facts and equalities are decided against the initial facts, and
+  fluent atoms that can never be reached are false. What is left is a
+  formula over fluent facts.
+- A precondition formula is written in disjunctive normal form: one
+  :class:`GroundAction` per disjunct (a *variant*), each with the disjunct's
+  literals as extra ``pre``/``neg``.
+- Universal effects are expanded over the objects. Conditional effects are
+  grouped by their ground condition; each group whose condition the variant
+  does not decide splits the variant in two: one where it fires (the
+  condition's disjuncts as extra preconditions) and one where it does not
+  (the disjuncts of its negation, in negation normal form). Conditions are
+  thus checked in the state before the action, and the variant's effects
+  apply with PDDL semantics (deletions first, then additions).
+- Reachability is relaxed the same way: an instance counts once its fluent
+  precondition atoms of some disjunct are reachable, and a conditional
+  addition once its condition is (negative literals assumed possible).
+- A goal that grounds to one conjunction of literals is the usual ``goal``
+  and ``goal_neg``. A goal that stays disjunctive is compiled into the fact
+  ``(goal:reached)`` (GOAL_FACT), the task's only goal, true only when the
+  goal formula holds: it is initially true when the goal holds initially;
+  every variant that adds or deletes a fact of the goal gets, per disjunct
+  of the goal regressed through it (what must hold before it for the goal to
+  hold after it), a copy that also adds GOAL_FACT, and itself deletes
+  GOAL_FACT. Whenever a step makes the goal true, its adding copy applies,
+  so no plan is lost; no extra plan step is needed; and the negation of the
+  goal is not put in normal form (it could be exponential). Uncontrolled
+  actions, which happen whenever they can, delete GOAL_FACT only under
+  that negation, so that they threaten the goal only when they undo it.
+- Variants are all named as the PDDL action (same ``operator``, ``args``),
+  so plans print as ``(name arg ...)``; identical variants are merged.
+  The compilation is exponential in the number of conditional effects whose
+  condition the variant leaves open: more than MAX_VARIANTS (2^8) variants
+  for one ground action is a located error at the action.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from itertools import product
-from typing import Iterator, Sequence
+from typing import Callable, Iterator, Sequence
 
+from atlas_rap.errors import Problem, SourceError
 from atlas_rap.lang import ast
 from atlas_rap.logic import (
     Compound,
@@ -42,13 +83,18 @@ from atlas_rap.logic import (
     Var,
     evaluate,
     substitute,
+    term_to_str,
     unify,
     variables,
 )
 from atlas_rap.planner.agents import AgentProblem, assign_agents
+from atlas_rap.planner.limits import LimitReached
+from atlas_rap.planner.pddl import ADL_AND, ADL_EXISTS, ADL_FORALL, ADL_FUNCTORS, ADL_OR
 from atlas_rap.planner.problem import PlanningProblem
 
 _TESTS = frozenset({"=", "/=", "<", "<=", ">", ">="})
+MAX_VARIANTS = 2 ** 8  # ground actions one ADL ground action may compile to
+GOAL_FACT = Compound("goal:reached", ())  # a disjunctive goal, compiled (module docstring)
 
 
 @dataclass(slots=True, eq=False)
@@ -138,7 +184,29 @@ def variable_order(op: ast.Operator) -> tuple[Var, ...]:
     parts.extend(op.constraints)
     parts.extend(step.term for step in plot_steps(op.plot))
     parts.extend(e.fact for e in op.effects)
-    return tuple(variables(Compound("", tuple(parts))))
+    found = variables(Compound("", tuple(parts)))
+    bound = _quantified_variables(op)
+    return tuple(v for v in found if v not in bound)
+
+
+def _quantified_variables(op: ast.Operator) -> set[Var]:
+    """The variables of an operator's PDDL quantifiers (never its own variables)."""
+    bound: set[Var] = set()
+
+    def collect(term: Term) -> None:
+        if type(term) is Compound and term.functor in ADL_FUNCTORS:
+            if term.functor in (ADL_FORALL, ADL_EXISTS):
+                bound.update(term.args[0].args)  # type: ignore[union-attr]
+            for arg in term.args:
+                collect(arg)
+
+    for pre in op.preconditions:
+        collect(pre)
+    for effect in op.effects:
+        if type(effect) is ast.ConditionalEffect:
+            bound.update(effect.variables)
+            collect(effect.condition)
+    return bound
 
 
 def plot_steps(plot: ast.Plot | None) -> list[ast.PlotStep]:
@@ -201,7 +269,7 @@ class _OperatorGrounder:
         self.negative: list[Compound] = []
         self.tests: list[Term] = []
         for pre in op.preconditions:
-            if type(pre) is not Compound:
+            if type(pre) is not Compound or pre.functor in ADL_FUNCTORS:  # ADL: see _AdlOperator
                 continue
             if pre.functor == "not" and len(pre.args) == 1 and type(pre.args[0]) is Compound \
                     and pre.args[0].functor not in _TESTS and pre.args[0].functor not in self.relations:
@@ -219,6 +287,10 @@ class _OperatorGrounder:
                                    candidates=tuple(candidates),
                                    tests=tuple(op.constraints), distinct=tuple(simultaneous_pairs(op.plot)))
         self.seen: dict[tuple[Term, ...], Subst] = {}
+        self.adl: _AdlOperator | None = None
+
+    def key(self, s: Subst) -> tuple[Term, ...]:
+        return tuple(s.get(v, v) for v in self.order)
 
     def new_bindings(self, reach: Memory) -> Iterator[Subst]:
         """Bindings not found before, in a deterministic order."""
@@ -289,8 +361,9 @@ def _join_order(static: list[Compound], fluent: list[Compound]) -> list[tuple[Co
     return order
 
 
-def ground(problem: PlanningProblem) -> GroundTask:
-    """Ground ``problem``: see the module docstring for how."""
+def ground(problem: PlanningProblem, stop: Callable[[], bool] | None = None) -> GroundTask:
+    """Ground ``problem``: see the module docstring for how. ``stop()`` (a run's limits)
+    is asked before each operator is joined again; when it says so, :class:`LimitReached`."""
     ops = problem.operators
     changed_preds = {(e.fact.functor, len(e.fact.args)) for op in ops for e in op.effects}
     mentioned = {(a.functor, len(a.args)) for op in ops for a in op.preconditions if type(a) is Compound}
@@ -300,6 +373,11 @@ def ground(problem: PlanningProblem) -> GroundTask:
     objects = _objects(problem)
     ours = [_OperatorGrounder(op, static, problem, objects, init) for op in ops if not op.uncontrolled]
     theirs = [_OperatorGrounder(op, static, problem, objects, init) for op in ops if op.uncontrolled]
+    formulas = _Formulas(changed_preds, set(problem.initial), objects)
+    for g in ours + theirs:
+        if _is_adl(g.op):
+            g.adl = _AdlOperator(g.op, formulas)
+            g.reads |= g.adl.reads
     found: list[tuple[_OperatorGrounder, Subst]] = []
     dirty = {g: True for g in ours}
     while any(dirty.values()):
@@ -307,24 +385,31 @@ def ground(problem: PlanningProblem) -> GroundTask:
         for g in ours:
             if not dirty[g]:
                 continue
+            if stop is not None and stop():
+                raise LimitReached("grounding")
             dirty[g] = False
-            for binding in list(g.new_bindings(reach)):
-                found.append((g, binding))
-                for effect in g.op.effects:
-                    if effect.positive:
-                        fact = substitute(effect.fact, binding)
-                        if fact not in reach:
-                            reach.assert_fact(fact)
-                            grew.add((fact.functor, len(fact.args)))
+            bindings, conditional = _enabled(g, reach)
+            found.extend((g, binding) for binding in bindings)
+            added = [substitute(effect.fact, binding) for binding in bindings for effect in g.op.effects
+                     if effect.positive and type(effect) is ast.Effect]
+            for fact in added + conditional:
+                if fact not in reach:
+                    reach.assert_fact(fact)
+                    grew.add((fact.functor, len(fact.args)))  # type: ignore[union-attr]
         for g in ours:
             if g.reads & grew:
                 dirty[g] = True
-    nature_found = [(g, b) for g in theirs for b in g.new_bindings(reach)]
+    nature_found = [(g, b) for g in theirs for b in _enabled(g, reach)[0]]
 
     facts: list[Compound] = list(dict.fromkeys(reach))
     fact_ids = {f: i for i, f in enumerate(facts)}
     static_facts = {f for f in problem.initial if (f.functor, len(f.args)) in static}
-    build = _ActionBuilder(fact_ids, static_facts, static)
+    adl_goal = _AdlGoal(problem, formulas, fact_ids) if any(map(_is_adl_term, problem.goals)) else None
+    if adl_goal is not None and adl_goal.formula is not None:
+        fact_ids[GOAL_FACT] = len(facts)
+        facts.append(GOAL_FACT)
+    build = _ActionBuilder(fact_ids, static_facts, static, problem,
+                           adl_goal if adl_goal is not None and adl_goal.formula is not None else None)
     if problem.avoid:
         found = [(g, b) for g, b in found if Compound(g.op.name, tuple(b.get(v, v) for v in g.order))
                  not in problem.avoid]
@@ -332,6 +417,8 @@ def ground(problem: PlanningProblem) -> GroundTask:
     nature = build.all(nature_found)
     goal, goal_neg, unreachable = [], [], []
     for g in problem.goals:
+        if _is_adl_term(g):
+            continue  # adl_goal's
         if _is_test(g):  # (= a b), (not (= a b)): true or false whatever the plan does
             if next(evaluate(g, init, {}, problem.relations), None) is None:
                 unreachable.append(g)
@@ -342,8 +429,11 @@ def ground(problem: PlanningProblem) -> GroundTask:
             goal.append(fact_ids[g])
         else:
             unreachable.append(g)
+    init_ids = frozenset(fact_ids[f] for f in problem.initial if f in fact_ids)
+    if adl_goal is not None:
+        init_ids = adl_goal.finish(goal, goal_neg, unreachable, init_ids)
     return GroundTask(problem=problem, facts=facts, fact_ids=fact_ids,
-                      init=frozenset(fact_ids[f] for f in problem.initial if f in fact_ids),
+                      init=init_ids,
                       goal=tuple(dict.fromkeys(goal)), goal_neg=tuple(dict.fromkeys(goal_neg)),
                       actions=actions, nature=nature, unreachable_goals=tuple(unreachable))
 
@@ -356,18 +446,64 @@ def _is_test(goal: Term) -> bool:
 
 class _ActionBuilder:
     def __init__(self, fact_ids: dict[Compound, int], static_facts: set[Compound],
-                 static: set[tuple[str, int]]) -> None:
+                 static: set[tuple[str, int]], problem: PlanningProblem | None = None,
+                 goal: _AdlGoal | None = None) -> None:
         self.fact_ids = fact_ids
         self.static_facts = static_facts
         self.static = static
+        self.problem = problem
+        self.goal = goal  # a disjunctive goal compiled into GOAL_FACT
 
     def all(self, found: list[tuple[_OperatorGrounder, Subst]]) -> list[GroundAction]:
         actions: list[GroundAction] = []
         for g, binding in found:
-            action = self.one(g, binding, len(actions))
-            if action is not None:
+            if g.adl is None and self.goal is None:
+                action = self.one(g, binding, len(actions))
+                if action is not None:
+                    actions.append(action)
+                continue
+            for action in self.variants(g, binding):
+                action.index = len(actions)
                 actions.append(action)
         return actions
+
+    def variants(self, g: _OperatorGrounder, s: Subst) -> list[GroundAction]:
+        """The STRIPS variants of one ground ADL action (module docstring)."""
+        base = self.one(g, s, 0)
+        if base is None:
+            return []
+        leaves: list[_Leaf] = [(frozenset(base.pre), frozenset(base.neg),
+                                list(base.add), list(base.delete))]
+        try:
+            if g.adl is not None:
+                leaves = g.adl.split(g.key(s), leaves[0], self.fact_ids)
+            if self.goal is not None:
+                leaves = self.goal.split(leaves, exact=g.op.uncontrolled)
+        except _TooMany:
+            op = g.op
+            why = "its conditional effects and disjunctive preconditions" if g.adl is not None else "it"
+            loc = op.loc
+            raise SourceError(Problem(
+                f"action {term_to_str(base.term)}: {why}"
+                f"{' with the disjunctive goal' if self.goal is not None else ''} compile to more than "
+                f"{MAX_VARIANTS} variants", loc, self.problem.line(loc) if self.problem is not None else None,
+                f"each (when ...) whose condition can change, and each disjunct of a precondition, "
+                f"multiplies the variants of a ground action (at most {MAX_VARIANTS}); make fewer "
+                f"conditions depend on facts that change, or split the action")) from None
+        out: list[GroundAction] = []
+        seen: set[tuple] = set()
+        for true, false, add, delete in leaves:
+            pre = tuple(dict.fromkeys([*base.pre, *sorted(true)]))
+            neg = tuple(dict.fromkeys([*base.neg, *sorted(false)]))
+            adds = tuple(dict.fromkeys(add))
+            deletes = tuple(dict.fromkeys(d for d in delete if d not in adds))
+            key = (frozenset(pre), frozenset(neg), frozenset(adds), frozenset(deletes))
+            if key in seen:
+                continue
+            seen.add(key)
+            out.append(GroundAction(index=0, operator=g.op, binding=s, args=base.args, pre=pre, neg=neg,
+                                    add=adds, delete=deletes, agents=base.agents))
+        return out
 
     def one(self, g: _OperatorGrounder, s: Subst, index: int) -> GroundAction | None:
         ids = self.fact_ids
@@ -385,6 +521,8 @@ class _ActionBuilder:
         add: list[int] = []
         delete: list[int] = []
         for effect in g.op.effects:
+            if type(effect) is ast.ConditionalEffect:
+                continue  # compiled by variants()
             fact = substitute(effect.fact, s)
             if effect.positive:
                 if fact in ids:
@@ -422,3 +560,436 @@ def _objects(problem: PlanningProblem) -> tuple[Term, ...]:
         found.pop(name, None)
     found.pop("not", None)
     return tuple(found)
+
+
+# ------------------------------------------------------------------ ADL, compiled away
+#
+# A ground formula is True, False, ("+", FACT), ("-", FACT), ("and", PARTS) or
+# ("or", PARTS), PARTS a tuple of formulas: FACT is a Compound while grounding,
+# a fact number once the facts are numbered. Only fluent facts are left in it.
+
+GroundFormula = object
+_Leaf = tuple  # (true facts, false facts, additions, deletions) of one variant
+
+
+class _TooMany(Exception):
+    """More than MAX_VARIANTS variants (or disjuncts)."""
+
+
+def _is_adl_term(term: Term) -> bool:
+    return type(term) is Compound and term.functor in ADL_FUNCTORS
+
+
+def _is_adl(op: ast.Operator) -> bool:
+    return (any(_is_adl_term(pre) for pre in op.preconditions)
+            or any(type(e) is ast.ConditionalEffect for e in op.effects))
+
+
+def _enabled(g: _OperatorGrounder, reach: Memory) -> tuple[list[Subst], list[Compound]]:
+    """The bindings of ``g`` that became usable in ``reach``, and the facts its
+    conditional effects may add there that they could not add before."""
+    bindings = list(g.new_bindings(reach))
+    if g.adl is None:
+        return bindings, []
+    for binding in bindings:
+        g.adl.add(g.key(binding), binding)
+    return g.adl.advance(reach)
+
+
+def _g_and(parts) -> GroundFormula:
+    flat: list = []
+    for part in parts:
+        if part is False:
+            return False
+        if part is True:
+            continue
+        if part[0] == "and":
+            flat.extend(part[1])
+        else:
+            flat.append(part)
+    flat = list(dict.fromkeys(flat))
+    if not flat:
+        return True
+    return flat[0] if len(flat) == 1 else ("and", tuple(flat))
+
+
+def _g_or(parts) -> GroundFormula:
+    flat: list = []
+    for part in parts:
+        if part is True:
+            return True
+        if part is False:
+            continue
+        if part[0] == "or":
+            flat.extend(part[1])
+        else:
+            flat.append(part)
+    flat = list(dict.fromkeys(flat))
+    if not flat:
+        return False
+    return flat[0] if len(flat) == 1 else ("or", tuple(flat))
+
+
+def _g_not(f: GroundFormula) -> GroundFormula:
+    if f is True or f is False:
+        return not f
+    kind = f[0]  # type: ignore[index]
+    if kind == "+":
+        return ("-", f[1])  # type: ignore[index]
+    if kind == "-":
+        return ("+", f[1])  # type: ignore[index]
+    parts = (_g_not(p) for p in f[1])  # type: ignore[index]
+    return _g_or(parts) if kind == "and" else _g_and(parts)
+
+
+def _g_map(f: GroundFormula, literal: Callable[[tuple], GroundFormula]) -> GroundFormula:
+    """``f`` with each literal replaced by ``literal(it)``, simplified."""
+    if f is True or f is False:
+        return f
+    kind = f[0]  # type: ignore[index]
+    if kind == "and":
+        return _g_and(_g_map(p, literal) for p in f[1])  # type: ignore[index]
+    if kind == "or":
+        return _g_or(_g_map(p, literal) for p in f[1])  # type: ignore[index]
+    return literal(f)  # type: ignore[arg-type]
+
+
+def _numbered(f: GroundFormula, ids: dict[Compound, int]) -> GroundFormula:
+    """``f`` over fact numbers: a fact that never becomes true is false."""
+    def literal(lit: tuple) -> GroundFormula:
+        number = ids.get(lit[1])
+        if number is None:
+            return lit[0] == "-"
+        return (lit[0], number)
+    return _g_map(f, literal)
+
+
+def _assume(f: GroundFormula, true: frozenset, false: frozenset) -> GroundFormula:
+    """``f`` where the facts of ``true`` hold and those of ``false`` do not."""
+    def literal(lit: tuple) -> GroundFormula:
+        if lit[1] in true:
+            return lit[0] == "+"
+        if lit[1] in false:
+            return lit[0] == "-"
+        return lit
+    return _g_map(f, literal)
+
+
+def _relaxed(f: GroundFormula, reach: Memory) -> bool:
+    """Whether ``f`` may hold in the delete relaxation: its positive facts reached,
+    negative literals assumed possible."""
+    if f is True or f is False:
+        return f
+    kind = f[0]  # type: ignore[index]
+    if kind == "+":
+        return f[1] in reach  # type: ignore[index]
+    if kind == "-":
+        return True
+    if kind == "and":
+        return all(_relaxed(p, reach) for p in f[1])  # type: ignore[index]
+    return any(_relaxed(p, reach) for p in f[1])  # type: ignore[index]
+
+
+def _holds_in(f: GroundFormula, state: frozenset[int]) -> bool:
+    if f is True or f is False:
+        return f
+    kind = f[0]  # type: ignore[index]
+    if kind == "+":
+        return f[1] in state  # type: ignore[index]
+    if kind == "-":
+        return f[1] not in state  # type: ignore[index]
+    if kind == "and":
+        return all(_holds_in(p, state) for p in f[1])  # type: ignore[index]
+    return any(_holds_in(p, state) for p in f[1])  # type: ignore[index]
+
+
+def _facts_of(f: GroundFormula, out: dict) -> dict:
+    """The facts of ``f``, in order of first appearance (a dict used as a list)."""
+    if f is True or f is False:
+        return out
+    if f[0] in ("+", "-"):  # type: ignore[index]
+        out[f[1]] = None  # type: ignore[index]
+    else:
+        for p in f[1]:  # type: ignore[index]
+            _facts_of(p, out)
+    return out
+
+
+Disjunct = tuple  # (frozenset of true facts, frozenset of false facts)
+
+
+def _dnf(f: GroundFormula) -> list[Disjunct]:
+    """``f`` in disjunctive normal form: contradictory disjuncts dropped, and those
+    that contain another one (they add nothing); more than MAX_VARIANTS: _TooMany."""
+    if f is True:
+        return [(frozenset(), frozenset())]
+    if f is False:
+        return []
+    kind = f[0]  # type: ignore[index]
+    if kind == "+":
+        return [(frozenset((f[1],)), frozenset())]  # type: ignore[index]
+    if kind == "-":
+        return [(frozenset(), frozenset((f[1],)))]  # type: ignore[index]
+    if kind == "or":
+        return _minimal([d for p in f[1] for d in _dnf(p)])  # type: ignore[index]
+    out: list[Disjunct] = [(frozenset(), frozenset())]
+    for part in f[1]:  # type: ignore[index]
+        options = _dnf(part)
+        out = _minimal([(t | t2, n | n2) for t, n in out for t2, n2 in options
+                        if not (t | t2) & (n | n2)])
+        if not out:
+            return []
+    return out
+
+
+def _minimal(disjuncts: list[Disjunct]) -> list[Disjunct]:
+    kept: list[Disjunct] = []
+    for t, n in sorted(dict.fromkeys(disjuncts), key=lambda d: len(d[0]) + len(d[1])):
+        if any(t2 <= t and n2 <= n for t2, n2 in kept):
+            continue
+        kept.append((t, n))
+        if len(kept) > MAX_VARIANTS:
+            raise _TooMany()
+    return kept
+
+
+class _Formulas:
+    """Grounds the formulas :mod:`atlas_rap.planner.pddl` writes: quantifiers over
+    ``objects``, static atoms (predicates not in ``changed``) and equalities decided
+    against the initial facts ``init``."""
+
+    def __init__(self, changed: set[tuple[str, int]], init: set[Compound], objects: tuple[Term, ...]) -> None:
+        self.changed = changed
+        self.init = init
+        self.objects = objects
+
+    def ground(self, term: Term, s: Subst) -> GroundFormula:
+        if type(term) is not Compound:
+            return False
+        functor = term.functor
+        if functor == ADL_AND:
+            return _g_and(self.ground(arg, s) for arg in term.args)
+        if functor == ADL_OR:
+            return _g_or(self.ground(arg, s) for arg in term.args)
+        if functor in (ADL_FORALL, ADL_EXISTS):
+            names = term.args[0].args  # type: ignore[union-attr]
+            body = term.args[1]
+            parts = (self.ground(body, {**s, **dict(zip(names, values))})
+                     for values in product(self.objects, repeat=len(names)))
+            return _g_and(parts) if functor == ADL_FORALL else _g_or(parts)
+        if functor == "not" and len(term.args) == 1:
+            return _g_not(self.ground(term.args[0], s))
+        fact = substitute(term, s)
+        if functor == "=" and len(term.args) == 2:
+            return fact.args[0] == fact.args[1]  # type: ignore[union-attr]
+        if (functor, len(term.args)) not in self.changed:
+            return fact in self.init
+        return ("+", fact)
+
+    def reads(self, term: Term, out: set[tuple[str, int]]) -> None:
+        """The changing predicates ``term`` reads, into ``out``."""
+        if type(term) is not Compound:
+            return
+        if term.functor in ADL_FUNCTORS or term.functor == "not":
+            for arg in term.args:
+                self.reads(arg, out)
+        elif (term.functor, len(term.args)) in self.changed:
+            out.add((term.functor, len(term.args)))
+
+
+class _Instance:
+    """One binding of an ADL operator: its precondition formula and conditional
+    effects, ground (``effects``: (condition, fact, positive)); ``pending``: the
+    additions not yet reached in the relaxation."""
+
+    __slots__ = ("binding", "pre", "effects", "pending")
+
+    def __init__(self, binding: Subst, pre: GroundFormula, effects: list[tuple]) -> None:
+        self.binding = binding
+        self.pre = pre
+        self.effects = effects
+        self.pending = [(cond, fact) for cond, fact, positive in effects if positive]
+
+
+class _AdlOperator:
+    """The ADL parts of one operator: its formula preconditions and its conditional
+    and universal effects, per binding (the rest is grounded as for STRIPS)."""
+
+    def __init__(self, op: ast.Operator, formulas: _Formulas) -> None:
+        self.op = op
+        self.formulas = formulas
+        self.pre = [p for p in op.preconditions if _is_adl_term(p)]
+        self.conditional = [e for e in op.effects if type(e) is ast.ConditionalEffect]
+        self.reads: set[tuple[str, int]] = set()
+        for term in self.pre:
+            formulas.reads(term, self.reads)
+        for effect in self.conditional:
+            formulas.reads(effect.condition, self.reads)
+        self.instances: dict[tuple[Term, ...], _Instance] = {}
+        self.waiting: list[_Instance] = []
+        self.firing: list[_Instance] = []
+
+    def add(self, key: tuple[Term, ...], binding: Subst) -> None:
+        """A binding the join found: kept unless its precondition can never hold."""
+        ground = self.formulas.ground
+        pre = _g_and(ground(term, binding) for term in self.pre)
+        if pre is False:
+            return
+        effects = []
+        for effect in self.conditional:
+            for values in product(self.formulas.objects, repeat=len(effect.variables)):
+                s = {**binding, **dict(zip(effect.variables, values))} if effect.variables else binding
+                cond = ground(effect.condition, s)
+                if cond is not False:
+                    effects.append((cond, substitute(effect.fact, s), effect.positive))
+        instance = _Instance(binding, pre, effects)
+        self.instances[key] = instance
+        self.waiting.append(instance)
+
+    def advance(self, reach: Memory) -> tuple[list[Subst], list[Compound]]:
+        """The bindings whose precondition now may hold in ``reach`` and the facts
+        their conditional effects may now add (module docstring)."""
+        enabled = [i for i in self.waiting if _relaxed(i.pre, reach)]
+        if enabled:
+            self.waiting = [i for i in self.waiting if not _relaxed(i.pre, reach)]
+            self.firing.extend(enabled)
+        facts: list[Compound] = []
+        firing = []
+        for instance in self.firing:
+            left = []
+            for cond, fact in instance.pending:
+                if _relaxed(cond, reach):
+                    facts.append(fact)
+                else:
+                    left.append((cond, fact))
+            instance.pending = left
+            if left:
+                firing.append(instance)
+        self.firing = firing
+        return [i.binding for i in enabled], facts
+
+    def split(self, key: tuple[Term, ...], base: _Leaf, ids: dict[Compound, int]) -> list[_Leaf]:
+        """The variants of the instance ``key`` (module docstring); ``base`` is its
+        STRIPS part."""
+        instance = self.instances[key]
+        true0, false0, add0, delete0 = base
+        groups: dict[GroundFormula, tuple[list[int], list[int]]] = {}
+        add, delete = list(add0), list(delete0)
+        for cond, fact, positive in instance.effects:
+            cond = _numbered(cond, ids)
+            number = ids.get(fact)
+            if cond is False or number is None:  # never fires, or adds or deletes a fact never true
+                continue
+            adds, deletes = (add, delete) if cond is True else groups.setdefault(cond, ([], []))
+            (adds if positive else deletes).append(number)
+        leaves: list[_Leaf] = []
+        pending = list(groups.items())
+
+        def fire(i: int, true: frozenset, false: frozenset, add: list[int], delete: list[int]) -> None:
+            if i == len(pending):
+                leaves.append((true, false, add, delete))
+                if len(leaves) > MAX_VARIANTS:
+                    raise _TooMany()
+                return
+            cond, (adds, deletes) = pending[i]
+            cond = _assume(cond, true, false)
+            if cond is True or cond is False:
+                fire(i + 1, true, false, add + adds if cond else add, delete + deletes if cond else delete)
+                return
+            for t, n in _dnf(cond):
+                fire(i + 1, true | t, false | n, add + adds, delete + deletes)
+            for t, n in _dnf(_g_not(cond)):
+                fire(i + 1, true | t, false | n, add, delete)
+
+        for t, n in _dnf(_assume(_numbered(instance.pre, ids), true0, false0)):
+            fire(0, true0 | t, false0 | n, add, delete)
+        return leaves
+
+
+class _AdlGoal:
+    """The ADL conjuncts of a problem's goals, ground. ``literals`` when, with the
+    other goals, they are one conjunction of literals; else ``formula`` (the whole
+    goal over fact numbers) is compiled into GOAL_FACT; ``false``: those that can
+    never hold."""
+
+    def __init__(self, problem: PlanningProblem, formulas: _Formulas, ids: dict[Compound, int]) -> None:
+        self.ids = ids
+        terms = [g for g in problem.goals if _is_adl_term(g)]
+        parts = [_numbered(formulas.ground(term, {}), ids) for term in terms]
+        self.false = [term for term, part in zip(terms, parts) if part is False]
+        self.literals: tuple[list[int], list[int]] = ([], [])
+        self.formula: GroundFormula | None = None
+        self.facts: frozenset[int] = frozenset()
+        if self.false:
+            return
+        adl = _g_and(parts)
+        try:
+            options: list[Disjunct] | None = _dnf(adl)
+        except _TooMany:
+            options = None
+        if options is not None and len(options) <= 1:
+            if not options:
+                self.false = terms
+                return
+            order = list(_facts_of(adl, {}))
+            true, false = options[0]
+            self.literals = (sorted(true, key=order.index), sorted(false, key=order.index))
+            return
+        plain: list[GroundFormula] = []
+        for g in problem.goals:
+            if _is_adl_term(g) or _is_test(g) or type(g) is not Compound:
+                continue
+            negative = g.functor == "not" and len(g.args) == 1
+            fact = g.args[0] if negative else g
+            plain.append(_numbered((("-" if negative else "+"), fact), ids))
+        self.formula = _g_and([*plain, adl])
+        self.facts = frozenset(_facts_of(self.formula, {}))
+
+    def finish(self, goal: list[int], goal_neg: list[int], unreachable: list[Term],
+               init: frozenset[int]) -> frozenset[int]:
+        """Put the ADL goals into ``goal``, ``goal_neg`` and ``unreachable``; the
+        initial state, with GOAL_FACT when the compiled goal holds in it."""
+        unreachable.extend(self.false)
+        goal.extend(self.literals[0])
+        goal_neg.extend(self.literals[1])
+        if self.formula is None:
+            return init
+        reached = self.ids[GOAL_FACT]
+        goal[:] = [reached]
+        goal_neg[:] = []
+        return init | {reached} if _holds_in(self.formula, init) else init
+
+    def split(self, leaves: list[_Leaf], exact: bool = False) -> list[_Leaf]:
+        """Each variant that changes a fact of the goal: one that adds GOAL_FACT per
+        disjunct of the goal regressed through it (the goal holds after it), and one
+        without more preconditions that deletes it (module docstring); ``exact``
+        (uncontrolled actions, which happen whenever they can): the one that deletes
+        it only where the goal does not hold after it."""
+        reached = self.ids[GOAL_FACT]
+        out: list[_Leaf] = []
+        for true, false, add, delete in leaves:
+            adds = set(add)
+            deletes = set(delete) - adds
+            if self.facts.isdisjoint(adds) and self.facts.isdisjoint(deletes):
+                out.append((true, false, add, delete))
+                continue
+
+            def after(lit: tuple) -> GroundFormula:
+                if lit[1] in adds:
+                    return lit[0] == "+"
+                if lit[1] in deletes:
+                    return lit[0] == "-"
+                return lit
+
+            holds = _assume(_g_map(self.formula, after), true, false)
+            if holds is True or holds is False:
+                out.append((true, false, add + [reached] if holds else add,
+                            delete if holds else delete + [reached]))
+                continue
+            for t, n in _dnf(holds):
+                out.append((true | t, false | n, add + [reached], delete))
+            for t, n in (_dnf(_g_not(holds)) if exact else [(frozenset(), frozenset())]):
+                out.append((true | t, false | n, add, delete + [reached]))
+            if len(out) > MAX_VARIANTS:
+                raise _TooMany()
+        return out

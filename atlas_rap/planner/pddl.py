@@ -9,12 +9,16 @@ come from the RAP reader (:func:`atlas_rap.lang.reader.read_file`): PDDL's
 a caret and a hint.
 
 Supported: STRIPS with ``:typing`` (hierarchy and ``either``),
-``:negative-preconditions``, ``:equality``, ``:constants`` and FOND
-``:non-deterministic`` effects (``oneof``); ``:adl`` is accepted as long as
-only those features are used. Everything else (``or``, ``imply``,
-``exists``, ``forall``, ``when``, numeric fluents, durative actions, derived
-predicates, constraints, preferences, timed initial literals) is an error at
-the form that uses it.
+``:negative-preconditions``, ``:equality``, ``:constants``, FOND
+``:non-deterministic`` effects (``oneof``) and ADL (``:adl`` and its parts
+``:disjunctive-preconditions``, ``:existential-preconditions``,
+``:universal-preconditions``, ``:quantified-preconditions``,
+``:conditional-effects``): ``or``, ``imply``, ``exists``, ``forall`` and
+``not`` over any formula in preconditions and goals, ``when`` and ``forall``
+in effects. ADL is only *read* here; :mod:`atlas_rap.planner.ground` compiles
+it away (see its docstring). Everything else (numeric fluents, object
+fluents, durative actions, derived predicates, constraints, preferences,
+timed initial literals) is an error at the form that uses it.
 
 Choices where PDDL leaves room:
 
@@ -39,16 +43,35 @@ Choices where PDDL leaves room:
 - Preconditions and goals: an atom, ``(not ATOM)`` (kept as
   ``Compound('not', (atom,))``), ``(= A B)`` and ``(not (= A B))`` (kept as
   those terms, also in goals), flattened out of ``and``.
-- Effects are kept as written, :class:`ast.Effect` ``(fact, positive)``;
-  whoever applies them must use PDDL semantics (delete first, then add), so
-  an action that deletes and adds the same fact leaves it true.
+- Any other formula (ADL) is put in negation normal form (``imply`` written
+  with ``or``, ``not`` pushed down to atoms and equalities) and kept as one
+  term per conjunct, in written order among the literals above, with the
+  functors ``adl:and``, ``adl:or``, ``(adl:forall (?V ...) BODY)`` and
+  ``(adl:exists (?V ...) BODY)`` (PDDL names have no ``:``, and an AP
+  operator's own ``(or ...)`` stays a test over the initial facts). A
+  quantified variable ranges over every object: its type becomes a guard,
+  ``(forall (?v - T) F)`` is
+  ``(adl:forall (?v) (adl:or (not (type:T ?v)) F))`` and ``exists`` takes
+  ``(adl:and (type:T ?v) F)``. A quantified variable that would shadow a
+  parameter or an outer quantified variable is renamed ``?NAME~K``. A
+  conjunction that becomes plain literals (``(not (or A B))``) is flattened.
+  :func:`formula_text` writes these terms back as PDDL.
+- Effects: a literal is :class:`ast.Effect` ``(fact, positive)``; a literal
+  under ``when`` or ``forall`` is :class:`ast.ConditionalEffect` with the
+  conjunction of the conditions of the ``when`` forms around it (a formula as
+  above; the ``forall`` types are guards in it) and the ``forall``
+  variables. Whoever applies effects must use PDDL semantics: conditions are
+  evaluated in the state before the action, deletions first, then additions,
+  so an action that deletes and adds the same fact leaves it true.
 - FOND: at most one ``oneof`` per action. The controlled operator has the
   common effects plus the first outcome (the nominal one); outcome k >= 2
   is the uncontrolled operator ``ACTION~k`` (same parameters and
   preconditions, ``probability`` 1/n, ``outcome_of`` ACTION), listed right
-  after its controlled operator.
+  after its controlled operator. A ``oneof`` cannot be inside ``when`` or
+  ``forall``; an outcome may contain them.
 - Action arguments that are names must be domain constants; ``:init`` and
-  ``:goal`` arguments must be objects or constants; goals must be ground.
+  ``:goal`` arguments must be objects or constants; a goal's only variables
+  are those of its quantifiers.
 """
 
 from __future__ import annotations
@@ -59,28 +82,30 @@ from pathlib import Path
 from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
 from atlas_rap.lang import ast
 from atlas_rap.lang.reader import SList, read_file, read_text
-from atlas_rap.logic.terms import Compound, Term, Var
+from atlas_rap.logic.terms import Compound, Term, Var, term_to_str
 from atlas_rap.planner.problem import PlanningProblem
 
 SUPPORTED_REQUIREMENTS = (":strips", ":typing", ":negative-preconditions", ":equality",
-                          ":non-deterministic", ":adl")
+                          ":non-deterministic", ":adl", ":disjunctive-preconditions",
+                          ":existential-preconditions", ":universal-preconditions",
+                          ":quantified-preconditions", ":conditional-effects")
 TYPE_PREFIX = "type:"
+# The functors of ADL formulas (module docstring); ADL_TRUE is the empty conjunction.
+ADL_AND, ADL_OR, ADL_FORALL, ADL_EXISTS = "adl:and", "adl:or", "adl:forall", "adl:exists"
+ADL_FUNCTORS = frozenset({ADL_AND, ADL_OR, ADL_FORALL, ADL_EXISTS})
+ADL_TRUE = Compound(ADL_AND, ())
 
-_CONDITION_HINT = ("a precondition or goal is an atom, (not ATOM), (= A B), (not (= A B)), "
-                   "or an (and ...) of these")
-_EFFECT_HINT = ("an effect is an atom, (not ATOM), an (and ...) of these, "
-                "or one (oneof OUTCOME ...) whose outcomes are such effects")
-_SUPPORTED = ("supported: STRIPS with typing, negative preconditions, equality and FOND "
-              "'oneof' effects")
+_CONDITION_HINT = ("a precondition or goal is an atom, (= A B), or, of formulas F and G, (and F ...), "
+                   "(or F ...), (not F), (imply F G), (exists (?v - TYPE) F) or (forall (?v - TYPE) F)")
+_EFFECT_HINT = ("an effect is an atom, (not ATOM), an (and ...) of effects, (when FORMULA EFFECT), "
+                "(forall (?v - TYPE) EFFECT), or one (oneof OUTCOME ...) whose outcomes are such effects")
+_SUPPORTED = ("supported: STRIPS with typing, negative preconditions, equality, ADL (or, imply, exists, "
+              "forall, when) and FOND 'oneof' effects")
 
 # Heads of formulas and effects, and section keywords, that we know and refuse.
 _NUMERIC_HEADS = ("increase", "decrease", "assign", "scale-up", "scale-down", "<", ">", "<=", ">=")
+_QUANTIFIERS = ("forall", "exists")
 _UNSUPPORTED_HEADS = {
-    "or": "disjunctive preconditions ('or')",
-    "imply": "implications ('imply')",
-    "exists": "existential quantifiers ('exists')",
-    "forall": "universal quantifiers ('forall')",
-    "when": "conditional effects ('when')",
     "preference": "preferences ('preference')",
     "probabilistic": "probabilistic effects ('probabilistic')",
     **{head: f"numeric fluents ('{head}')" for head in _NUMERIC_HEADS},
@@ -96,6 +121,46 @@ _DOMAIN_SECTIONS = (":requirements", ":types", ":constants", ":predicates", ":ac
 _PROBLEM_SECTIONS = (":domain", ":requirements", ":objects", ":init", ":goal")
 
 Where = tuple[int, int]  # (line, column)
+
+_CONNECTIVES = ("and", "or", "not", "imply", *_QUANTIFIERS)
+_ADL_FALSE = Compound(ADL_OR, ())
+
+
+def _junction(functor: str, parts: list[Term]) -> Term:
+    """``(adl:and PART ...)`` or ``(adl:or PART ...)``, nested ones of the same kind
+    flattened, true and false folded in, a single part on its own."""
+    unit, zero = (ADL_TRUE, _ADL_FALSE) if functor == ADL_AND else (_ADL_FALSE, ADL_TRUE)
+    flat: list[Term] = []
+    for part in parts:
+        if part == zero:
+            return zero
+        if type(part) is Compound and part.functor == functor:
+            flat.extend(part.args)
+        elif part != unit:
+            flat.append(part)
+    flat = list(dict.fromkeys(flat))
+    if len(flat) == 1:
+        return flat[0]
+    return Compound(functor, tuple(flat))
+
+
+def _quantifier(functor: str, names: list[Var], body: Term) -> Term:
+    if not names or body in (ADL_TRUE, _ADL_FALSE):
+        return body
+    return Compound(functor, (Compound("", tuple(names)), body))
+
+
+def formula_text(term: Term) -> str:
+    """A precondition, goal or condition as PDDL text: ``(adl:or A B)`` as ``(or A B)``."""
+    if type(term) is Compound:
+        if term.functor in (ADL_FORALL, ADL_EXISTS) and len(term.args) == 2:
+            names = " ".join(map(term_to_str, term.args[0].args))  # type: ignore[union-attr]
+            return f"({term.functor[4:]} ({names}) {formula_text(term.args[1])})"
+        if term.functor in (ADL_AND, ADL_OR):
+            return "(" + " ".join([term.functor[4:], *map(formula_text, term.args)]) + ")"
+        if term.functor == "not" and len(term.args) == 1:
+            return f"(not {formula_text(term.args[0])})"
+    return term_to_str(term)
 
 
 def load_pddl(domain_path: str | Path, problem_path: str | Path) -> PlanningProblem:
@@ -278,6 +343,8 @@ class _Loader:
         if len(goal.items) != 2 or type(goal.items[1]) is not SList:
             raise self.src.error("expected one formula in (:goal ...)", _at(goal), _CONDITION_HINT)
         self._condition(goal.items[1], None, goals)
+        for fact in self._type_facts():  # an (either ...) first met in a goal's quantifier
+            facts.setdefault(fact, None)
         return PlanningProblem(
             operators=tuple(operators),
             initial=tuple(facts),
@@ -488,13 +555,20 @@ class _Loader:
         return self.src.error(f"{_UNSUPPORTED_HEADS[form.items[0]]} are not supported", _at(form), _SUPPORTED)
 
     def _condition(self, form: SList, params: frozenset | None, out: list[tuple[Term, Where]]) -> None:
-        """Append the conjuncts of a precondition (``params``: the action's) or goal (None)."""
+        """Append the conjuncts of a precondition (``params``: the action's) or goal (None):
+        literals as they are, other formulas in negation normal form (module docstring)."""
         head = _head(form)
         if head is None:
             return
         if head == "and":
             for i in range(1, len(form.items)):
                 self._condition(self._list_at(form, i, _CONDITION_HINT), params, out)
+        elif head in ("or", "imply", *_QUANTIFIERS) or (
+                head == "not" and len(form.items) == 2 and type(form.items[1]) is SList
+                and _head(form.items[1]) in _CONNECTIVES):
+            term = self._formula(form, params, {}, True)
+            for conjunct in (term.args if type(term) is Compound and term.functor == ADL_AND else (term,)):
+                out.append((conjunct, _at(form)))
         elif head == "not":
             if len(form.items) != 2:
                 raise self.src.error("(not ...) takes one formula", _at(form), _CONDITION_HINT)
@@ -507,48 +581,139 @@ class _Loader:
         else:
             out.append((self._atom(form, params, _CONDITION_HINT), _at(form)))
 
-    def _effect(self, form: SList, params: frozenset, out: list[ast.Effect],
-                outcomes: list[list[ast.Effect]] | None) -> None:
-        """Append the literals of an effect to ``out``; a ``oneof``'s outcomes go to
-        ``outcomes`` (None inside a oneof, where another one is an error)."""
+    def _formula(self, form: SList, params: frozenset | None, scope: dict[Var, Var], positive: bool) -> Term:
+        """``form`` (or its negation, when not ``positive``) in negation normal form;
+        ``scope`` maps the quantified variables around it to their names in the term."""
         head = _head(form)
+        items = form.items
+        if head is None:
+            return ADL_TRUE if positive else _ADL_FALSE
+        if head in ("and", "or"):
+            parts = [self._formula(self._list_at(form, i, _CONDITION_HINT), params, scope, positive)
+                     for i in range(1, len(items))]
+            return _junction(ADL_AND if (head == "and") == positive else ADL_OR, parts)
+        if head == "not":
+            if len(items) != 2:
+                raise self.src.error("(not ...) takes one formula", _at(form), _CONDITION_HINT)
+            return self._formula(self._list_at(form, 1, _CONDITION_HINT), params, scope, not positive)
+        if head == "imply":
+            if len(items) != 3:
+                raise self.src.error("(imply A B) takes two formulas", _at(form), _CONDITION_HINT)
+            a = self._formula(self._list_at(form, 1, _CONDITION_HINT), params, scope, not positive)
+            b = self._formula(self._list_at(form, 2, _CONDITION_HINT), params, scope, positive)
+            return _junction(ADL_OR if positive else ADL_AND, [a, b])
+        if head in _QUANTIFIERS:
+            if len(items) != 3 or type(items[1]) is not SList:
+                raise self.src.error(f"expected ({head} (?v - TYPE ...) FORMULA)", _at(form), _CONDITION_HINT)
+            names, guards, inner = self._quantified(items[1], params, scope)
+            body = self._formula(self._list_at(form, 2, _CONDITION_HINT), params, inner, positive)
+            if (head == "forall") == positive:  # for every v: guards imply body
+                body = _junction(ADL_OR, [*(Compound("not", (g,)) for g in guards), body])
+                return _quantifier(ADL_FORALL, names, body)
+            return _quantifier(ADL_EXISTS, names, _junction(ADL_AND, [*guards, body]))
+        if head in _UNSUPPORTED_HEADS:
+            raise self._unsupported(form)
+        if head in ("when", "oneof"):
+            raise self.src.error(f"({head} ...) is an effect, not a formula", _at(form), _CONDITION_HINT)
+        atom = self._atom(form, params, _CONDITION_HINT, scope=scope)
+        return atom if positive else Compound("not", (atom,))
+
+    def _quantified(self, form: SList, params: frozenset | None,
+                    scope: dict[Var, Var]) -> tuple[list[Var], list[Compound], dict[Var, Var]]:
+        """The variables of a quantifier's ``(?v - TYPE ...)`` (renamed when they would
+        shadow a parameter or an outer variable), their type guards and the inner scope."""
+        names: list[Var] = []
+        guards: list[Compound] = []
+        inner = dict(scope)
+        taken = set(params or ()) | set(scope.values())
+        written: set[Var] = set()
+        for var, spec, where, spec_at in self._typed_list(form, 0, variables=True):
+            if var in written:
+                raise self.src.error(f"variable {var} is declared twice", where)
+            written.add(var)
+            name, k = var, 0
+            while name in taken:
+                k += 1
+                name = Var(f"{var.name}~{k}")
+            taken.add(name)
+            inner[var] = name
+            names.append(name)
+            kind = self._type_name(spec, spec_at)
+            if kind != "object":
+                guards.append(Compound(TYPE_PREFIX + kind, (name,)))
+        return names, guards, inner
+
+    def _effect(self, form: SList, params: frozenset, out: list, outcomes: list[list] | None,
+                scope: dict[Var, Var] | None = None, condition: Term | None = None,
+                variables: tuple[Var, ...] = ()) -> None:
+        """Append the literals of an effect to ``out``; a ``oneof``'s outcomes go to
+        ``outcomes`` (None inside a oneof, where another one is an error). Under ``when``
+        and ``forall`` (``condition`` not None) a literal is an :class:`ast.ConditionalEffect`."""
+        head = _head(form)
+        scope = scope or {}
         if head is None:
             return
         if head == "and":
             for i in range(1, len(form.items)):
-                self._effect(self._list_at(form, i, _EFFECT_HINT), params, out, outcomes)
+                self._effect(self._list_at(form, i, _EFFECT_HINT), params, out, outcomes, scope, condition,
+                             variables)
         elif head == "oneof":
+            if condition is not None:
+                raise self.src.error("(oneof ...) inside when or forall is not supported", _at(form),
+                                     "put the when or forall inside each outcome of the oneof")
             if outcomes is None or outcomes:
                 raise self.src.error("only one (oneof ...) per action is supported, not nested",
                                      _at(form), "write the outcomes of every combination in one oneof")
             if len(form.items) < 2:
                 raise self.src.error("(oneof) needs at least one outcome", _at(form), _EFFECT_HINT)
             for i in range(1, len(form.items)):
-                outcome: list[ast.Effect] = []
+                outcome: list = []
                 self._effect(self._list_at(form, i, _EFFECT_HINT), params, outcome, None)
                 outcomes.append(outcome)
+        elif head == "when":
+            if len(form.items) != 3:
+                raise self.src.error("expected (when FORMULA EFFECT)", _at(form), _EFFECT_HINT)
+            cond = self._formula(self._list_at(form, 1, _CONDITION_HINT), params, scope, True)
+            both = cond if condition is None else _junction(ADL_AND, [condition, cond])
+            self._effect(self._list_at(form, 2, _EFFECT_HINT), params, out, outcomes, scope, both, variables)
+        elif head == "forall":
+            if len(form.items) != 3 or type(form.items[1]) is not SList:
+                raise self.src.error("expected (forall (?v - TYPE ...) EFFECT)", _at(form), _EFFECT_HINT)
+            names, guards, inner = self._quantified(form.items[1], params, scope)
+            both = _junction(ADL_AND, [ADL_TRUE if condition is None else condition, *guards])
+            self._effect(self._list_at(form, 2, _EFFECT_HINT), params, out, outcomes, inner, both,
+                         variables + tuple(names))
         elif head == "not":
             if len(form.items) != 2:
                 raise self.src.error("(not ...) takes one atom", _at(form), _EFFECT_HINT)
-            inner = self._list_at(form, 1, _EFFECT_HINT)
-            if _head(inner) in _UNSUPPORTED_HEADS:
-                raise self._unsupported(inner)
-            out.append(ast.Effect(self._atom(inner, params, _EFFECT_HINT, effect=True), False,
-                                  self.src.loc(_at(form))))
+            inner_form = self._list_at(form, 1, _EFFECT_HINT)
+            if _head(inner_form) in _UNSUPPORTED_HEADS:
+                raise self._unsupported(inner_form)
+            fact = self._atom(inner_form, params, _EFFECT_HINT, effect=True, scope=scope)
+            out.append(self._literal(fact, False, form, condition, variables))
         elif head in _UNSUPPORTED_HEADS:
             raise self._unsupported(form)
         else:
-            out.append(ast.Effect(self._atom(form, params, _EFFECT_HINT, effect=True), True,
-                                  self.src.loc(_at(form))))
+            fact = self._atom(form, params, _EFFECT_HINT, effect=True, scope=scope)
+            out.append(self._literal(fact, True, form, condition, variables))
 
-    def _atom(self, form: SList, params: frozenset | None, hint: str, effect: bool = False) -> Compound:
-        """``(PRED ARG ...)`` checked against the declarations; ``params`` None for ground atoms."""
+    def _literal(self, fact: Compound, positive: bool, form: SList, condition: Term | None,
+                 variables: tuple[Var, ...]):
+        loc = self.src.loc(_at(form))
+        if condition is None:
+            return ast.Effect(fact, positive, loc)
+        return ast.ConditionalEffect(fact, positive, condition, variables, loc)
+
+    def _atom(self, form: SList, params: frozenset | None, hint: str, effect: bool = False,
+              scope: dict[Var, Var] | None = None) -> Compound:
+        """``(PRED ARG ...)`` checked against the declarations; ``params`` None for goals,
+        whose only variables are those of the quantifiers around (``scope``)."""
         src = self.src
         items = form.items
         head = _head(form)
         if type(head) is not str or head.startswith(":"):
             raise src.error("expected an atom (PREDICATE ARG ...)", _at(form), hint)
-        if head in ("and", "not", "oneof", "either"):
+        if head in ("and", "not", "oneof", "either", "or", "imply", "when", *_QUANTIFIERS):
             raise src.error(f"({head} ...) is not allowed here", _at(form), hint)
         if head == "=":
             if effect:
@@ -563,16 +728,20 @@ class _Loader:
         if len(items) - 1 != arity:
             raise src.error(f"'{head}' takes {arity} argument{'s' * (arity != 1)}, not {len(items) - 1}",
                             _at(form), declared_at)
+        args = list(items[1:])
         for i in range(1, len(items)):
             arg = items[i]
             kind = type(arg)
             if kind is Var:
-                if params is None:
+                if scope and arg in scope:
+                    args[i - 1] = scope[arg]
+                elif params is None:
                     raise src.error(f"variable {arg} in a ground formula", form.locs[i],
-                                    "goals and :init facts name objects; quantifiers are not supported")
-                if arg not in params:
+                                    "goals and :init facts name objects; a goal's variables must be "
+                                    "those of a forall or exists around it")
+                elif arg not in params:
                     raise src.error(f"variable {arg} is not a parameter of the action", form.locs[i],
-                                    "declare it in :parameters (forall and exists are not supported)")
+                                    "declare it in :parameters, or in a forall or exists around it")
             elif kind is str:
                 if params is None:
                     if arg not in self.objects:
@@ -582,11 +751,11 @@ class _Loader:
                     raise src.error(f"unknown constant '{arg}'", form.locs[i],
                                     "declare it in the domain's :constants, or make it a ?parameter")
             elif kind is SList:
-                raise src.error("numeric fluents (function terms such as (fuel ?x)) are not supported",
-                                form.locs[i], _SUPPORTED)
+                raise src.error("numeric fluents and object fluents (function terms such as (fuel ?x)) "
+                                "are not supported", form.locs[i], _SUPPORTED)
             else:
                 raise src.error("expected an object name or a ?variable", form.locs[i], hint)
-        return Compound(head, items[1:])
+        return Compound(head, tuple(args))
 
     # ------------------------------------------------------------------------- problem
 

@@ -101,6 +101,10 @@ class Plan:
     """The planner's answer; ``status`` is ``solved``, ``unsolvable`` or ``timeout``
     (or ``error`` for bad input, :func:`plan_of_error`). ``threats`` are what the
     ``risk`` is made of; ``problems`` the located reasons there is no plan.
+    ``limits`` are the run's limits and what happened to them
+    (:meth:`~atlas_rap.planner.limits.Limits.to_dict`; None for bad input);
+    ``limited`` says in words, when a limit ran out after a plan was found,
+    what the plan is (the best by then), for the text output.
     ``deadline`` is the time (seconds from the plan's start) by which its goals
     must be achieved (``PlanningProblem.deadline_for``), or None; a solved plan
     whose makespan is past it is still a plan, but :attr:`meets_deadline` is False."""
@@ -121,6 +125,8 @@ class Plan:
     reason: str = ""
     problems: list[Problem] = field(default_factory=list)
     deadline: float | None = None
+    limits: dict[str, object] | None = None
+    limited: str = ""
 
     @property
     def meets_deadline(self) -> bool:
@@ -148,6 +154,7 @@ class Plan:
             "stats": self.stats,
             **({"timing": self.timing} if timing else {}),
             **({"reason": self.reason} if self.reason else {}),
+            "limits": self.limits,
             "problems": [_problem_dict(p) for p in self.problems],
         }
 
@@ -161,6 +168,8 @@ class Plan:
         makespan = self.deadline_text() or f"makespan {_number(self.makespan)}"
         lines = [f"solved: {len(self.steps)} steps, {makespan}, "
                  f"parallel length {self.stats.get('parallel_length', '?')}, risk {self.risk:g}"]
+        if self.limited:
+            lines.append(f"  note: {self.limited}")
         before = {s.id: [] for s in self.steps}
         for a, b in self.orderings:
             before[b].append(a)

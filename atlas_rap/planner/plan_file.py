@@ -8,10 +8,16 @@ against a :class:`PlanningProblem`, as VAL does for PDDL.
 The validator is deliberately independent of the planner's grounding: it
 binds the action's arguments to the lifted operator's ``parameters`` in
 order, evaluates each precondition in the current state (type facts,
-atoms, ``(not ATOM)``, ``(= A B)``, ``(not (= A B))``), applies the effects
-with PDDL semantics (all deletions, then all additions) and checks the
-goals at the end. Only preconditions and effects are checked: AP
-constraints, derived arguments and plots are not (PDDL operators have none).
+atoms, ``(not ATOM)``, ``(= A B)``, ``(not (= A B))``, and the ADL formulas
+as the PDDL reader writes them: ``and``, ``or``, ``forall`` and ``exists``
+over the problem's objects), applies the effects with PDDL semantics
+(conditional and universal effects expanded over the objects, their
+conditions evaluated in the state before the step; all deletions, then all
+additions) and checks the goals, ADL ones included, at the end. It reads the
+lifted operators only, never the grounder's compilation of ADL into STRIPS
+variants, so it checks that compilation too. Only preconditions and effects
+are checked: AP constraints, derived arguments and plots are not (PDDL
+operators have none).
 
 Choices:
 
@@ -31,6 +37,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from itertools import product
 from pathlib import Path
 from typing import Iterable, Sequence
 
@@ -38,7 +45,8 @@ from atlas_rap.errors import Problem, SourceError, SourceLocation
 from atlas_rap.lang import ast
 from atlas_rap.logic.terms import Compound, Term, substitute, term_to_str
 from atlas_rap.planner.ground import variable_order
-from atlas_rap.planner.pddl import TYPE_PREFIX, load_pddl
+from atlas_rap.planner.pddl import (ADL_AND, ADL_EXISTS, ADL_FORALL, ADL_OR, TYPE_PREFIX, formula_text,
+                                     load_pddl)
 from atlas_rap.planner.problem import PlanningProblem
 
 _PLAN_LINE = re.compile(r"\(\s*([^\s();]+)((?:\s+[^\s();]+)*)\s*\)\s*(?:;.*)?")
@@ -98,6 +106,7 @@ def validate_plan(problem: PlanningProblem, actions: Sequence[Compound],
                   adversarial: bool = False) -> PlanCheck:
     """Run ``actions`` from the initial state; see the module docstring."""
     state = set(problem.initial)
+    objects = problem.objects
     by_name = {op.name: op for op in problem.operators}
     outcomes: dict[str, list[ast.Operator]] = {}
     for op in problem.operators:
@@ -118,16 +127,17 @@ def validate_plan(problem: PlanningProblem, actions: Sequence[Compound],
         binding = dict(zip(parameters, action.args))
         for condition in op.preconditions:
             ground = substitute(condition, binding)
-            if not _holds(ground, state):
+            if not _holds(ground, state, objects):
                 return PlanCheck(False, f"step {step}: {shown}: precondition {_describe(ground)} "
                                         f"does not hold", step)
-        _apply(state, op.effects, binding, deletions_only=False)
+        before = frozenset(state)
+        _apply(state, op.effects, binding, deletions_only=False, before=before, objects=objects)
         if adversarial:
             for outcome in outcomes.get(op.name, ()):
-                _apply(state, outcome.effects, binding, deletions_only=True)
-    unmet = [goal for goal in problem.goals if not _holds(goal, state)]
+                _apply(state, outcome.effects, binding, deletions_only=True, before=before, objects=objects)
+    unmet = [goal for goal in problem.goals if not _holds(goal, state, objects)]
     if unmet:
-        return PlanCheck(False, f"goal {term_to_str(unmet[0])} is not met after {len(actions)} steps"
+        return PlanCheck(False, f"goal {formula_text(unmet[0])} is not met after {len(actions)} steps"
                                 + (f" ({len(unmet)} goals unmet)" if len(unmet) > 1 else ""))
     worst = " even when every bad outcome happens" if adversarial else ""
     return PlanCheck(True, f"plan valid: {len(actions)} steps reach the goals{worst}")
@@ -139,13 +149,25 @@ def validate_plan_file(domain_path: str | Path, problem_path: str | Path, plan_p
     return validate_plan(load_pddl(domain_path, problem_path), read_plan_file(plan_path), adversarial)
 
 
-def _holds(condition: Term, state: set) -> bool:
+def _holds(condition: Term, state: set | frozenset, objects: Sequence[Term] = ()) -> bool:
+    """Whether ``condition`` holds in ``state``; quantifiers range over ``objects``."""
     if type(condition) is not Compound:
         return False
-    if condition.functor == "not" and len(condition.args) == 1:
-        return not _holds(condition.args[0], state)
-    if condition.functor == "=" and len(condition.args) == 2:
+    functor = condition.functor
+    if functor == "not" and len(condition.args) == 1:
+        return not _holds(condition.args[0], state, objects)
+    if functor == "=" and len(condition.args) == 2:
         return condition.args[0] == condition.args[1]
+    if functor == ADL_AND:
+        return all(_holds(part, state, objects) for part in condition.args)
+    if functor == ADL_OR:
+        return any(_holds(part, state, objects) for part in condition.args)
+    if functor in (ADL_FORALL, ADL_EXISTS) and len(condition.args) == 2:
+        names = condition.args[0].args  # type: ignore[union-attr]
+        body = condition.args[1]
+        cases = (_holds(substitute(body, dict(zip(names, values))), state, objects)
+                 for values in product(objects, repeat=len(names)))
+        return all(cases) if functor == ADL_FORALL else any(cases)
     return condition in state
 
 
@@ -154,12 +176,24 @@ def _describe(condition: Compound) -> str:
     if condition.functor.startswith(TYPE_PREFIX) and len(condition.args) == 1:
         kind = condition.functor[len(TYPE_PREFIX):]
         return f"{term_to_str(condition)} ('{condition.args[0]}' is not of type {kind})"
-    return term_to_str(condition)
+    return formula_text(condition)
 
 
-def _apply(state: set, effects: Sequence[ast.Effect], binding: dict, deletions_only: bool) -> None:
-    """PDDL semantics: every deletion first, then every addition."""
-    ground = [(substitute(e.fact, binding), e.positive) for e in effects]
+def _apply(state: set, effects: Sequence, binding: dict, deletions_only: bool,
+           before: frozenset | None = None, objects: Sequence[Term] = ()) -> None:
+    """PDDL semantics: every deletion first, then every addition. A conditional or
+    universal effect (:class:`ast.ConditionalEffect`) applies for each value of its
+    variables over ``objects`` whose condition holds in ``before`` (the state before
+    the step)."""
+    ground = []
+    for e in effects:
+        if type(e) is not ast.ConditionalEffect:
+            ground.append((substitute(e.fact, binding), e.positive))
+            continue
+        for values in product(objects, repeat=len(e.variables)):
+            s = {**binding, **dict(zip(e.variables, values))}
+            if _holds(substitute(e.condition, s), state if before is None else before, objects):
+                ground.append((substitute(e.fact, s), e.positive))
     state.difference_update(fact for fact, positive in ground if not positive)
     if not deletions_only:
         state.update(fact for fact, positive in ground if positive)

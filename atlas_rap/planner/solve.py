@@ -18,6 +18,12 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
 4. :func:`~atlas_rap.planner.partial_order.deorder` into a partial order,
    checked valid in every linearisation;
 5. :func:`~atlas_rap.planner.plan.build_plan`: plots, agents, schedule.
+
+One :class:`~atlas_rap.planner.limits.Limits` (``timeout``, ``memory``) holds
+across all of it: grounding stops between joins, the searches every 64
+expansions, shortening is anytime (the last valid plan is kept), and a
+counterplanning cut short while threats are left is reported as such, never
+as a safe plan. ``--timing`` shows each phase's CPU seconds.
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ from atlas_rap.planner.counterplan import (
     shorten_exposure,
 )
 from atlas_rap.planner.ground import ground
+from atlas_rap.planner.limits import LimitReached, Limits
 from atlas_rap.planner.partial_order import check_every_linearisation, deorder
 from atlas_rap.planner.plan import Plan, build_plan
 from atlas_rap.planner.problem import PlanningProblem
@@ -52,48 +59,69 @@ class PlannerBug(AssertionError):
     """The planner produced a plan its own validator rejects: a bug, never bad input."""
 
 
-def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, protect: bool = True) -> Plan:
-    """Plan for ``problem`` within ``timeout`` CPU seconds (None: no limit).
+def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, protect: bool = True,
+          memory: float | None = None, limits: Limits | None = None) -> Plan:
+    """Plan for ``problem`` within ``timeout`` CPU seconds and ``memory`` MiB (None: no limit),
+    or within ``limits`` already running (``atlas plan`` starts them before it reads the files).
 
-    ``protect`` False skips counterplanning (the risk is still reported).
+    The limits bound the whole run, every phase (:mod:`~atlas_rap.planner.limits`):
+    past them, a plan whose shortening was cut is returned as it is, marked
+    (``Plan.limited``); a plan whose counterplanning was cut while threats were
+    left is not returned as safe (status ``timeout`` or ``memory``); without a
+    plan, the status says which limit ran out. ``protect`` False skips
+    counterplanning (the risk is still reported).
     """
-    started = time.process_time()
-    task = ground(problem)
-    grounded = time.process_time()
+    limits = limits if limits is not None else Limits(timeout, memory)
+    timing: dict[str, float] = {}
+    phase = _Phases(limits, timing)
+    phase("grounding", "ground")
+    try:
+        task = ground(problem, stop=limits.expired)
+    except LimitReached:
+        return _without_plan(limits, phase, {}, "while grounding")
     stats: dict[str, float | int] = {"facts": len(task.facts), "actions": len(task.actions),
                                      "uncontrolled_actions": len(task.nature)}
-    timing = {"ground_seconds": round(grounded - started, 4)}
     if task.unreachable_goals:
         goals = ", ".join(term_to_str(g) for g in task.unreachable_goals)
-        return Plan(status="unsolvable", stats=stats, timing=timing,
+        phase.end()
+        return Plan(status="unsolvable", stats=stats, timing=timing, limits=limits.to_dict(),
                     reason=f"no sequence of actions can make {goals} true",
                     problems=_unreachable(problem, task.unreachable_goals))
-    left = None if timeout is None else max(0.0, timeout - (grounded - started))
-    found = greedy_best_first(task, timeout=left)
+    if limits.expired():
+        return _without_plan(limits, phase, stats, "before the search began")
+    phase("search", "search")
+    found = greedy_best_first(task, stop=limits.expired)
     stats.update(expanded=found.expanded, evaluated=found.evaluated)
-    timing["search_seconds"] = round(found.seconds, 4)
+    if found.status == "unsolvable":
+        phase.end()
+        return Plan(status="unsolvable", stats=stats, timing=timing, limits=limits.to_dict(),
+                    reason="the reachable states were searched and none meets the goals")
     if found.status != "solved":
-        reason = ("the reachable states were searched and none meets the goals" if found.status == "unsolvable"
-                  else f"no plan found within {timeout:g} s")
-        return Plan(status=found.status, stats=stats, timing=timing, reason=reason)
-    sequence = eliminate_redundant(task, found.plan)
-    if found.evaluated > WANDERED * max(1, len(sequence)):
-        other = greedy_best_first(task, timeout=left, shallow_first=False, heuristic=found.heuristic,
-                                  max_evaluations=100 + 2 * found.evaluated)
+        return _without_plan(limits, phase, stats, "before a plan was found")
+    phase("shortening", "shorten")
+    sequence = eliminate_redundant(task, found.plan, deadline=limits)
+    if found.evaluated > WANDERED * max(1, len(sequence)) and not limits.expired():
+        other = greedy_best_first(task, shallow_first=False, heuristic=found.heuristic,
+                                  max_evaluations=100 + 2 * found.evaluated, stop=limits.expired)
         if other.status == "solved":
-            sequence = _shorter(task, other.plan, sequence)
+            sequence = _shorter(task, other.plan, sequence, limits)
     for weight in IMPROVE_WEIGHTS:
-        left = None if timeout is None else max(0.0, timeout - (time.process_time() - started))
+        if limits.expired():
+            break
         better = shorter_plan(task, sequence, budget=min(IMPROVE_BUDGET, 100 + 4 * found.evaluated),
-                              weight=weight, timeout=left, heuristic=found.heuristic)
+                              weight=weight, heuristic=found.heuristic, stop=limits.expired)
         if better is not None:
-            sequence = _shorter(task, better, sequence)
-    left = None if timeout is None else max(1.0, timeout - (time.process_time() - started))
+            sequence = _shorter(task, better, sequence, limits)
+    phase("counterplanning", "counterplan")
     if protect:
-        protected = counterplan(task, sequence, timeout=left)
+        protected = counterplan(task, sequence, stop=limits.expired)
     else:
         first = assess(task, sequence)
         protected = Protected(sequence, [], first, first.risk)
+    if not protected.complete and protected.assessment.risk > 0:
+        return _without_plan(limits, phase, stats, f"while counterplanning: the best plan so far has risk "
+                             f"{protected.assessment.risk:g} and is not returned as safe")
+    phase("ordering", "order")
     order = deorder(task, protected.plan, fixed={c.step for c in protected.counters})
     if protected.assessment.risk > 0 and not protected.counters:
         reordered = shorten_exposure(task, order.steps, order.closure())
@@ -104,11 +132,49 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     if problems:
         raise PlannerBug("the partial order is not valid in every linearisation: " + "; ".join(problems))
     stats.update(length=len(order.steps), parallel_length=order.parallel_length())
-    timing["seconds"] = round(time.process_time() - started, 4)
     plan = build_plan(task, order, protected, stats)
+    phase.end()
     plan.timing = timing
+    plan.limits = limits.to_dict()
+    if limits.reached is not None:
+        plan.limited = (f"{limits.describe()} ran out during {limits.during}: this is the best plan found "
+                        f"by then" + (", protected as well as it could be" if protect and protected.counters else ""))
     plan.deadline = problem.deadline_for()
     return plan
+
+
+class _Phases:
+    """Names the phase a run is in (for the limits) and times each one (``--timing``)."""
+
+    def __init__(self, limits: Limits, timing: dict[str, float]) -> None:
+        self.limits = limits
+        self.timing = timing
+        self.key: str | None = None
+        self.since = time.process_time()
+        if limits.started == 0.0:  # the limits count the whole process: say what came before solving
+            timing["startup_seconds"] = round(self.since, 4)
+
+    def __call__(self, name: str, key: str) -> None:
+        """Begin phase ``name`` (as messages say it), timed as ``KEY_seconds``."""
+        self.end()
+        self.limits.phase, self.key = name, key
+        self.since = time.process_time()
+
+    def end(self) -> None:
+        """Close the current phase: add its CPU seconds, and the total so far."""
+        now = time.process_time()
+        if self.key is not None:
+            self.timing[f"{self.key}_seconds"] = round(now - self.since, 4)
+        self.timing["seconds"] = round(now - self.limits.started, 4)
+        self.key = None
+
+
+def _without_plan(limits: Limits, phase: _Phases, stats: dict, when: str) -> Plan:
+    """The result when a limit ran out with no plan that can be given as safe."""
+    phase.end()
+    status = limits.reached or "timeout"
+    return Plan(status=status, stats=stats, timing=phase.timing, limits=limits.to_dict(),
+                reason=f"{limits.describe()} ran out {when}")
 
 
 def _unreachable(problem: PlanningProblem, goals: tuple[Term, ...]) -> list[Problem]:
@@ -123,7 +189,7 @@ def _unreachable(problem: PlanningProblem, goals: tuple[Term, ...]) -> list[Prob
     return found
 
 
-def _shorter(task, candidate: list, current: list) -> list:
+def _shorter(task, candidate: list, current: list, limits: Limits | None = None) -> list:
     """``candidate`` without its redundant actions, if that is shorter than ``current``."""
-    candidate = eliminate_redundant(task, candidate)
+    candidate = eliminate_redundant(task, candidate, deadline=limits)
     return candidate if len(candidate) < len(current) else current
