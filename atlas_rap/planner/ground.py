@@ -69,6 +69,7 @@ search, the partial order and counterplanning see plain STRIPS actions:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from bisect import bisect_left
 from itertools import product
 from typing import Callable, Iterator, Sequence
 
@@ -255,6 +256,30 @@ def simultaneous_pairs(plot: ast.Plot | None) -> list[tuple[Var, Var]]:
     return pairs
 
 
+class _Grown:
+    """Reach's facts in the order they came (the initial facts first), for semi-naive
+    joins: each fact's position, and the facts of a predicate that came after a mark."""
+
+    def __init__(self, facts) -> None:
+        self.facts: list[Compound] = []
+        self.position: dict[Compound, int] = {}
+        self.by_predicate: dict[tuple[str, int], list[int]] = {}
+        for fact in facts:
+            self.add(fact)
+
+    def add(self, fact: Compound) -> None:
+        if fact in self.position:
+            return
+        self.position[fact] = len(self.facts)
+        self.by_predicate.setdefault((fact.functor, len(fact.args)), []).append(len(self.facts))
+        self.facts.append(fact)
+
+    def since(self, mark: int, predicate: tuple[str, int]) -> list[Compound]:
+        """The facts of ``predicate`` that came at or after position ``mark``, in order."""
+        positions = self.by_predicate.get(predicate, ())
+        return [self.facts[i] for i in positions[bisect_left(positions, mark):]]
+
+
 class _OperatorGrounder:
     """The bindings of one operator, found again whenever what it reads grows."""
 
@@ -282,6 +307,8 @@ class _OperatorGrounder:
         self.fluent_atoms = [a for a in positive if (a.functor, len(a.args)) not in static]
         self.reads = {(a.functor, len(a.args)) for a in self.fluent_atoms}
         self.join_order = _join_order(self.static_atoms, self.fluent_atoms)
+        self.fluent_positions = [i for i, (_, is_static) in enumerate(self.join_order) if not is_static]
+        self.watermark = 0  # how many of reach's facts this operator's last join saw
         candidates = problem.uncontrolled if op.uncontrolled else problem.controlled
         self.agents = AgentProblem(variables=agent_variables(op, operator_purposes(problem)),
                                    candidates=tuple(candidates),
@@ -292,14 +319,60 @@ class _OperatorGrounder:
     def key(self, s: Subst) -> tuple[Term, ...]:
         return tuple(s.get(v, v) for v in self.order)
 
-    def new_bindings(self, reach: Memory) -> Iterator[Subst]:
-        """Bindings not found before, in a deterministic order."""
-        for s in self._join(reach, 0, {}):
+    def new_bindings(self, reach: Memory, grown: _Grown | None = None) -> Iterator[Subst]:
+        """Bindings not found before, in a deterministic order.
+
+        With ``grown`` (the facts reach gained, in order), only the joins that
+        use a fact gained since this operator's last join are made (semi-naive
+        evaluation: any other join was made before), and they are sorted into
+        the order the full join would have found them in: the full join's nested
+        loops meet facts in memory order at each atom, so its answers are sorted
+        by the positions of their facts, atom by atom. The bindings, and so the
+        actions and the plans, are the same as with a full join each time."""
+        if grown is None or self.watermark == 0 or not self.fluent_positions:
+            joins: Iterator[Subst] = self._join(reach, 0, {})
+        else:
+            joins = iter(self._joins_since(reach, grown))
+        if grown is not None:
+            self.watermark = len(grown.facts)
+        for s in joins:
             for full in self._complete(s):
                 key = tuple(full.get(v, v) for v in self.order)
                 if key not in self.seen:
                     self.seen[key] = full
                     yield full
+
+    def _joins_since(self, reach: Memory, grown: _Grown) -> list[Subst]:
+        """The joins that use a fact gained since the last join (see :meth:`new_bindings`)."""
+        mark = self.watermark
+        found: dict[tuple[int, ...], Subst] = {}
+        for k in self.fluent_positions:
+            atom = self.join_order[k][0]
+            for fact in grown.since(mark, (atom.functor, len(atom.args))):
+                first = unify(atom, fact)
+                if first is None:
+                    continue
+                for s in self._join_rest(reach, 0, first, k, grown, mark):
+                    position = tuple(grown.position[substitute(a, s)] for a, _ in self.join_order)
+                    found.setdefault(position, s)
+        return [found[key] for key in sorted(found)]
+
+    def _join_rest(self, reach: Memory, i: int, s: Subst, k: int, grown: _Grown, mark: int) -> Iterator[Subst]:
+        """The join of every atom but the ``k``-th (already matched to a new fact); the fluent
+        atoms before it only on facts older than ``mark``, so each join is made once."""
+        if i == len(self.join_order):
+            yield s
+            return
+        if i == k:
+            yield from self._join_rest(reach, i + 1, s, k, grown, mark)
+            return
+        atom, is_static = self.join_order[i]
+        memory = self.init if is_static else reach
+        older = not is_static and i < k
+        for answer in memory.matches(atom, s):
+            if older and grown.position[substitute(atom, answer)] >= mark:
+                continue
+            yield from self._join_rest(reach, i + 1, answer, k, grown, mark)
 
     def _join(self, reach: Memory, i: int, s: Subst) -> Iterator[Subst]:
         if i == len(self.join_order):
@@ -361,9 +434,11 @@ def _join_order(static: list[Compound], fluent: list[Compound]) -> list[tuple[Co
     return order
 
 
-def ground(problem: PlanningProblem, stop: Callable[[], bool] | None = None) -> GroundTask:
+def ground(problem: PlanningProblem, stop: Callable[[], bool] | None = None, *, naive: bool = False) -> GroundTask:
     """Ground ``problem``: see the module docstring for how. ``stop()`` (a run's limits)
-    is asked before each operator is joined again; when it says so, :class:`LimitReached`."""
+    is asked before each operator is joined again; when it says so, :class:`LimitReached`.
+    Joins are semi-naive (only those that use a new fact); ``naive`` makes every join
+    whole again, which gives the same task, slower (for tests)."""
     ops = problem.operators
     changed_preds = {(e.fact.functor, len(e.fact.args)) for op in ops for e in op.effects}
     mentioned = {(a.functor, len(a.args)) for op in ops for a in op.preconditions if type(a) is Compound}
@@ -379,6 +454,7 @@ def ground(problem: PlanningProblem, stop: Callable[[], bool] | None = None) -> 
             g.adl = _AdlOperator(g.op, formulas)
             g.reads |= g.adl.reads
     found: list[tuple[_OperatorGrounder, Subst]] = []
+    grown = _Grown(reach)
     dirty = {g: True for g in ours}
     while any(dirty.values()):
         grew: set[tuple[str, int]] = set()
@@ -388,13 +464,14 @@ def ground(problem: PlanningProblem, stop: Callable[[], bool] | None = None) -> 
             if stop is not None and stop():
                 raise LimitReached("grounding")
             dirty[g] = False
-            bindings, conditional = _enabled(g, reach)
+            bindings, conditional = _enabled(g, reach, None if naive else grown)
             found.extend((g, binding) for binding in bindings)
             added = [substitute(effect.fact, binding) for binding in bindings for effect in g.op.effects
                      if effect.positive and type(effect) is ast.Effect]
             for fact in added + conditional:
                 if fact not in reach:
                     reach.assert_fact(fact)
+                    grown.add(fact)  # type: ignore[arg-type]
                     grew.add((fact.functor, len(fact.args)))  # type: ignore[union-attr]
         for g in ours:
             if g.reads & grew:
@@ -585,10 +662,10 @@ def _is_adl(op: ast.Operator) -> bool:
             or any(type(e) is ast.ConditionalEffect for e in op.effects))
 
 
-def _enabled(g: _OperatorGrounder, reach: Memory) -> tuple[list[Subst], list[Compound]]:
-    """The bindings of ``g`` that became usable in ``reach``, and the facts its
-    conditional effects may add there that they could not add before."""
-    bindings = list(g.new_bindings(reach))
+def _enabled(g: _OperatorGrounder, reach: Memory, grown: _Grown | None = None) -> tuple[list[Subst], list[Compound]]:
+    """The bindings of ``g`` that became usable in ``reach`` (``grown``: its facts in order),
+    and the facts its conditional effects may add there that they could not add before."""
+    bindings = list(g.new_bindings(reach, grown))
     if g.adl is None:
         return bindings, []
     for binding in bindings:
