@@ -73,6 +73,11 @@ class Limits:
         self.during = self.phase
         return True
 
+    def share(self, fraction: float) -> Limits:
+        """Limits for one phase: ``fraction`` of the time left (the memory limit as it is).
+        When the share runs out the run goes on; when the run's limits do, so does the share."""
+        return _Share(self, fraction)
+
     def to_dict(self) -> dict[str, object]:
         """The limits and what happened, for ``--json``."""
         return {"timeout_s": self.seconds, "memory_mb": self.memory_mb, "reached": self.reached,
@@ -83,3 +88,15 @@ class Limits:
         if self.reached == "memory":
             return f"the memory limit of {self.memory_mb:g} MB"
         return f"the time limit of {self.seconds:g} s"
+
+
+class _Share(Limits):
+    """A phase's part of a run's limits (:meth:`Limits.share`)."""
+
+    def __init__(self, run: Limits, fraction: float) -> None:
+        left = run.left()
+        super().__init__(None if left is None else fraction * left, run.memory_mb)
+        self.run = run
+
+    def expired(self) -> bool:
+        return self.run.expired() or super().expired()

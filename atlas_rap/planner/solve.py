@@ -21,7 +21,9 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
 
 One :class:`~atlas_rap.planner.limits.Limits` (``timeout``, ``memory``) holds
 across all of it: grounding stops between joins, the searches every 64
-expansions, shortening is anytime (the last valid plan is kept), and a
+expansions, shortening is anytime and has at most half the time left after
+the search (its bounds are counts, so the same input gives the same plan
+unless time is that short; then the last valid plan is kept), and a
 counterplanning cut short while threats are left is reported as such, never
 as a safe plan. ``--timing`` shows each phase's CPU seconds.
 """
@@ -53,6 +55,7 @@ DEFAULT_TIMEOUT = 60.0
 WANDERED = 4  # a first search that evaluated this many states per plan step wandered: try the other ties
 IMPROVE_BUDGET = 20000  # heuristic evaluations of each plan-shortening search
 IMPROVE_WEIGHTS = (3.0,)  # its weights, in turn, each bounded by the best plan so far
+SHORTEN_SHARE = 0.5  # of the time left after the search, at most, for shortening (its counts bind first, as a rule)
 
 
 class PlannerBug(AssertionError):
@@ -99,19 +102,20 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     if found.status != "solved":
         return _without_plan(limits, phase, stats, "before a plan was found")
     phase("shortening", "shorten")
-    sequence = eliminate_redundant(task, found.plan, deadline=limits)
-    if found.evaluated > WANDERED * max(1, len(sequence)) and not limits.expired():
+    share = limits.share(SHORTEN_SHARE)
+    sequence = eliminate_redundant(task, found.plan, deadline=share)
+    if found.evaluated > WANDERED * max(1, len(sequence)) and not share.expired():
         other = greedy_best_first(task, shallow_first=False, heuristic=found.heuristic,
-                                  max_evaluations=100 + 2 * found.evaluated, stop=limits.expired)
+                                  max_evaluations=100 + 2 * found.evaluated, stop=share.expired)
         if other.status == "solved":
-            sequence = _shorter(task, other.plan, sequence, limits)
+            sequence = _shorter(task, other.plan, sequence, share)
     for weight in IMPROVE_WEIGHTS:
-        if limits.expired():
+        if share.expired():
             break
         better = shorter_plan(task, sequence, budget=min(IMPROVE_BUDGET, 100 + 4 * found.evaluated),
-                              weight=weight, heuristic=found.heuristic, stop=limits.expired)
+                              weight=weight, heuristic=found.heuristic, stop=share.expired)
         if better is not None:
-            sequence = _shorter(task, better, sequence, limits)
+            sequence = _shorter(task, better, sequence, share)
     phase("counterplanning", "counterplan")
     if protect:
         protected = counterplan(task, sequence, stop=limits.expired)
