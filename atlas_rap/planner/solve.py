@@ -6,7 +6,9 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
 
 1. :func:`~atlas_rap.planner.ground.ground` the operators;
 2. greedy best-first search with hFF and helpful actions
-   (:mod:`~atlas_rap.planner.search`), ties to the shallower node; when it
+   (:mod:`~atlas_rap.planner.search`), ties to the shallower node; stuck
+   after STUCK evaluations, a restart with LAMA's landmark count beside hFF
+   (:mod:`~atlas_rap.planner.landmarks`); when the first search
    wandered (evaluated more than WANDERED states per step of its plan), the
    same search with ties in order of generation, within twice the first
    one's evaluations (a portfolio of two: each finds shorter plans on some
@@ -41,6 +43,7 @@ from atlas_rap.planner.counterplan import (
     shorten_exposure,
 )
 from atlas_rap.planner.ground import ground
+from atlas_rap.planner.landmarks import landmark_search
 from atlas_rap.planner.limits import LimitReached, Limits
 from atlas_rap.planner.partial_order import check_every_linearisation, deorder
 from atlas_rap.planner.plan import Plan, build_plan
@@ -55,6 +58,7 @@ DEFAULT_TIMEOUT = 60.0
 WANDERED = 4  # a first search that evaluated this many states per plan step wandered: try the other ties
 IMPROVE_BUDGET = 20000  # heuristic evaluations of each plan-shortening search
 IMPROVE_WEIGHTS = (3.0,)  # its weights, in turn, each bounded by the best plan so far
+STUCK = 20000  # heuristic evaluations of the hFF search before it restarts with landmarks (a count)
 SHORTEN_SHARE = 0.5  # of the time left after the search, at most, for shortening (its counts bind first, as a rule)
 
 
@@ -93,7 +97,13 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     if limits.expired():
         return _without_plan(limits, phase, stats, "before the search began")
     phase("search", "search")
-    found = greedy_best_first(task, stop=limits.expired)
+    found = greedy_best_first(task, stop=limits.expired, max_evaluations=STUCK)
+    if found.status == "timeout" and not limits.expired():  # stuck: restart as LAMA would search
+        stuck = found
+        found = landmark_search(task, stuck.heuristic, stop=limits.expired)
+        found.expanded += stuck.expanded
+        found.evaluated += stuck.evaluated
+        stats["restarted_after"] = stuck.evaluated
     stats.update(expanded=found.expanded, evaluated=found.evaluated)
     if found.status == "unsolvable":
         phase.end()
