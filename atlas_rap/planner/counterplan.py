@@ -35,6 +35,7 @@ from typing import Callable, Iterable
 
 from atlas_rap.logic import Compound, variables
 from atlas_rap.planner.ground import GroundAction, GroundTask
+from atlas_rap.planner.limits import LimitReached
 from atlas_rap.planner.search import Settle, eliminate_redundant, greedy_best_first
 
 
@@ -164,14 +165,18 @@ class Adversary:
         return robust, settle
 
 
-def assess(task: GroundTask, plan: list[GroundAction], adversary: Adversary | None = None) -> Assessment:
-    """The threats to ``plan`` (see the module docstring) and so its risk."""
+def assess(task: GroundTask, plan: list[GroundAction], adversary: Adversary | None = None,
+           stop: Callable[[], bool] | None = None) -> Assessment:
+    """The threats to ``plan`` (see the module docstring) and so its risk. ``stop()`` (a
+    run's limits) is asked every 16 steps; when it says so, :class:`LimitReached`."""
     adversary = adversary or Adversary(task)
     assessment = Assessment()
     if not task.nature:
         return assessment
     states = [task.init]
-    for action in plan:
+    for k, action in enumerate(plan):
+        if stop is not None and k % 16 == 0 and stop():
+            raise LimitReached("counterplanning")
         states.append(task.apply(action, states[-1]))
     possible = [adversary.possible_after(states[k], plan[k - 1]) if k > 0 else [] for k in range(len(states))]
     last_added: dict[int, int] = {}
@@ -243,9 +248,10 @@ def counterplan(task: GroundTask, plan: list[GroundAction], timeout: float | Non
     """Protect ``plan`` (a valid sequential plan of ``task``) from uncontrolled actions;
     see the module docstring. ``timeout`` bounds each extra search (CPU seconds);
     ``stop()`` (a run's limits) ends all of them, and the result then says it is not
-    ``complete``: a safer plan might have been found with more time."""
+    ``complete``: a safer plan might have been found with more time; stopped while
+    it assesses a plan's threats, :class:`LimitReached`."""
     full = Adversary(task)
-    first = assess(task, plan, full)
+    first = assess(task, plan, full, stop)
     if not first.threats:
         return Protected(plan, [], first, 0.0)
     cut = False
@@ -275,7 +281,7 @@ def counterplan(task: GroundTask, plan: list[GroundAction], timeout: float | Non
                 best, best_adversary = trial, trial_adversary
     if best is None:
         return Protected(plan, [], first, first.risk, complete=not cut)
-    final = assess(task, best, full)
+    final = assess(task, best, full, stop)
     if final.risk >= first.risk:
         return Protected(plan, [], first, first.risk, complete=not cut)
     return Protected(best, counters(task, best, best_adversary), final, first.risk, complete=not cut)

@@ -128,7 +128,11 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
             sequence = _shorter(task, better, sequence, share)
     phase("counterplanning", "counterplan")
     if protect:
-        protected = counterplan(task, sequence, stop=limits.expired)
+        try:
+            protected = counterplan(task, sequence, stop=limits.expired)
+        except LimitReached:
+            return _without_plan(limits, phase, stats, "while counterplanning, before the plan's threats were "
+                                 "known: it is not returned as safe")
     else:
         first = assess(task, sequence)
         protected = Protected(sequence, [], first, first.risk)
