@@ -59,15 +59,19 @@ def test_timing_shows_every_phase_counterplanning_included(tmp_path: Path) -> No
 
 
 class RunsOutIn(Limits):
-    """Limits that run out when the planner enters ``phase`` (a scripted budget, for the rules)."""
+    """Limits that run out in ``phase``, after ``checks`` questions in it (a scripted budget,
+    for the rules of what is returned)."""
 
-    def __init__(self, phase: str) -> None:
+    def __init__(self, phase: str, checks: int = 0) -> None:
         super().__init__(60.0)
         self.out_in = phase
+        self.checks = checks
 
     def expired(self) -> bool:
         if self.reached is None and self.phase == self.out_in:
-            self.reached, self.during = "timeout", self.phase
+            if self.checks == 0:
+                self.reached, self.during = "timeout", self.phase
+            self.checks -= 1
         return self.reached is not None
 
 
@@ -85,8 +89,11 @@ def test_a_plan_found_before_the_limit_is_returned_marked_as_the_best_by_then() 
 def test_a_plan_whose_counterplanning_was_cut_is_not_passed_off_as_safe() -> None:
     unprotected = solve(goals_problem("adversarial-goals.ap"), protect=False)
     assert unprotected.risk > 0  # there is something to protect against
-    plan = solve(goals_problem("adversarial-goals.ap"), limits=RunsOutIn("counterplanning"))
+    before_threats_known = solve(goals_problem("adversarial-goals.ap"), limits=RunsOutIn("counterplanning"))
+    assert before_threats_known.status == "timeout" and not before_threats_known.steps
+    assert "before the plan's threats were known: it is not returned as safe" in before_threats_known.reason
+    plan = solve(goals_problem("adversarial-goals.ap"), limits=RunsOutIn("counterplanning", checks=1))
     assert plan.status == "timeout" and not plan.steps
-    assert "while counterplanning: the best plan so far has risk" in plan.reason
+    assert f"while counterplanning: the best plan so far has risk {unprotected.risk:g}" in plan.reason
     safe = solve(goals_problem("adversarial-goals.ap"))
     assert safe.status == "solved" and safe.risk == 0
