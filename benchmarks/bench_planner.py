@@ -1,13 +1,25 @@
 """Benchmark the AP planner on classical PDDL beside pyperplan and Fast Downward.
 
-For each classical domain in ``../shared/data/pddl`` (gripper, blocks,
-logistics00, rovers, depot) the first ten problems (natural order:
-probBLOCKS-4-0 before probBLOCKS-10-0, p01 before p10) are solved, one after
-the other in this one run. Nothing is ever written into the data folder:
-every run gets a scratch copy of its domain and problem.
+For each classical domain in the data root (``REPO/../shared/data/pddl``,
+or the first ``shared/data/pddl`` beside a folder above the checkout;
+``--data-root DIR``): gripper, blocks, logistics00, rovers and depot, the
+first twenty problems in natural order (probBLOCKS-4-0 before
+probBLOCKS-10-0, p01 before p10) are solved, one after the other in this one
+run; then the problems of every ``--data DIR`` folder, each a domain of its
+own. A folder holds ``domain.pddl`` and problem files, or one domain file per
+problem as the IPC ships some domains (found as Fast Downward's driver finds
+them: ``p01-domain.pddl``, ``domain_p01.pddl``, ``domain-p01.pddl``, or
+``p01-domain.pddl`` beside ``p01-airport1-p1.pddl``); a file is a problem
+when its ``(define (problem ...`` says so. Nothing is ever written into a
+data folder: every run gets a scratch copy of its domain and problem.
 
-The primary figure is measured in this process (start-up excluded)
-------------------------------------------------------------------
+``--quick`` is the check that the benchmark still works (the test
+``tests/test_bench_planner.py`` runs it): the first three problems of each
+domain, a 10 s timeout, tireworld p1-p2; about 11 s on 2 cores with both
+peers installed, 3 s without.
+
+In process: the CPU of the solve (start-up excluded)
+----------------------------------------------------
 Most problems are solved in well under a second, so timing each planner as a
 fresh ``python`` process mostly times interpreter start-up and imports (about
 0.15 s for atlas_rap, 0.055 s for pyperplan), not planning. So both Python
@@ -36,55 +48,84 @@ a timeout. ``worker_cpu_s`` is the worker's whole CPU from ``os.wait4``
 (fork and exit included), ``wall_s`` the wall time of the fork.
 ``time_ratio_vs_pyperplan`` compares these in-process ``cpu_s`` figures.
 
-Secondary figures: whole runs as subprocesses (start-up included)
------------------------------------------------------------------
+Fast Downward is C++ and only runs as a subprocess; its in-process
+counterpart is its own CPU for the work, ``solve_cpu_s``: the translator's
+"Done! [X s CPU" plus the search component's "Total time" (its driver's and
+components' start-up left out). ``time_ratio_vs_fd`` sets our ``cpu_s``
+beside it, ``search_time_ratio_vs_fd`` our search beside its "Search time".
+FD counts CPU in clock ticks (the translator 10 ms, the search often 4 ms),
+so on problems solved in a few milliseconds these read 0 or one tick (and
+a ratio floors them at 1 ms): compare on the larger problems.
+
+Whole processes (interpreter start-up included)
+-----------------------------------------------
 - ``ours-cli``: ``python -m atlas_rap plan --pddl DOMAIN PROBLEM
   --plan-file F --json --timing --timeout S``; ``cli_cpu_s`` is its user +
-  system CPU from ``os.wait4``; ``ground_s``/``search_s`` come from the
-  JSON's ``timing`` (``stats`` holds counts only). Its plan file is
-  validated too ("ours by --plan-file"), and ``plan_digest`` shows whether
-  it is the plan of the in-process run. ``--no-cli`` skips these runs.
+  system CPU from ``os.wait4``, ``cli_wall_s`` its wall time;
+  ``ground_s``/``search_s`` come from the JSON's ``timing`` (``stats`` holds
+  counts only). Its plan file is validated too ("ours by --plan-file"), and
+  ``plan_digest`` shows whether it is the plan of the in-process run.
+  ``--no-cli`` skips these runs.
+- ``pyperplan-cli``: ``python -m pyperplan -s gbf -H hff`` (``--no-cli-pyperplan``
+  skips it). Not run where pyperplan in process timed out (it would too,
+  start-up on top): that line says ``"skipped"`` with status ``timeout``.
 - ``fd-lama-first``: Fast Downward ``--alias lama-first``, the driver bundled
-  in the ``up-fast-downward`` wheel (C++: it only runs as a subprocess).
-  ``cli_cpu_s`` is the driver's whole run (its translator and search
-  processes included), ``search_s`` its logged "Search time" (CPU, 4 ms
-  ticks), ``search_total_s`` its whole search component, ``translate_s``
-  its translator. Skipped, saying so in one JSON line, when the wheel is
-  missing or does not run; ``--no-fd`` skips it outright.
-- ``pyperplan-cli`` (only with ``--cli-pyperplan``, off by default: the
-  depot timeouts would double): ``python -m pyperplan -s gbf -H hff``.
+  in the ``up-fast-downward`` wheel. ``cli_cpu_s`` is the driver's whole run
+  (its translator and search processes included), ``search_s`` its logged
+  "Search time" (CPU, 4 ms ticks), ``search_total_s`` its whole search
+  component, ``translate_s`` its translator. ``--no-fd`` skips it.
+
+Pyperplan and Fast Downward are optional (``pip install '.[bench]'``): when
+one is not installed or does not run, one JSON line says so
+(``planner-pyperplan-unavailable`` / ``planner-fd-unavailable``, with
+``peer``, ``why`` and ``install``) and the benchmark goes on without it.
 
 Subprocesses are killed, with their process group, after S + 5 wall
 seconds, and more than S CPU seconds counts as a timeout. Every JSON field
 named ``cpu_s`` is an in-process figure, every ``cli_cpu_s`` a whole
 subprocess run.
 
-Every plan is checked with ``atlas_rap.planner.plan_file.validate_plan_file``
-(ours as written; the others after light normalisation: comments and blank
-lines dropped, lower case, one ``(action arg ...)`` a line); a plan that
-fails the check counts as not solved and says why.
+Every plan is checked with atlas_rap's validator (``validate_plan_file``:
+ours as written; the others after light normalisation: comments and blank
+lines dropped, lower case, one ``(action arg ...)`` a line). A plan that
+fails the check is ``invalid-plan`` and not solved. A plan that cannot be
+checked is ``unchecked`` (``valid`` null, ``unchecked_why``), neither solved
+nor invalid: the validator cannot read the domain or problem (a PDDL
+feature it lacks: the peer's plan may well be right), it crashed, or it is
+missing.
 
 Output: one JSON object a line (progress goes to stderr)
 --------------------------------------------------------
-- ``planner-setup``: what ran (versions, paths, hash seed, load average);
-  ``planner-fd-unavailable`` when Fast Downward cannot run.
-- ``planner``: one line per problem per planner: ``mode`` (``in-process``
-  or ``subprocess``), ``solved`` (in time and valid), ``status``, ``cpu_s``
-  and ``wall_s`` (in-process) or ``cli_cpu_s`` and ``cli_wall_s``
-  (subprocess), ``length``, ``parallel_length``, ``makespan`` and ``risk``
-  (ours), ``ground_s``/``search_s``, ``valid``, ``plan_digest``, and
-  ``late_imports`` should a worker import a module while being timed.
-- ``planner-domain``: per domain, each planner's coverage; over the problems
-  both we and pyperplan solved, the geometric mean of our in-process CPU
-  time over pyperplan's (``time_ratio_vs_pyperplan``), the same for the
-  search times alone, the total CPU of each, the mean plan length of each,
-  our mean parallel length; ``cli_over_in_process_ours`` (our CLI's CPU over
-  our in-process CPU: what start-up costs us), ``ours_cli_same_plan``;
-  against Fast Downward ``cli_time_ratio_vs_fd`` (our CLI run over its whole
-  run) and ``search_time_ratio_vs_fd`` (search times); and the targets
-  ``coverage_ok`` (ours >= pyperplan's), ``time_ok`` (ratio <= 1.0) and
-  ``length_ok`` (our mean length <= pyperplan's) (``null`` when there is
-  nothing to compare).
+- ``planner-setup``: what ran (``quick``, ``data``, ``extra_data``,
+  ``domains``, ``planners``, versions, paths, hash seed, load average);
+  before it, a ``planner-*-unavailable`` line for each missing peer.
+- ``planner``: one line per problem per planner. Always: ``domain``,
+  ``problem``, ``planner``, ``mode`` (``in-process`` or ``subprocess``),
+  ``solved`` (in time and valid), ``status`` (solved, unsolvable, timeout,
+  memout, error, invalid-plan, unchecked), ``cpu_s`` and ``wall_s``
+  (in-process) or ``cli_cpu_s`` and ``cli_wall_s`` (subprocess), ``length``,
+  ``valid``; as they apply: ``parallel_length``, ``makespan`` and ``risk``
+  (ours), ``ground_s``/``search_s``, ``solve_cpu_s`` (FD), ``plan_digest``,
+  ``validation`` (why invalid), ``unchecked_why``, ``skipped``, ``why``,
+  and ``late_imports`` should a worker import a module while being timed.
+- ``planner-domain``: per domain (``domain``, ``folder``, ``problems``), with
+  every key present whichever peers ran (null for a planner that did not
+  run, or nothing to compare): ``coverage_P`` and ``unchecked_P`` for each
+  planner P (ours, pyperplan, ours-cli, pyperplan-cli, fd-lama-first);
+  against pyperplan, over the problems both solved: in process the
+  geometric mean of our CPU over its CPU (``time_ratio_vs_pyperplan``), the
+  same for the search alone, the total CPU of each, the mean plan length of
+  each, our mean parallel length; as whole processes
+  ``cli_time_ratio_vs_pyperplan`` (CPU) and ``cli_wall_ratio_vs_pyperplan``;
+  against Fast Downward ``commonly_solved_vs_fd``, ``time_ratio_vs_fd`` (in
+  process, as above), ``search_time_ratio_vs_fd``, ``cli_time_ratio_vs_fd``
+  and ``cli_wall_ratio_vs_fd`` (whole processes), ``mean_length_ours_vs_fd``
+  and ``mean_length_fd``; ``cli_over_in_process_ours`` (our CLI's CPU over
+  our in-process CPU: what start-up costs us), ``ours_cli_same_plan``; and
+  the targets ``coverage_ok`` (ours >= pyperplan's), ``time_ok`` (ratio <=
+  1.0) and ``length_ok`` (our mean length <= pyperplan's) (null when there
+  is nothing to compare). A domain folder that is missing or holds no
+  problem gives a line with ``skipped`` instead.
 - ``planner-overall``: the same figures over every problem, and whether
   every target was met.
 - ``planner-tireworld`` (unless ``--no-tireworld``): counterplanning on
@@ -95,12 +136,12 @@ Output: one JSON object a line (progress goes to stderr)
 
 Run
 ---
-``pip install . pyperplan up-fast-downward && python
-benchmarks/bench_planner.py > bench.jsonl`` (half an hour or more: pyperplan
-times out on depot; to try it out: ``--domains gripper blocks --problems 3
---timeout 20``). Options: ``--data DIR``, ``--domains ...`` (none: the
-tireworld only), ``--problems N``, ``--timeout S``, ``--no-fd``,
-``--no-cli``, ``--cli-pyperplan``, ``--no-tireworld``,
+``python benchmarks/bench_planner.py --quick`` (under a minute);
+``pip install '.[bench]' && python benchmarks/bench_planner.py > bench.jsonl``
+(half an hour or more: pyperplan times out on depot). Options: ``--quick``,
+``--data-root DIR``, ``--data DIR`` (repeatable), ``--domains ...`` (none:
+only ``--data`` and the tireworld), ``--problems N``, ``--timeout S``,
+``--no-fd``, ``--no-cli``, ``--no-cli-pyperplan``, ``--no-tireworld``,
 ``--tireworld-problems N``, ``--jobs N`` (default 1; more runs problems side
 by side, which disturbs the timings), ``--keep-plans DIR``, ``--hash-seed``
 (default 0; ``random`` for none): pyperplan breaks ties by set order, so its
@@ -141,7 +182,6 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 sys.path[:0] = [str(REPO)]  # the checkout, if not installed
 
-DATA = REPO.parent / "shared" / "data" / "pddl"
 DOMAINS = ["gripper", "blocks", "logistics00", "rovers", "depot"]
 TIREWORLD = "fond-triangle-tireworld"
 GRACE_S = 5.0  # wall seconds past the timeout before a planner is killed
@@ -151,11 +191,12 @@ TAIL_CHARS = 800  # how much of a failing planner's stderr goes into its JSON li
 OURS, PYPERPLAN = "ours", "pyperplan"  # in-process, in a forked worker
 OURS_CLI, PYPERPLAN_CLI, FD = "ours-cli", "pyperplan-cli", "fd-lama-first"  # subprocesses
 IN_PROCESS = {OURS, PYPERPLAN}
+ALL_PLANNERS = [OURS, PYPERPLAN, OURS_CLI, PYPERPLAN_CLI, FD]  # the order of a problem's runs
 
 # Fast Downward's exit codes (https://www.fast-downward.org/ExitCodes).
 FD_SOLVED = {0, 1, 2, 3}  # a plan was found (perhaps running out of time/memory afterwards)
 FD_UNSOLVABLE = {10, 11, 12}
-FD_TIMEOUT = {21, 23, 24}
+FD_TIMEOUT = {21, 23, 24, 256 - signal.SIGXCPU}  # the last: a component stopped by its CPU limit (tiny timeouts)
 FD_MEMOUT = {20, 22}
 
 
@@ -185,21 +226,59 @@ def natural_key(name: str) -> list:
     return [int(part) if part.isdigit() else part.lower() for part in re.split(r"(\d+)", name)]
 
 
+PDDL_HEADER = re.compile(r"\(\s*define\s*\(\s*(domain|problem)\b", re.IGNORECASE)
+
+
+def pddl_kind(path: Path) -> str | None:
+    """``"domain"`` or ``"problem"`` as the file's ``(define (...`` says; None when it does not say
+    (unreadable, or not PDDL). Reads no more than the first 64 kB."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as file:
+            head = file.read(65536)
+    except OSError:
+        return None
+    text = re.sub(r";[^\n]*", "", head)  # a comment may mention (define (domain ...
+    found = PDDL_HEADER.search(text)
+    return found.group(1).lower() if found else None
+
+
 def domain_file_for(problem: Path) -> Path | None:
-    """The domain file of ``problem``: a per-problem one when the folder has it, else ``domain.pddl``."""
-    stem, folder = problem.stem, problem.parent
-    for name in (f"domain_{stem}.pddl", f"domain-{stem}.pddl", f"{stem}-domain.pddl", f"{stem}_domain.pddl"):
-        if (folder / name).is_file():
-            return folder / name
+    """The domain file of ``problem``: a per-problem one when the folder has it (the IPC layouts, named as
+    Fast Downward's driver looks for them: ``p01-domain.pddl``, ``domain_p01.pddl``, ``domain-p01.pddl``;
+    also ``p01_domain.pddl``, and ``p01-domain.pddl`` for ``p01-airport1-p1.pddl``), else ``domain.pddl``."""
+    name, stem, folder = problem.name, problem.stem, problem.parent
+    for candidate in (f"{stem}-domain.pddl", f"{stem}_domain.pddl", f"domain_{name}", f"domain-{name}",
+                      f"domain_{stem}.pddl", f"domain-{stem}.pddl", f"{name[:3]}-domain.pddl"):
+        if candidate != name and (folder / candidate).is_file():
+            return folder / candidate
     shared = folder / "domain.pddl"
     return shared if shared.is_file() else None
 
 
-def list_problems(folder: Path, count: int) -> list[tuple[Path, Path | None]]:
-    """The first ``count`` problems of ``folder`` in natural order, each with its domain file."""
-    problems = [path for path in folder.glob("*.pddl") if "domain" not in path.stem.lower()]
-    problems.sort(key=lambda path: natural_key(path.name))
+def is_problem_file(path: Path) -> bool:
+    """A ``.pddl`` file that defines a problem (by its contents; by its name when they do not say)."""
+    if not path.is_file() or path.suffix.lower() != ".pddl":
+        return False
+    kind = pddl_kind(path)
+    return kind == "problem" if kind else "domain" not in path.stem.lower()
+
+
+def list_problems(folder: Path, count: int | None) -> list[tuple[Path, Path | None]]:
+    """The first ``count`` (None: all) problems of ``folder`` in natural order, each with its domain file:
+    one ``domain.pddl`` for all of them, or one domain file per problem as the IPC ships some domains."""
+    problems = sorted((path for path in folder.iterdir() if is_problem_file(path)),
+                      key=lambda path: natural_key(path.name))
     return [(problem, domain_file_for(problem)) for problem in problems[:count]]
+
+
+def default_data_root() -> Path:
+    """``REPO/../shared/data/pddl`` (the first ``shared/data/pddl`` beside the checkout or beside a folder
+    above it, so a worktree nested deeper finds it too); that first path when none exists."""
+    for folder in REPO.parents:
+        candidate = folder / "shared" / "data" / "pddl"
+        if candidate.is_dir():
+            return candidate
+    return REPO.parent / "shared" / "data" / "pddl"
 
 
 def scratch_copy(domain: Path, problem: Path, scratch: Path) -> tuple[Path, Path]:
@@ -356,6 +435,12 @@ def number(value) -> float | None:
     return None if value is None else round(float(value), 4)
 
 
+def grounding_seconds(timing: dict) -> float | None:
+    """The planner's grounding seconds from its ``timing`` (``grounding_seconds``; ``ground_seconds``
+    in older versions)."""
+    return timing.get("grounding_seconds", timing.get("ground_seconds"))
+
+
 def solve_ours(planners: SimpleNamespace, domain: Path, problem: Path, plan_path: Path, timeout_s: float) -> dict:
     """In the worker: read, solve (everything ``solve`` does) and write our plan, timed in CPU seconds."""
     started = time.process_time()
@@ -369,7 +454,7 @@ def solve_ours(planners: SimpleNamespace, domain: Path, problem: Path, plan_path
             "parallel_length": plan.stats.get("parallel_length"),
             "makespan": number(plan.makespan) if solved else None, "risk": number(plan.risk),
             "risk_before_counterplanning": number(plan.risk_before_counterplanning),
-            "counterplan_steps": len(plan.counterplan), "ground_s": plan.timing.get("ground_seconds"),
+            "counterplan_steps": len(plan.counterplan), "ground_s": grounding_seconds(plan.timing),
             "search_s": plan.timing.get("search_seconds"), "solve_s": plan.timing.get("seconds"),
             "reason": plan.reason or None}
 
@@ -474,7 +559,7 @@ def run_ours_cli(domain: Path, problem: Path, scratch: Path, timeout_s: float) -
     extra = {"length_reported": stats.get("length"), "parallel_length": stats.get("parallel_length"),
              "makespan": answer.get("makespan"), "risk": answer.get("risk"),
              "counterplan_steps": len(answer.get("counterplan") or []),
-             "ground_s": timing.get("ground_seconds"), "search_s": timing.get("search_seconds"),
+             "ground_s": grounding_seconds(timing), "search_s": timing.get("search_seconds"),
              "solve_s": timing.get("seconds")}
     status = answer.get("status", "error")
     if status == "solved" and (run.exit_code != 0 or not plan.is_file()):
@@ -535,6 +620,10 @@ def run_fd(driver: Path, domain: Path, problem: Path, scratch: Path, timeout_s: 
     extra = {"search_s": float(searched.group(1)) if searched else None,
              "search_total_s": float(search_total.group(1)) if search_total else None,
              "translate_s": float(translated.group(1)) if translated else None, "exit_code": run.exit_code}
+    if extra["translate_s"] is not None and extra["search_total_s"] is not None:
+        # FD's own CPU for the work (translate + search), start-up of its driver and components left out:
+        # the figure our in-process cpu_s is set beside
+        extra["solve_cpu_s"] = round(extra["translate_s"] + extra["search_total_s"], 4)
     found = fd_plan_file(plan)
     if run.killed or run.exit_code in FD_TIMEOUT or (found and timed_out(run, timeout_s)):
         return Outcome("timeout", run, extra=extra)
@@ -579,26 +668,44 @@ _validate_lock = threading.Lock()
 
 
 def load_validator():
-    """``validate_plan_file`` from atlas_rap, or None and why not."""
+    """atlas_rap's plan validator (``validate_plan_file`` in its three steps: read the task, read the plan,
+    check it), or None and why not."""
     try:
-        from atlas_rap.planner.plan_file import validate_plan_file
+        from atlas_rap.planner.pddl import load_pddl
+        from atlas_rap.planner.plan_file import read_plan_file, validate_plan
     except Exception as exc:  # noqa: BLE001 - ImportError, or a module that does not import cleanly
         return None, f"{type(exc).__name__}: {exc}"
-    return validate_plan_file, ""
+    return SimpleNamespace(read_task=load_pddl, read_plan=read_plan_file, check=validate_plan), ""
+
+
+def first_line(exc: Exception) -> str:
+    """An exception in one line, for a JSON field."""
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0] if text else ''}"
 
 
 def validate(validator, domain: Path, problem: Path, plan: Path, adversarial: bool = False) -> tuple[bool | None, str]:
-    """(valid, message) of a plan; (None, why) when there is no validator; a crash is a failed check."""
+    """(valid, message) of a plan. ``valid`` is None when the plan cannot be checked: no validator, the
+    validator cannot read the domain or problem (a PDDL feature it lacks: the peer's plan may well be
+    right), or it crashed; False when the plan file is not IPC plan lines or the plan fails the check."""
     if validator is None:
         return None, "no validator"
-    try:
-        with _validate_lock:  # the validator may keep caches; do not run it in two threads at once
-            check = validator(str(domain), str(problem), str(plan), adversarial=adversarial)
-    except Exception as exc:  # noqa: BLE001 - a crashing validator is a failed check
-        return False, f"validator raised {type(exc).__name__}: {exc}"
-    failed = getattr(check, "failed_step", None)
+    with _validate_lock:  # the validator may keep caches; do not run it in two threads at once
+        try:
+            task = validator.read_task(str(domain), str(problem))
+        except Exception as exc:  # noqa: BLE001 - whatever stops it reading the task: it cannot check
+            return None, f"the validator cannot read the domain or problem: {first_line(exc)}"
+        try:
+            actions = validator.read_plan(str(plan))
+        except Exception as exc:  # noqa: BLE001 - a plan that is not IPC plan lines fails the check
+            return False, f"the plan file does not read as plan lines: {first_line(exc)}"
+        try:
+            check = validator.check(task, actions, adversarial)
+        except Exception as exc:  # noqa: BLE001 - a crash in the validator says nothing about the plan
+            return None, f"the validator raised {first_line(exc)}"
     message = getattr(check, "message", "")
-    if failed is not None:
+    failed = getattr(check, "failed_step", None)
+    if failed is not None and not message.startswith(f"step {failed}"):
         message = f"step {failed}: {message}"
     return bool(check.ok), message
 
@@ -639,12 +746,19 @@ def run_job(job: Job, bench: Bench, domain: Path, problem: Path, scratch: Path) 
     return run_fd(bench.driver, domain, problem, scratch, timeout_s)
 
 
+def base_record(job: Job) -> dict:
+    """The fields every ``planner`` line has, set for a run that did not happen (yet)."""
+    prefix = "" if job.planner in IN_PROCESS else "cli_"
+    return {"bench": "planner", "domain": job.domain_name, "problem": job.problem.stem, "planner": job.planner,
+            "mode": "in-process" if job.planner in IN_PROCESS else "subprocess", "solved": False, "status": None,
+            f"{prefix}cpu_s": None, f"{prefix}wall_s": None, "length": None, "valid": None}
+
+
 def attempt(job: Job, bench: Bench, adversarial: bool = False) -> dict:
     """Run one planner on one problem and check its plan; never raises: a crash is an ``error`` line."""
-    record = {"bench": "planner", "domain": job.domain_name, "problem": job.problem.stem, "planner": job.planner,
-              "mode": "in-process" if job.planner in IN_PROCESS else "subprocess"}
+    record = base_record(job)
     if job.domain is None:
-        return {**record, "solved": False, "status": "error", "why": "no domain file", "valid": None}
+        return {**record, "status": "error", "why": f"no domain file for {job.problem.name}"}
     scratch = Path(tempfile.mkdtemp(prefix=f"{job.planner}-{job.problem.stem}-", dir=bench.workdir))
     try:
         domain, problem = scratch_copy(job.domain, job.problem, scratch)
@@ -684,7 +798,9 @@ def plan_record(job: Job, outcome: Outcome, domain: Path, problem: Path, scratch
     fields["valid"] = valid
     if valid is False:
         fields.update(status="invalid-plan", validation=message)
-    fields["solved"] = valid is not False  # unchecked plans count when there is no validator (said in the setup line)
+    elif valid is None:  # a plan, but nothing could check it: neither solved nor invalid
+        fields.update(status="unchecked", unchecked_why=message)
+    fields["solved"] = valid is True
     if bench.args.keep_plans is not None:
         target = bench.args.keep_plans / job.domain_name / f"{job.problem.stem}.{job.planner}.plan"
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -736,14 +852,29 @@ def total(pairs: list[tuple[float, float]], index: int) -> float | None:
     return round(sum(pair[index] for pair in pairs), 3) if pairs else None
 
 
+def count(by_planner: dict[str, dict], planner: str, test: Callable[[dict], bool]) -> int | None:
+    """How many of a planner's records pass ``test``; None when the planner did not run."""
+    if planner not in by_planner:
+        return None
+    return sum(bool(test(rec)) for rec in by_planner[planner].values())
+
+
 def figures(by_planner: dict[str, dict], planners: list[str]) -> dict:
-    """Coverage, time ratios and lengths from the records of each planner (keyed by problem)."""
-    ours, pp = by_planner[OURS], by_planner.get(PYPERPLAN, {})
-    both_pp = common(by_planner, OURS, PYPERPLAN)
+    """Coverage, time ratios and lengths from the records of each planner (keyed by problem). Every key is
+    always there (``null`` for a planner that did not run, or nothing to compare), so the lines keep one
+    shape whichever peers are installed."""
+    ours, pp, fd = by_planner[OURS], by_planner.get(PYPERPLAN, {}), by_planner.get(FD, {})
+    ran = set(planners)
+    both_pp, both_fd = common(by_planner, OURS, PYPERPLAN), common(by_planner, OURS, FD)
     cpu_pp = paired(by_planner, OURS, "cpu_s", PYPERPLAN, "cpu_s")
-    result = {
-        **{f"coverage_{planner}": sum(rec["solved"] for rec in by_planner[planner].values()) for planner in planners},
-        "commonly_solved_vs_pyperplan": len(both_pp),
+    cpu_fd = paired(by_planner, OURS, "cpu_s", FD, "solve_cpu_s")
+    cli = common(by_planner, OURS, OURS_CLI)
+    return {
+        **{f"coverage_{planner}": count(by_planner, planner, lambda rec: rec["solved"]) for planner in ALL_PLANNERS},
+        **{f"unchecked_{planner}": count(by_planner, planner, lambda rec: rec["status"] == "unchecked")
+           for planner in ALL_PLANNERS},
+        # against pyperplan in process: the CPU of the solve in a forked worker
+        "commonly_solved_vs_pyperplan": len(both_pp) if PYPERPLAN in ran else None,
         "time_ratio_vs_pyperplan": geometric_mean_ratio(cpu_pp),
         "search_time_ratio_vs_pyperplan": geometric_mean_ratio(paired(by_planner, OURS, "search_s",
                                                                       PYPERPLAN, "search_s")),
@@ -752,34 +883,44 @@ def figures(by_planner: dict[str, dict], planners: list[str]) -> dict:
         "mean_length_pyperplan": mean([pp[key]["length"] for key in both_pp]),
         "mean_parallel_length_ours": mean([ours[key].get("parallel_length") for key in both_pp]),
         "mean_parallel_length_ours_all": mean([rec.get("parallel_length") for rec in ours.values() if rec["solved"]]),
+        # against pyperplan as whole processes (interpreter start included): our CLI beside its CLI
+        "commonly_solved_cli_vs_pyperplan": (len(common(by_planner, OURS_CLI, PYPERPLAN_CLI))
+                                             if {OURS_CLI, PYPERPLAN_CLI} <= ran else None),
+        "cli_time_ratio_vs_pyperplan": geometric_mean_ratio(
+            paired(by_planner, OURS_CLI, "cli_cpu_s", PYPERPLAN_CLI, "cli_cpu_s")),
+        "cli_wall_ratio_vs_pyperplan": geometric_mean_ratio(
+            paired(by_planner, OURS_CLI, "cli_wall_s", PYPERPLAN_CLI, "cli_wall_s")),
+        # against Fast Downward: in process (our cpu_s beside its own translate + search CPU), search alone,
+        # and whole processes (our CLI beside its driver's whole run)
+        "commonly_solved_vs_fd": len(both_fd) if FD in ran else None,
+        "time_ratio_vs_fd": geometric_mean_ratio(cpu_fd),
+        "search_time_ratio_vs_fd": geometric_mean_ratio(paired(by_planner, OURS, "search_s", FD, "search_s")),
+        "total_cpu_s_ours_vs_fd": total(cpu_fd, 0), "total_solve_cpu_s_fd": total(cpu_fd, 1),
+        "cli_time_ratio_vs_fd": geometric_mean_ratio(paired(by_planner, OURS_CLI, "cli_cpu_s", FD, "cli_cpu_s")),
+        "cli_wall_ratio_vs_fd": geometric_mean_ratio(paired(by_planner, OURS_CLI, "cli_wall_s", FD, "cli_wall_s")),
+        "mean_length_ours_vs_fd": mean([ours[key]["length"] for key in both_fd]),
+        "mean_length_fd": mean([fd[key]["length"] for key in both_fd]),
+        # what start-up costs us: our CLI beside our in-process run
+        "cli_over_in_process_ours": geometric_mean_ratio(paired(by_planner, OURS_CLI, "cli_cpu_s", OURS, "cpu_s")),
+        "ours_cli_same_plan": (sum(ours[key].get("plan_digest") == by_planner[OURS_CLI][key].get("plan_digest")
+                                   for key in cli) if OURS_CLI in ran else None),
+        "ours_cli_compared": len(cli) if OURS_CLI in ran else None,
     }
-    if OURS_CLI in planners:
-        cli = common(by_planner, OURS, OURS_CLI)
-        result.update({
-            "cli_over_in_process_ours": geometric_mean_ratio(paired(by_planner, OURS_CLI, "cli_cpu_s", OURS, "cpu_s")),
-            "ours_cli_same_plan": sum(ours[key].get("plan_digest") == by_planner[OURS_CLI][key].get("plan_digest")
-                                      for key in cli),
-            "ours_cli_compared": len(cli),
-        })
-    if PYPERPLAN_CLI in planners:
-        result["cli_time_ratio_vs_pyperplan"] = geometric_mean_ratio(
-            paired(by_planner, OURS_CLI, "cli_cpu_s", PYPERPLAN_CLI, "cli_cpu_s"))
-    if FD in planners:
-        both_fd = common(by_planner, OURS, FD)
-        result.update({
-            "commonly_solved_vs_fd": len(both_fd),
-            "cli_time_ratio_vs_fd": geometric_mean_ratio(paired(by_planner, OURS_CLI, "cli_cpu_s", FD, "cli_cpu_s")),
-            "search_time_ratio_vs_fd": geometric_mean_ratio(paired(by_planner, OURS, "search_s", FD, "search_s")),
-            "mean_length_ours_vs_fd": mean([ours[key]["length"] for key in both_fd]),
-            "mean_length_fd": mean([by_planner[FD][key]["length"] for key in both_fd]),
-        })
-    return result
+
+
+def all_of(verdicts: list[bool | None]) -> bool | None:
+    """False when any verdict is False, None when every one is None (nothing compared), else True."""
+    if any(verdict is False for verdict in verdicts):
+        return False
+    return None if all(verdict is None for verdict in verdicts) else True
 
 
 def targets(result: dict) -> dict:
-    """The targets on a set of figures: coverage, time ratio and mean length against pyperplan."""
+    """The targets on a set of figures: coverage, time ratio and mean length against pyperplan (None when
+    pyperplan did not run or nothing was solved by both)."""
     ratio, length_ours = result["time_ratio_vs_pyperplan"], result["mean_length_ours"]
-    return {"coverage_ok": result[f"coverage_{OURS}"] >= result.get(f"coverage_{PYPERPLAN}", 0),
+    coverage_pp = result[f"coverage_{PYPERPLAN}"]
+    return {"coverage_ok": None if coverage_pp is None else result[f"coverage_{OURS}"] >= coverage_pp,
             "time_ok": None if ratio is None else ratio <= 1.0,
             "length_ok": None if length_ours is None else length_ours <= result["mean_length_pyperplan"]}
 
@@ -792,10 +933,11 @@ def by_planner_of(records: list[dict], planners: list[str], key: Callable[[dict]
     return grouped
 
 
-def domain_summary(domain_name: str, records: list[dict], planners: list[str], problems: int) -> dict:
+def domain_summary(domain_name: str, folder: Path, records: list[dict], planners: list[str], problems: int) -> dict:
     """The per-domain line: coverage, time ratios and lengths on commonly solved problems, the targets."""
     result = figures(by_planner_of(records, planners, lambda rec: rec["problem"]), planners)
-    return {"bench": "planner-domain", "domain": domain_name, "problems": problems, **result, **targets(result)}
+    return {"bench": "planner-domain", "domain": domain_name, "folder": str(folder), "problems": problems,
+            **result, **targets(result)}
 
 
 def overall_summary(records: list[dict], summaries: list[dict], planners: list[str]) -> dict:
@@ -804,11 +946,13 @@ def overall_summary(records: list[dict], summaries: list[dict], planners: list[s
     ratio = result["time_ratio_vs_pyperplan"]
     failed = [f"{s['domain']}:{target}" for s in summaries for target in ("coverage_ok", "time_ok", "length_ok")
               if s[target] is False]
-    return {"bench": "planner-overall", "problems": sum(s["problems"] for s in summaries), **result,
+    overall_time = None if ratio is None else ratio <= 1.0
+    return {"bench": "planner-overall", "problems": sum(s["problems"] for s in summaries),
+            "domains": [s["domain"] for s in summaries], **result,
             "target_time_ratio": 1.0,
-            "coverage_ok": all(s["coverage_ok"] for s in summaries),
-            "time_ok": ratio is not None and ratio <= 1.0 and not any(s["time_ok"] is False for s in summaries),
-            "length_ok": not any(s["length_ok"] is False for s in summaries),
+            "coverage_ok": all_of([s["coverage_ok"] for s in summaries]),
+            "time_ok": all_of([overall_time, *(s["time_ok"] for s in summaries)]),
+            "length_ok": all_of([s["length_ok"] for s in summaries]),
             "targets_met": ratio is not None and ratio <= 1.0 and not failed, "targets_failed": failed,
             "load_average": load_average()}
 
@@ -816,34 +960,63 @@ def overall_summary(records: list[dict], summaries: list[dict], planners: list[s
 # -- the runs ------------------------------------------------------------------
 
 
-def run_all(jobs: list[Job], bench: Bench) -> list[dict]:
-    """Every job, in order (side by side with --jobs N); each line printed as it comes."""
-
-    def one(job: Job) -> dict:
-        record = attempt(job, bench)
-        progress(describe(record))
-        return record
-
+def run_problem(domain_name: str, problem: Path, domain: Path | None, planners: list[str], bench: Bench) -> list[dict]:
+    """Every planner on one problem, one after the other; each line noted on stderr as it comes. Pyperplan's
+    CLI is not run where pyperplan in process timed out: it would too, start-up on top (a timeout line)."""
     records = []
-    with ThreadPoolExecutor(max_workers=bench.args.jobs) if bench.args.jobs > 1 else nullcontext() as pool:
-        for record in (pool.map(one, jobs) if pool else map(one, jobs)):  # in order, whatever finishes first
-            emit(record)
-            records.append(record)
+    for planner in planners:
+        job = Job(domain_name, problem, domain, planner)
+        in_process = next((rec for rec in records if rec["planner"] == PYPERPLAN), None)
+        if planner == PYPERPLAN_CLI and in_process is not None and in_process["status"] == "timeout":
+            record = {**base_record(job), "status": "timeout", "skipped": "pyperplan in process timed out"}
+        else:
+            record = attempt(job, bench)
+        progress(describe(record))
+        records.append(record)
     return records
+
+
+def run_all(problems: list[tuple[str, Path, Path | None]], planners: list[str], bench: Bench) -> list[dict]:
+    """Every planner on every problem, in order (problems side by side with --jobs N, each problem's
+    planners one after the other); lines printed in order as they come."""
+    records = []
+    one = lambda item: run_problem(*item, planners, bench)  # noqa: E731
+    with ThreadPoolExecutor(max_workers=bench.args.jobs) if bench.args.jobs > 1 else nullcontext() as pool:
+        for batch in (pool.map(one, problems) if pool else map(one, problems)):  # in order, whatever finishes first
+            for record in batch:
+                emit(record)
+                records.append(record)
+    return records
+
+
+def domain_folders(args: argparse.Namespace) -> list[tuple[str, Path]]:
+    """(name, folder) of every domain to run: ``--domains`` in the data root, then each ``--data`` folder
+    (named by its folder; by its parent too when that name is taken), each folder once."""
+    folders = [(name, args.data_root / name) for name in args.domains]
+    seen = {folder.resolve() for _, folder in folders}
+    for folder in args.data:
+        if folder.resolve() in seen:
+            continue
+        names = {name for name, _ in folders}
+        name = folder.name if folder.name not in names else f"{folder.parent.name}/{folder.name}"
+        folders.append((name, folder))
+        seen.add(folder.resolve())
+    return folders
 
 
 def bench_domains(bench: Bench, planners: list[str]) -> None:
     """Every planner on the first problems of every domain; per-problem, per-domain and overall lines."""
     all_records, summaries = [], []
-    for domain_name in bench.args.domains:
-        folder = bench.args.data / domain_name
+    for domain_name, folder in domain_folders(bench.args):
         if not folder.is_dir():
             emit({"bench": "planner-domain", "domain": domain_name, "skipped": f"no {folder}"})
             continue
         problems = list_problems(folder, bench.args.problems)
-        jobs = [Job(domain_name, problem, domain, planner) for problem, domain in problems for planner in planners]
-        records = run_all(jobs, bench)
-        summary = domain_summary(domain_name, records, planners, len(problems))
+        if not problems:
+            emit({"bench": "planner-domain", "domain": domain_name, "skipped": f"no problem files in {folder}"})
+            continue
+        records = run_all([(domain_name, problem, domain) for problem, domain in problems], planners, bench)
+        summary = domain_summary(domain_name, folder, records, planners, len(problems))
         emit(summary)
         all_records += records
         summaries.append(summary)
@@ -854,7 +1027,7 @@ def bench_domains(bench: Bench, planners: list[str]) -> None:
 def tireworld(bench: Bench) -> None:
     """Counterplanning on fond-triangle-tireworld, ours in-process: a problem passes when it is solved
     with risk 0 and no flat tire can defeat the plan (adversarial validation)."""
-    folder = bench.args.data / TIREWORLD
+    folder = bench.args.data_root / TIREWORLD
     if not folder.is_dir():
         emit({"bench": "planner-tireworld-summary", "skipped": f"no {folder}"})
         return
@@ -888,12 +1061,17 @@ def fd_usable(driver: Path, workdir: Path) -> str:
     return "" if run.exit_code == 0 else f"fast-downward.py --version exited {run.exit_code}: {tail(run.stderr)}"
 
 
+INSTALL_PEERS = "pip install '.[bench]' (or: pip install pyperplan up-fast-downward)"
+
+
 def setup(args, workdir: Path) -> tuple[Bench, list[str]]:
-    """Import the planners, decide which run, find the validator; print the setup line(s)."""
+    """Import the planners, decide which run, find the validator; print the setup line(s). A peer that is
+    not installed (or does not run) is said in a line of its own, and the benchmark goes on without it."""
     planners_loaded, pyperplan_missing = load_planners()
     planners = [OURS]
     if pyperplan_missing:
-        emit({"bench": "planner-pyperplan-unavailable", "why": pyperplan_missing})
+        emit({"bench": "planner-pyperplan-unavailable", "peer": PYPERPLAN, "planners": [PYPERPLAN, PYPERPLAN_CLI],
+              "why": pyperplan_missing, "install": INSTALL_PEERS})
     else:
         planners.append(PYPERPLAN)
     if not args.no_cli:
@@ -905,12 +1083,15 @@ def setup(args, workdir: Path) -> tuple[Bench, list[str]]:
         driver, why = find_fast_downward()
         why = why or fd_usable(driver, workdir)
         if why:
-            emit({"bench": "planner-fd-unavailable", "why": why})
+            emit({"bench": "planner-fd-unavailable", "peer": FD, "planners": [FD], "why": why,
+                  "install": INSTALL_PEERS})
             driver = None
         else:
             planners.append(FD)
     validator, why = load_validator()
-    emit({"bench": "planner-setup", "data": str(args.data), "domains": args.domains, "problems": args.problems,
+    emit({"bench": "planner-setup", "quick": args.quick, "data": str(args.data_root),
+          "extra_data": [str(folder) for folder in args.data],
+          "domains": [name for name, _ in domain_folders(args)], "problems": args.problems,
           "timeout_s": args.timeout, "jobs": args.jobs, "hash_seed": args.hash_seed,
           "PYTHONHASHSEED": os.environ.get("PYTHONHASHSEED"), "planners": planners,
           "in_process": [p for p in planners if p in IN_PROCESS],
@@ -919,7 +1100,8 @@ def setup(args, workdir: Path) -> tuple[Bench, list[str]]:
           "fd_driver": str(driver) if driver else None, "python": sys.version.split()[0],
           "cpus": os.cpu_count(), "load_average": load_average(),
           "validator": "atlas_rap.planner.plan_file.validate_plan_file" if validator else None,
-          **({"validator_missing": why, "note": "plans are NOT validated in this run"} if validator is None else {})})
+          **({"validator_missing": why, "note": "no plan is checked in this run: all are unchecked"}
+             if validator is None else {})})
     return Bench(args, planners_loaded, driver, validator, workdir), planners
 
 
@@ -934,31 +1116,62 @@ def ensure_hash_seed(seed: str) -> None:
     os.execv(sys.executable, [sys.executable, *sys.orig_argv[1:]])
 
 
+QUICK = {"problems": 3, "timeout": 10.0, "tireworld_problems": 2}  # --quick: under a minute on 2 cores
+FULL = {"problems": 20, "timeout": 60.0, "tireworld_problems": 10}
+
+
 def parse_args() -> argparse.Namespace:
     """The command line."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DATA, help="the pddl data folder (default ../shared/data/pddl)")
+    parser.add_argument("--data-root", type=Path, default=None,
+                        help="the folder of domain folders (default REPO/../shared/data/pddl)")
+    parser.add_argument("--data", type=Path, action="append", default=[], metavar="DIR",
+                        help="also run the problems of DIR: domain.pddl and problem files, or one domain file "
+                             "per problem as the IPC ships some domains (repeatable)")
     parser.add_argument("--domains", nargs="*", default=DOMAINS,
-                        help="domain folders (default: the five classical; none: only the tireworld)")
-    parser.add_argument("--problems", type=int, default=10, help="first N problems of each domain (default 10)")
-    parser.add_argument("--timeout", type=float, default=60.0, help="CPU seconds per planner per problem (default 60)")
+                        help="domain folders in the data root (default: the five classical; none: only --data "
+                             "and the tireworld)")
+    parser.add_argument("--quick", action="store_true",
+                        help=f"a check that runs in under a minute: the first {QUICK['problems']} problems of each "
+                             f"domain, timeout {QUICK['timeout']:g} s, tireworld p1-p{QUICK['tireworld_problems']}")
+    parser.add_argument("--problems", type=int, default=None,
+                        help=f"first N problems of each domain (default {FULL['problems']}; --quick "
+                             f"{QUICK['problems']})")
+    parser.add_argument("--timeout", type=float, default=None,
+                        help=f"CPU seconds per planner per problem (default {FULL['timeout']:g}; --quick "
+                             f"{QUICK['timeout']:g})")
     parser.add_argument("--no-fd", action="store_true", help="do not run Fast Downward")
     parser.add_argument("--no-cli", action="store_true", help="do not run our CLI as a subprocess")
-    parser.add_argument("--cli-pyperplan", action="store_true",
-                        help="also run pyperplan's CLI as a subprocess (off by default)")
+    parser.add_argument("--cli-pyperplan", action=argparse.BooleanOptionalAction, default=True,
+                        help="also run pyperplan's CLI as a subprocess (default on; not where pyperplan in "
+                             "process timed out)")
     parser.add_argument("--tireworld", action=argparse.BooleanOptionalAction, default=True,
                         help="counterplanning on fond-triangle-tireworld (default on)")
-    parser.add_argument("--tireworld-problems", type=int, default=10, help="tireworld p1..pN (default 10)")
-    parser.add_argument("--jobs", type=int, default=1, help="runs at once (default 1; more disturbs the timings)")
+    parser.add_argument("--tireworld-problems", type=int, default=None,
+                        help=f"tireworld p1..pN (default {FULL['tireworld_problems']}; --quick "
+                             f"{QUICK['tireworld_problems']})")
+    parser.add_argument("--jobs", type=int, default=1, help="problems at once (default 1; more disturbs the timings)")
     parser.add_argument("--keep-plans", type=Path, help="copy every plan into DIR/DOMAIN/PROBLEM.PLANNER.plan")
     parser.add_argument("--hash-seed", default="0",
                         help="PYTHONHASHSEED of every run (default 0, for repeatable plans; 'random': none)")
     args = parser.parse_args()
     if args.hash_seed != "random" and not (args.hash_seed.isdigit() and int(args.hash_seed) <= 4294967295):
         parser.error("--hash-seed takes an integer in [0, 4294967295] or 'random'")
-    args.data = args.data.resolve()
-    if not args.data.is_dir():
-        parser.exit(1, f"bench_planner: no data folder {args.data} (see --data)\n")
+    for name, value in (QUICK if args.quick else FULL).items():
+        if getattr(args, name) is None:
+            setattr(args, name, value)
+    args.data_root = (args.data_root or default_data_root()).resolve()
+    args.data = [folder.resolve() for folder in args.data]
+    for folder in args.data:
+        if not folder.is_dir():
+            parser.error(f"--data {folder}: no such folder")
+        if not list_problems(folder, 1):
+            parser.error(f"--data {folder}: no problem files in it (a folder of domain folders is --data-root)")
+    if not args.data_root.is_dir():
+        if not args.data:
+            parser.exit(1, f"bench_planner: no data folder {args.data_root} (see --data-root, --data)\n")
+        progress(f"no data folder {args.data_root}: only the --data folders run")
+        args.domains, args.tireworld = [], False
     return args
 
 
