@@ -404,21 +404,3 @@ def test_the_compiled_actions_do_what_the_lifted_ones_do(which: str) -> None:
                "lights-or-goal": lambda: lights(either),
                "lights-fond-or-goal": lambda: lights(either, fond=True)}[which]()
     assert random_walks(problem, range(6), 10) > 30
-
-
-# -------------------------------------------------------------- shared benchmarks (optional)
-
-ADL_DOMAINS = sorted(p.parent for p in SHARED_PDDL.glob("*/domain.pddl")
-                     if ":adl" in p.read_text().lower() or ":conditional-effects" in p.read_text().lower()) \
-    if SHARED_PDDL.is_dir() else []
-
-
-@pytest.mark.skipif(not ADL_DOMAINS, reason=f"no ADL domain in {SHARED_PDDL} (the folder is absent, or has "
-                                            "only STRIPS and FOND domains)")
-@pytest.mark.parametrize("folder", ADL_DOMAINS, ids=[p.name for p in ADL_DOMAINS])
-def test_shared_adl_domain_first_problem_plans_and_validates(folder: Path) -> None:
-    first = sorted(p for p in folder.glob("*.pddl") if p.name != "domain.pddl")[0]
-    problem = load_pddl(folder / "domain.pddl", first)
-    result = solve(problem, timeout=60)
-    assert result.status == "solved", result.reason
-    assert validate_plan(problem, result.sequence).ok

@@ -12,7 +12,7 @@ from matplotlib.image import imread
 from atlas_rap.layers.timeline import (NO_AGENT, OUTCOME_COLOURS, lanes, method_changes, pack_rows, plan_lines,
                                        render_timeline, short_action, short_cause, stack_labels, step_bars,
                                        task_bars)
-from tests.cli_process import REPO, assert_no_traceback, atlas
+from cli_process import REPO, assert_no_traceback, atlas
 
 
 def _started(t, step, action, task, agent="robot", plan=1, version=1):
