@@ -4,9 +4,12 @@ test of the renderer: a small world, a hand-made path and hand-made records."""
 
 from __future__ import annotations
 
+
 import numpy as np
 from matplotlib.image import imread
 
+from plan_records import ended as _ended
+from plan_records import started as _started
 from atlas_rap.model import Door, Place, RobotConfig, Segment, World
 from atlas_rap.sim.render import PLAN_EVENTS, plan_legend_rows, plan_marks, render_run
 
@@ -29,14 +32,6 @@ def _path() -> list[tuple[float, float, float, float]]:
     return [(0.5 * i, 1 + 0.5 * i, 1.0, 0.0) for i in range(13)]
 
 
-def _started(t, step, action, task, agent="robot", plan=1, version=1):
-    return {"t": t, "event": "plan-step-started", "plan": plan, "version": version, "step": step,
-            "action": action, "agent": agent, "id": 1, "step_task": task, "task": action}
-
-
-def _ended(t, event, step, action, task, agent="robot", plan=1, version=1, **more):
-    return {"t": t, "event": event, "plan": plan, "version": version, "step": step, "action": action,
-            "agent": agent, "id": 1, "step_task": task, "task": action, **more}
 
 
 RECORDS = [

@@ -9,20 +9,14 @@ import sys
 import numpy as np
 from matplotlib.image import imread
 
+from plan_records import ended as _ended
+from plan_records import started as _started
 from atlas_rap.layers.timeline import (NO_AGENT, OUTCOME_COLOURS, lanes, method_changes, pack_rows, plan_lines,
                                        render_timeline, short_action, short_cause, stack_labels, step_bars,
                                        task_bars)
 from cli_process import REPO, assert_no_traceback, atlas
 
 
-def _started(t, step, action, task, agent="robot", plan=1, version=1):
-    return {"t": t, "event": "plan-step-started", "plan": plan, "version": version, "step": step,
-            "action": action, "agent": agent, "id": 1, "step_task": task, "task": action}
-
-
-def _ended(t, event, step, action, task, agent="robot", plan=1, version=1, **more):
-    return {"t": t, "event": event, "plan": plan, "version": version, "step": step, "action": action,
-            "agent": agent, "id": 1, "step_task": task, "task": action, **more}
 
 
 def _posted(t, tid, text, parent=None):

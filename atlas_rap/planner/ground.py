@@ -674,37 +674,30 @@ def _enabled(g: _OperatorGrounder, reach: Memory, grown: _Grown | None = None) -
 
 
 def _g_and(parts) -> GroundFormula:
-    flat: list = []
-    for part in parts:
-        if part is False:
-            return False
-        if part is True:
-            continue
-        if part[0] == "and":
-            flat.extend(part[1])
-        else:
-            flat.append(part)
-    flat = list(dict.fromkeys(flat))
-    if not flat:
-        return True
-    return flat[0] if len(flat) == 1 else ("and", tuple(flat))
+    return _g_join("and", parts, absorbing=False)
 
 
 def _g_or(parts) -> GroundFormula:
+    return _g_join("or", parts, absorbing=True)
+
+
+def _g_join(kind: str, parts, absorbing: bool) -> GroundFormula:
+    """``kind`` ("and"/"or") of ``parts``, flattened and simplified: ``absorbing`` (False for
+    and, True for or) decides it at once; the other truth value drops out."""
     flat: list = []
     for part in parts:
-        if part is True:
-            return True
-        if part is False:
+        if part is absorbing:
+            return absorbing
+        if part is (not absorbing):
             continue
-        if part[0] == "or":
+        if part[0] == kind:
             flat.extend(part[1])
         else:
             flat.append(part)
     flat = list(dict.fromkeys(flat))
     if not flat:
-        return False
-    return flat[0] if len(flat) == 1 else ("or", tuple(flat))
+        return not absorbing
+    return flat[0] if len(flat) == 1 else (kind, tuple(flat))
 
 
 def _g_not(f: GroundFormula) -> GroundFormula:
