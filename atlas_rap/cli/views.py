@@ -87,7 +87,9 @@ class LiveTrace:
             was = f" (was {record['previous']})" if record.get("previous") else ""
             return text.append(f"  ⇄ Layer {record['layer']} primary{was}: {record['reason']}", style="bold cyan")
         if event.startswith("plan-") or event == "replanned":
-            return _plan_line(text, indent, record)
+            line = _plan_line(text, indent, record)
+            if line is not None:
+                return line
         if event in ("fact-asserted", "fact-retracted"):
             if not self.verbose and record["fact"].startswith(QUIET_FACTS):
                 return None
@@ -97,8 +99,9 @@ class LiveTrace:
         return text.append(f"{event} " + " ".join(f"{k}={v}" for k, v in record.items() if k not in ("t", "event")))
 
 
-def _plan_line(text: Text, indent: str, record: dict) -> Text:
-    """A plan executive's record (``sequencer.deliberation``) as one line marked ◆."""
+def _plan_line(text: Text, indent: str, record: dict) -> Text | None:
+    """A plan executive's record (``sequencer.deliberation``) as one line marked ◆ (None: not one
+    this view knows)."""
     event = record["event"]
     version = f" v{record['version']}" if record.get("version", 1) > 1 else ""
     n = f"{record['plan']}{version}" if event.startswith("plan-step") else record["plan"]
@@ -129,7 +132,7 @@ def _plan_line(text: Text, indent: str, record: dict) -> Text:
         return text.append(f"{indent}  ◆ plan {n} {what}: {record['reason']}", style="bold red")
     if event == "plan-done":
         return text.append(f"{indent}  ◆ plan {n} done: {' '.join(record['goals'])}", style="bold green")
-    return text.append(f"{event} " + " ".join(f"{k}={v}" for k, v in record.items() if k not in ("t", "event")))
+    return None  # another plan record: the generic line
 
 
 def task_tree(nodes: list[TaskView], title: str = "agenda") -> Tree:

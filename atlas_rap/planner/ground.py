@@ -1044,14 +1044,7 @@ class _AdlGoal:
                 out.append((true, false, add, delete))
                 continue
 
-            def after(lit: tuple) -> GroundFormula:
-                if lit[1] in adds:
-                    return lit[0] == "+"
-                if lit[1] in deletes:
-                    return lit[0] == "-"
-                return lit
-
-            holds = _assume(_g_map(self.formula, after), true, false)
+            holds = _assume(_assume(self.formula, frozenset(adds), frozenset(deletes)), true, false)
             if holds is True or holds is False:
                 out.append((true, false, add + [reached] if holds else add,
                             delete if holds else delete + [reached]))
