@@ -193,8 +193,10 @@ _READ_LOCK = threading.Lock()
 @lru_cache(maxsize=1)
 def _parser() -> Lark:
     grammar = resources.files("atlas_rap.lang").joinpath("grammar.lark").read_text(encoding="utf-8")
+    # cache=True keeps the LALR tables in the temp folder: 1 ms to load instead of 13 ms
+    # to build, at every start of the CLI (Lark rebuilds them if the file is unusable).
     return Lark(grammar, parser="lalr", lexer="basic", maybe_placeholders=False,
-                transformer=_BUILDER)
+                transformer=_BUILDER, cache=True)
 
 
 def read_text(text: str, filename: str = "<input>") -> Forms:
