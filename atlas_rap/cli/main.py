@@ -16,6 +16,7 @@ from atlas_rap.cli.check import check
 from atlas_rap.cli.experiment import experiment_group
 from atlas_rap.cli.map import map_group
 from atlas_rap.cli.plan import plan
+from atlas_rap.cli.record import record_group
 from atlas_rap.cli.repl import repl
 from atlas_rap.cli.run import run
 
@@ -30,7 +31,8 @@ def cli() -> None:
     `atlas run`; make a plan with `atlas plan` (AP goals or PDDL);
     work with a running robot in `atlas repl`; build and abstract maps
     with `atlas map`; reproduce the seed papers' experiments with
-    `atlas experiment`.
+    `atlas experiment`; look at a run recorded for Foxglove with
+    `atlas record show`.
     """
 
 
@@ -40,6 +42,7 @@ cli.add_command(map_group)
 cli.add_command(plan)
 cli.add_command(repl)
 cli.add_command(experiment_group)
+cli.add_command(record_group)
 
 
 def main(argv: list[str] | None = None) -> None:

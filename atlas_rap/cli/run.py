@@ -22,7 +22,8 @@ from atlas_rap.cli.options import POSITIVE, OutputFile, layer_engine_options, la
 @click.option("--verbose", "-v", is_flag=True, help="Also show task selections and skill disables.")
 @click.option("--until", type=POSITIVE, default=3600.0, show_default=True, metavar="SECONDS",
               help="Simulated time limit; tasks still running then fail.")
-@click.option("--realtime", is_flag=True, help="Pace simulated time to the wall clock.")
+@click.option("--realtime/--no-realtime", default=None,
+              help="Pace simulated time to the wall clock (default: only with --live).")
 @click.option("--agenda", "show_agenda", is_flag=True, help="Print the task tree at the end.")
 @click.option("--memory", "show_memory", is_flag=True, help="Print memory at the end.")
 @click.option("--map", "topology_file", type=click.Path(dir_okay=False, exists=True), metavar="TOPOLOGY.json",
@@ -30,11 +31,20 @@ from atlas_rap.cli.options import POSITIVE, OutputFile, layer_engine_options, la
 @click.option("--render", type=OutputFile(), metavar="OUT.png",
               help="Draw the world, the robot's path, the places and where each task started and ended "
                    "(with no world: a timeline of the plan steps, re-plans and tasks).")
+@click.option("--record", "record_file", type=OutputFile(), metavar="RUN.mcap",
+              help="Record the run for Foxglove as MCAP (pose, path, sonar, grid, scene, topology, route, "
+                   "primary layer, trace; in simulated time), even if the run fails or is interrupted. "
+                   "Needs atlas-rap[foxglove].")
+@click.option("--live", is_flag=True,
+              help="Serve the run live to Foxglove over WebSocket (prints the ws:// URL); paced to the wall "
+                   "clock unless --no-realtime. Needs atlas-rap[foxglove].")
+@click.option("--live-port", type=click.IntRange(0, 65535), default=8765, show_default=True, metavar="PORT",
+              help="The port --live listens on, on 127.0.0.1 (0: any free port).")
 @layer_options
 def run(mission_file: str, world: str | None, seed: int, trace_file: str | None, quiet: bool, verbose: bool,
-        until: float, realtime: bool, show_agenda: bool, show_memory: bool, topology_file: str | None,
-        render: str | None, no_prior_map: bool, map_in: str | None, map_out: str | None, layers: tuple[str, ...],
-        layer_rules: str | None) -> None:
+        until: float, realtime: bool | None, show_agenda: bool, show_memory: bool, topology_file: str | None,
+        render: str | None, record_file: str | None, live: bool, live_port: int, no_prior_map: bool,
+        map_in: str | None, map_out: str | None, layers: tuple[str, ...], layer_rules: str | None) -> None:
     """Run a mission: post its tasks, run the RAPs, print a live trace and a summary.
 
     Exits 0 when every posted task succeeded, 1 when one failed (the
@@ -49,7 +59,16 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
 
     out, err = console(), console(err=True)
     layering = layer_engine_options(no_prior_map, map_in, map_out, layers, layer_rules)
+    realtime = live if realtime is None else realtime
     engine = MissionEngine(world, seed=seed, topology=topology_file, realtime=realtime, **layering)
+    recorder = None
+    if record_file or live:
+        from atlas_rap.layers.recording import RunRecorder
+
+        recorder = RunRecorder(engine, path=record_file, live=live, port=live_port)
+        if recorder.url:
+            out.print(f"live: {recorder.url} (Foxglove: Open connection, Foxglove WebSocket)")
+            sys.stdout.flush()
     picture = RunPicture(engine) if render else None
     sink = JsonlSink(trace_file) if trace_file else None
     if sink is not None:
@@ -61,15 +80,19 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     except BaseException:
         if sink is not None:
             sink.close()
+        if recorder is not None:
+            recorder.close()
         raise
     for warning in loaded.warnings:
         err.print(warning.render(), style="yellow", markup=False)
     started = time.perf_counter()
     try:
-        result = engine.run_mission(until)
+        result = engine.run_mission(until, pace=recorder.pace if recorder is not None else None)
     finally:
         if sink is not None:
             sink.close()
+        if recorder is not None:
+            recorder.close()
         if map_out and engine.grid is not None:
             engine.save_map(map_out)
         if picture is not None:
@@ -89,6 +112,8 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         out.print(f"trace written to {trace_file}", style="dim")
     if render:
         out.print(f"picture written to {render}", style="dim")
+    if record_file:
+        out.print(f"recording written to {record_file}", style="dim")
     if result.ended_by == "interrupted":
         sys.exit(130)
     sys.exit(0 if result.ok else 1)

@@ -12,6 +12,9 @@
   ``monitoring``, ``operational``, ``tactical``, ``strategic``: Layers I-IV.
 - ``experiment``: the seed's skill-acquisition experiment; ``figures``: its plots.
 - ``picture``: an observer of a run that draws it as a PNG.
+- ``recording``: an observer of a run that records it for Foxglove (MCAP, live
+  WebSocket; ``foxglove_messages`` makes the messages); ``mcap_reader`` and
+  ``mcap_picture`` read a recording back and draw it.
 """
 
 from atlas_rap.layers.clock import Clock, WallClock, wall_clock_pacer
