@@ -18,7 +18,8 @@ from atlas_rap.lang import load_text, parse_term
 from atlas_rap.layers import MissionEngine
 from atlas_rap.layers.deliberation import Deliberation, charged_latency, plan_for
 from atlas_rap.planner.problem import PlanningProblem
-from atlas_rap.sequencer import Timers, Trace
+from atlas_rap.sequencer import Trace
+from atlas_rap.skillbus import Timers
 
 MISSIONS = REPO / "rap_library" / "missions"
 

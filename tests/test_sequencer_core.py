@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 
 from atlas_rap.lang import parse_term, parse_text
-from atlas_rap.sequencer import Sequencer, Timers, Trace, agenda_tree, tree_text
+from atlas_rap.sequencer import Sequencer, Trace, agenda_tree, tree_text
+from atlas_rap.skillbus import Timers
 from atlas_rap.sequencer.waiting import Waiter, WaitIndex
 from atlas_rap.skills.virtual import VirtualSkills
 

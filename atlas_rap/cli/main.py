@@ -19,6 +19,7 @@ from atlas_rap.cli.plan import plan
 from atlas_rap.cli.record import record_group
 from atlas_rap.cli.repl import repl
 from atlas_rap.cli.run import run
+from atlas_rap.cli.skills import skills_group
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -32,7 +33,8 @@ def cli() -> None:
     work with a running robot in `atlas repl`; build and abstract maps
     with `atlas map`; reproduce the seed papers' experiments with
     `atlas experiment`; look at a run recorded for Foxglove with
-    `atlas record show`.
+    `atlas record show`; serve a robot's skills to a sequencer on
+    another host with `atlas skills serve` (and `atlas run --connect`).
     """
 
 
@@ -43,6 +45,7 @@ cli.add_command(plan)
 cli.add_command(repl)
 cli.add_command(experiment_group)
 cli.add_command(record_group)
+cli.add_command(skills_group)
 
 
 def main(argv: list[str] | None = None) -> None:

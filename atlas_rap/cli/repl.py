@@ -21,7 +21,8 @@ from typing import Iterable, Iterator, TextIO
 
 import click
 
-from atlas_rap.cli.options import POSITIVE, OutputFile, layer_engine_options, layer_options, world_help
+from atlas_rap.cli.options import (POSITIVE, OutputFile, bus_options, check_bus_options, layer_engine_options,
+                                   layer_options, world_help)
 
 
 @click.command()
@@ -35,9 +36,10 @@ from atlas_rap.cli.options import POSITIVE, OutputFile, layer_engine_options, la
 @click.option("--speed", type=POSITIVE, default=1.0, show_default=True,
               help="Interactive: simulated seconds per wall-clock second of the background clock.")
 @layer_options
+@bus_options
 def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str | None, verbose: bool,
          speed: float, no_prior_map: bool, map_in: str | None, map_out: str | None, layers: tuple[str, ...],
-         layer_rules: str | None) -> None:
+         layer_rules: str | None, connect: tuple[str, ...], robots: tuple[str, ...]) -> None:
     """Load FILEs, then read forms, queries and commands (:help lists them).
 
     Type any top-level form (define-rap, post, include, plan, ...),
@@ -55,6 +57,10 @@ def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str |
     width = None if interactive else 200
     out, err = console(width=width), console(err=True, width=width)
     layering = layer_engine_options(no_prior_map, map_in, map_out, layers, layer_rules)
+    check_bus_options(connect, robots, **{"--world": world, "--no-prior-map": no_prior_map, "--map-in": map_in,
+                      "--layers": tuple(layers) != ("I", "II", "III", "IV")})
+    if connect:
+        layering.update(connect=connect, robots=robots)
     session = Session(world, seed, out=out, err=err, trace_file=trace_file, verbose=verbose, map_out=map_out,
                       engine_options=layering)
     try:

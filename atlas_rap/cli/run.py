@@ -7,7 +7,8 @@ import time
 
 import click
 
-from atlas_rap.cli.options import POSITIVE, OutputFile, layer_engine_options, layer_options, world_help
+from atlas_rap.cli.options import (POSITIVE, OutputFile, bus_options, check_bus_options, layer_engine_options,
+                                   layer_options, world_help)
 
 
 @click.command()
@@ -41,10 +42,12 @@ from atlas_rap.cli.options import POSITIVE, OutputFile, layer_engine_options, la
 @click.option("--live-port", type=click.IntRange(0, 65535), default=8765, show_default=True, metavar="PORT",
               help="The port --live listens on, on 127.0.0.1 (0: any free port).")
 @layer_options
+@bus_options
 def run(mission_file: str, world: str | None, seed: int, trace_file: str | None, quiet: bool, verbose: bool,
         until: float, realtime: bool | None, show_agenda: bool, show_memory: bool, topology_file: str | None,
         render: str | None, record_file: str | None, live: bool, live_port: int, no_prior_map: bool,
-        map_in: str | None, map_out: str | None, layers: tuple[str, ...], layer_rules: str | None) -> None:
+        map_in: str | None, map_out: str | None, layers: tuple[str, ...], layer_rules: str | None,
+        connect: tuple[str, ...], robots: tuple[str, ...]) -> None:
     """Run a mission: post its tasks, run the RAPs, print a live trace and a summary.
 
     Exits 0 when every posted task succeeded, 1 when one failed (the
@@ -59,8 +62,12 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
 
     out, err = console(), console(err=True)
     layering = layer_engine_options(no_prior_map, map_in, map_out, layers, layer_rules)
+    check_bus_options(connect, robots, **{"--world": world, "--map": topology_file, "--render": render,
+                      "--record": record_file, "--live": live, "--no-prior-map": no_prior_map, "--map-in": map_in,
+                      "--layers": tuple(layers) != ("I", "II", "III", "IV"), "--seed (the host's: atlas skills serve --seed)": seed})
     realtime = live if realtime is None else realtime
-    engine = MissionEngine(world, seed=seed, topology=topology_file, realtime=realtime, **layering)
+    engine = MissionEngine(world, seed=seed, topology=topology_file, realtime=realtime, connect=connect,
+                           robots=robots, **layering)
     recorder = None
     if record_file or live:
         from atlas_rap.layers.recording import RunRecorder

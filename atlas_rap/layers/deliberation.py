@@ -34,7 +34,7 @@ from atlas_rap.errors import AtlasError
 from atlas_rap.logic import Term
 from atlas_rap.planner.plan import Plan, plan_of_error
 from atlas_rap.planner.problem import PlanningProblem
-from atlas_rap.sequencer.timers import Timer, Timers
+from atlas_rap.skillbus.timers import Timer, Timers
 
 BASE_LATENCY = 0.2
 """Simulated seconds charged for any plan (grounding, set-up)."""

@@ -53,9 +53,9 @@ from atlas_rap.logic import Compound, Relation, Term, term_to_str
 from atlas_rap.sequencer import Sequencer, Task, Trace
 from atlas_rap.sequencer.checks import check_program
 from atlas_rap.sequencer.introspect import waiting_for
-from atlas_rap.sequencer.skill_link import CombinedSkills
 from atlas_rap.sequencer.task import SUCCEEDED
 from atlas_rap.shipped import shipped_root
+from atlas_rap.skillbus.skill_link import CombinedSkills
 from atlas_rap.skills.beliefs import GRID, TOPOLOGY
 from atlas_rap.skills.virtual import VirtualSkills, skill_names
 
@@ -113,15 +113,20 @@ class MissionEngine:
     while it drives, from ``map_in`` (an ``occupancy.npz``) if given.
     ``layers`` are the layers enabled; ``layer_rules`` the file of switching
     rules (default: the shipped ``rap_library/layers.rap``); ``realtime``
-    paces simulated time to the wall clock.
+    paces simulated time to the wall clock. ``connect`` (Zenoh endpoints)
+    uses the skill hosts of ``robots`` on the skill bus instead of building
+    the world here (``layers.remote``; what runs where: ``layers.skill_host``).
     """
 
     def __init__(self, world: str | None = None, *, default_world: str = DEFAULT_WORLD, seed: int = 0,
                  trace: Trace | None = None, topology: str | None = None, mapping: bool = False,
                  rates: Rates = Rates(), prior_map: bool = True, map_in: str | Path | None = None,
                  layers: Iterable[str] = LAYER_NAMES, layer_rules: str | Path | None = None,
-                 realtime: bool = False) -> None:
+                 realtime: bool = False, connect: Iterable[str] = (), robots: Iterable[str] = ()) -> None:
         self.world_flag = world
+        self.connect = tuple(connect)
+        self.robots = tuple(robots)
+        self.remote: Any = None  # the skill bus's RemoteSkills, with --connect
         self.prior_map = prior_map
         self.map_in = map_in
         self.enabled_layers = tuple(layers)
@@ -186,7 +191,11 @@ class MissionEngine:
         if self.started:
             return
         self.started = True
-        if self.world is not None:
+        if self.remote is not None:  # the skill hosts' worlds: their prior maps, then (map prior)
+            facts = self.remote.prior_facts()
+            seq.change([("assert", fact) for fact in facts if fact.functor != "map"], "world")
+            seq.change([("assert", fact) for fact in facts if fact.functor == "map"], "world")
+        elif self.world is not None:
             from atlas_rap.sim.prior import prior_facts
 
             seq.change([("assert", fact) for fact in prior_facts(self.stack.world)], "world")
@@ -195,6 +204,11 @@ class MissionEngine:
 
     def _build(self, chosen: str, form: ast.WorldDecl | None = None, line: str | None = None) -> None:
         """Make the world (unless ``none``), its skills beside the virtual ones, and the sequencer."""
+        if self.connect:
+            from atlas_rap.layers.remote import build_remote
+
+            build_remote(self, chosen, form, line)
+            return
         if chosen == "none":
             if self.topology is not None:
                 raise AtlasError("--map needs a world; this run has none (--world none)")
@@ -314,6 +328,8 @@ class MissionEngine:
                 f"start a session in that world (atlas repl --world {form.world}), or remove the (world ...) form"))
 
     def _is_running(self, chosen: str) -> bool:
+        if self.remote is not None:
+            return chosen != "none" and Path(chosen).stem == self.world.name
         if chosen == "none" or self.world is None:
             return chosen == "none" and self.world is None
         from atlas_rap.sim.world import world_path

@@ -7,21 +7,20 @@ which drives this package for ``atlas run`` and ``atlas repl`` alike.
 - ``task``, ``agenda``: tasks, their statuses and failures; the agenda.
 - ``net``: a running method's task net or primitive.
 - ``waiting``: the wait index that wakes waiting branches.
-- ``timers``, ``trace``: the simulated clock's timers; trace records and sinks.
-- ``skill_link``: the narrow interface to skills (enable, disable, facts back).
+- ``trace``: trace records and sinks.
 - ``checks``: load-time checks of a program against its skills.
 - ``introspect``: the agenda as a task tree.
+
+The skill link and the timers are the skill bus's (``atlas_rap.skillbus``):
+the seam the sequencer shares with the skills.
 """
 
 from atlas_rap.sequencer.interpreter import DEFAULT_MAX_DEPTH, DEFAULT_RETRIES, Sequencer
 from atlas_rap.sequencer.introspect import TaskView, agenda_tree, tree_text
-from atlas_rap.sequencer.skill_link import NoSkills, SkillHost, SkillLink
 from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Task
-from atlas_rap.sequencer.timers import Timers
 from atlas_rap.sequencer.trace import EVENTS, JsonlSink, Trace
 
 __all__ = [
     "DEFAULT_MAX_DEPTH", "DEFAULT_RETRIES", "EVENTS", "FAILED", "Failure", "HALTED", "JsonlSink",
-    "NoSkills", "PENDING", "RUNNING", "SUCCEEDED", "Sequencer", "SkillHost",
-    "SkillLink", "Task", "TaskView", "Timers", "Trace", "agenda_tree", "tree_text",
+    "PENDING", "RUNNING", "SUCCEEDED", "Sequencer", "Task", "TaskView", "Trace", "agenda_tree", "tree_text",
 ]

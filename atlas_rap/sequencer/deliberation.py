@@ -80,7 +80,7 @@ from atlas_rap.sequencer.task import SUCCEEDED, Failure, Task
 
 if TYPE_CHECKING:
     from atlas_rap.sequencer.interpreter import Sequencer
-    from atlas_rap.sequencer.timers import Timer
+    from atlas_rap.skillbus.timers import Timer
 
 DEFAULT_MAX_FAILURES = 3
 """Failures charged to one goal before it is abandoned (``:max-failures``)."""

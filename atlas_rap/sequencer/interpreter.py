@@ -80,11 +80,11 @@ from atlas_rap.logic.rules import Change
 from atlas_rap.sequencer.agenda import Agenda
 from atlas_rap.sequencer.deliberation import Deliberator
 from atlas_rap.sequencer.net import FAILURE_OUTCOMES, HALTED_OUTCOME, MethodRun, Node, StepNode, method_label
-from atlas_rap.sequencer.skill_link import NoSkills, SkillLink
 from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Task
-from atlas_rap.sequencer.timers import Timers
 from atlas_rap.sequencer.trace import Trace
 from atlas_rap.sequencer.waiting import WaitIndex
+from atlas_rap.skillbus.skill_link import NoSkills, SkillLink
+from atlas_rap.skillbus.timers import Timers
 
 DEFAULT_RETRIES = 3
 """Method attempts a task gets when its RAP has no ``retries`` clause (LANGUAGE.md §2.1)."""

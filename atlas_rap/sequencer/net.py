@@ -39,7 +39,7 @@ from atlas_rap.sequencer.waiting import Waiter
 
 if TYPE_CHECKING:
     from atlas_rap.sequencer.interpreter import Sequencer
-    from atlas_rap.sequencer.timers import Timer
+    from atlas_rap.skillbus.timers import Timer
 
 FAILURE_OUTCOMES = frozenset({":fail", ":timeout", ":preempted", ":busy"})
 """Step outcomes that fail the method; every other outcome counts as success.

@@ -23,7 +23,7 @@ from atlas_rap.logic import Compound, term_to_str
 
 if TYPE_CHECKING:
     from atlas_rap.sequencer.net import MethodRun, StepNode
-    from atlas_rap.sequencer.timers import Timer
+    from atlas_rap.skillbus.timers import Timer
 
 PENDING = "pending"
 RUNNING = "running"

@@ -4,7 +4,7 @@
 skill's outputs go to every skill that declares an input of the same name
 (here through a blackboard, ``SkillManager.data``), and skills run in
 dependency order, producers before consumers, each at its own rate.
-Towards the sequencer it is a :class:`~atlas_rap.sequencer.skill_link.SkillLink`:
+Towards the sequencer it is a :class:`~atlas_rap.skillbus.skill_link.SkillLink`:
 RAPs enable and disable skills by name with arguments, and skills' events
 come back as facts in RAP memory:
 
@@ -27,7 +27,7 @@ from typing import Any, Iterable
 
 from atlas_rap.errors import AtlasError
 from atlas_rap.logic import Compound, String
-from atlas_rap.sequencer.skill_link import SkillHost
+from atlas_rap.skillbus.skill_link import SkillHost
 from atlas_rap.skills.beliefs import Beliefs
 from atlas_rap.skills.skill import Skill
 

@@ -21,12 +21,12 @@ from typing import Iterable
 
 from atlas_rap.lang import ast
 from atlas_rap.logic import Compound, Subst, substitute, term_to_str, unify
-from atlas_rap.sequencer.skill_link import SkillHost
-from atlas_rap.sequencer.timers import Timer
+from atlas_rap.skillbus.skill_link import SkillHost
+from atlas_rap.skillbus.timers import Timer
 
 
 class VirtualSkills:
-    """A :class:`~atlas_rap.sequencer.skill_link.SkillLink` of scripted skills."""
+    """A :class:`~atlas_rap.skillbus.skill_link.SkillLink` of scripted skills."""
 
     def __init__(self, definitions: Iterable[ast.VirtualSkillDef] = ()) -> None:
         self.definitions: dict[tuple[str, int], ast.VirtualSkillDef] = {}

@@ -31,7 +31,7 @@ from __future__ import annotations
 from typing import Hashable, Iterable, Protocol
 
 from atlas_rap.logic import Compound, Memory
-from atlas_rap.sequencer.timers import Timers
+from atlas_rap.skillbus.timers import Timers
 
 
 class SkillHost(Protocol):

@@ -1,0 +1,133 @@
+"""A skill host: a robot's world, skills and map layers, serving a sequencer on another host.
+
+``atlas skills serve`` runs one :class:`SkillHostServer`. What runs where
+(DESIGN.md §7):
+
+- **on the skill host**: the simulation (pymunk physics, sonar, doors,
+  disturbances), the skill manager with the stock skills, and the ATLAS
+  layer stack (Layers I-III: the monitoring reflexes, route planning on the
+  prior map, the tactical re-routing), since they read the sonar and answer
+  ``navigate-to``'s "route to office?" inside a skills tick;
+- **on the sequencer's side** (``atlas run --connect``, ``atlas repl
+  --connect``): RAP memory and its rules (the layer-switching rules of
+  ``rap_library/layers.rap`` too: the host's layers read the sequencer's
+  memory, copied to them over the bus), the agenda, the virtual skills of
+  the mission, the planner, the timers and the trace.
+
+Each sequencer's session gets a fresh world, built when the sequencer says
+hello, at the sequencer's time; the executive is the in-process one
+(``layers.executive``), whose sequencer is the :class:`~atlas_rap.skillbus.host.HostSession`.
+So the host steps physics and skills exactly as a run in one process does
+and stops where the sequencer needs to act, and a run over the bus gives
+the same trace as in one process.
+
+Not on the bus yet: mapping while driving (``--no-prior-map``, ``--map-in``,
+Layer IV), a topological map file (``--map``), ``--layers``, pictures and
+recordings of the world (``--render``, ``--record``), and the REPL's
+``:map`` and ``:layers``; each needs the host's world on the sequencer's side.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from atlas_rap.layers.clock import Clock
+from atlas_rap.layers.executive import Executive, Rates
+from atlas_rap.layers.layer import LayerStack
+from atlas_rap.layers.monitoring import MonitoringLayer
+from atlas_rap.layers.operational import OperationalLayer
+from atlas_rap.layers.tactical import TacticalLayer
+from atlas_rap.logic import Compound
+from atlas_rap.skillbus import keys
+from atlas_rap.skillbus.host import HostSession, SessionEnded, await_hello
+from atlas_rap.skillbus.messages import Frame, Welcome
+from atlas_rap.skillbus.protocol import BEGIN, END, log
+from atlas_rap.skillbus.zenoh_bus import Conversation, close_session, open_session
+
+
+class SkillHostServer:
+    """Serves one robot's skills on the bus, to one sequencer at a time (see the module docstring).
+
+    ``world``: a shipped world's name or a world file; ``listen`` / ``connect``:
+    Zenoh endpoints; ``robot``: the robot's name on the bus.
+    """
+
+    def __init__(self, world: str, *, robot: str = keys.DEFAULT_ROBOT, seed: int = 0,
+                 listen: Sequence[str] = (), connect: Sequence[str] = (), rates: Rates = Rates()) -> None:
+        from atlas_rap.sim.world import load_world
+
+        self.robot = keys.check_robot(robot)
+        self.world = load_world(world)
+        self.seed = seed
+        self.rates = rates
+        self.session = open_session(listen=listen, connect=connect)
+        self.conversation = Conversation(self.session, keys.to_host(robot), keys.sequencer_token(robot))
+        self.conversation.declare_token(keys.host_token(robot))  # after the subscriptions: seen only when ready
+        self.sessions = 0
+        self.current: HostSession | None = None
+
+    def serve(self, stop: Callable[[], bool] = lambda: False,
+              on_session: Callable[[str], None] | None = None) -> None:
+        """Serve sequencers one after another until ``stop()``; ``on_session`` hears of each start and end."""
+        while not stop():
+            hello = await_hello(self.conversation, self.robot, stop)
+            if hello is None:
+                return
+            self.sessions += 1
+            if on_session is not None:
+                on_session(f"session {self.sessions} started at t={hello.last.tick / self.rates.physics:g} s")
+            try:
+                self._run(hello)
+                reason = "ended"
+            except SessionEnded as exc:
+                reason = str(exc)
+            finally:
+                self.current = None
+            if on_session is not None:
+                on_session(f"session {self.sessions} {reason}")
+
+    def _run(self, hello: Frame) -> None:
+        """One sequencer's session: a fresh world at its time, then its ticks until it goes."""
+        from atlas_rap.sim.physics import Simulation
+        from atlas_rap.sim.prior import prior_facts
+        from atlas_rap.skills.stock import stock_manager
+
+        tick = hello.last.tick  # type: ignore[union-attr]
+        clock = Clock(self.rates.physics)
+        clock.ticks = tick
+        session = self.current = HostSession(self.conversation, self.robot, hello.session, tick, lambda: clock.ticks)
+        session.timers.now = clock.now
+        simulation = Simulation(self.world, seed=self.seed, dt=1.0 / self.rates.physics)
+        manager = stock_manager(self.world, simulation, simulation.rng)
+        session.manager = manager
+        manager.connect(session)
+        stack = LayerStack(session, manager.context.beliefs, self.world)  # type: ignore[arg-type]
+        stack.add(MonitoringLayer(stack))
+        stack.add(OperationalLayer(stack))
+        stack.add(TacticalLayer(stack))
+        executive = Executive(simulation, manager, session, self.rates, stack=stack, clock=clock)
+        prior = [session._out(fact) for fact in prior_facts(self.world)] + [Compound("map", ("prior",))]
+        welcome = Welcome(self.robot, self.world.name, {name: tuple(sorted(a)) for name, a in manager.skills().items()},
+                          tuple(sorted(manager.produces())), tuple(prior),
+                          (self.rates.physics, self.rates.skills, self.rates.sequencer))
+        session.send(keys.session(self.robot, "welcome"), [welcome], (tick, END))
+        session.first_tick()
+        while True:
+            target = session.target
+            if target[1] == BEGIN and target[0] == clock.ticks and session.position < target:
+                executive._begin()
+            elif session.position >= target:
+                session.reach(session.position[1])
+            else:
+                executive.step()
+                session.reach(END)
+
+    def close(self) -> None:
+        """Leave the bus (the token goes: a sequencer using this host sees it lost)."""
+        self.conversation.declare_token(None)
+        self.conversation.close()
+        close_session(self.session)
+
+
+__all__ = ["SkillHostServer", "log"]

@@ -1,0 +1,405 @@
+"""The sequencer's side of skills on other hosts: a skill link over the Zenoh bus.
+
+:class:`RemoteSkills` is a :class:`~atlas_rap.skillbus.skill_link.SkillLink`
+for one or more robots, each served by a skill host (``atlas skills serve``)
+reached over Zenoh; :class:`HostLink` is the conversation with one host
+(the turns of :mod:`atlas_rap.skillbus.protocol`). Time is driven from this
+side by ``layers.remote.RemoteExecutive``, which ticks the hosts.
+
+**One robot** (the default, named ``robot``): the host's skills are offered
+as they are, ``(navigate-to office)``, so a mission runs unchanged and its
+trace is the same, byte for byte, as in one process.
+
+**Several robots** (``--robot alice --robot bob``): every skill takes the
+robot's name first, ``(navigate-to alice office)``, and goes to that
+robot's host; each host says ``alice`` (not ``robot``) in its facts.
+
+**Faults.** A host whose liveliness token goes (it died, was killed, or
+its link lease of one second ran out), or that does not answer within
+``reply_timeout`` seconds, is *lost*: every step waiting on one of its
+skills ends the usual way, ``(why CALL "skill host lost")`` and ``(done CALL
+:fail)``, so RAPs recover through their methods; enabling one of its skills
+fails the same way at once. When its token comes back, the sequencer starts
+a new session with it (a fresh world on the host, at the sequencer's time)
+and its skills can be enabled again. No wait on the bus is without a
+timeout.
+"""
+
+from __future__ import annotations
+
+import time
+import uuid
+from collections.abc import Callable, Hashable, Sequence
+from typing import Any
+
+from atlas_rap.logic import Compound, String, term_to_str
+from atlas_rap.skillbus import keys
+from atlas_rap.skillbus.messages import (Ack, Disable, Enable, FactAsserted, FactRetracted, Frame, Hello, Message,
+                                         Note, RuleFired, Tick, Welcome, message_change)
+from atlas_rap.skillbus.protocol import ALIVE, END, GONE, HELLO, Peer, Position, log
+from atlas_rap.skillbus.skill_link import SkillHost
+from atlas_rap.skillbus.zenoh_bus import BusError, Conversation, close_session, open_session
+
+HOST_LOST = "skill host lost"
+"""The reason a step gets when the host running its skill is lost."""
+
+CONNECT_TIMEOUT = 3.0
+"""Seconds to wait for a robot's skill host to show itself and answer when a run starts."""
+
+REPLY_TIMEOUT = 10.0
+"""Seconds a host may take to answer (a stride of physics and skills) before it counts as lost."""
+
+
+class HostLost(Exception):
+    """The host of a robot was lost while the sequencer waited for it."""
+
+
+class HostLink(Peer):
+    """The sequencer's conversation with one robot's skill host."""
+
+    def __init__(self, fleet: RemoteSkills, session: Any, robot: str) -> None:
+        super().__init__(Conversation(session, keys.to_sequencer(robot), keys.host_token(robot)), robot)
+        self.fleet = fleet
+        self.alive = False
+        self.lost: str | None = None  # why it was lost, until the fleet has failed its skills
+        self.welcome: Welcome | None = None
+        self.enabled: dict[Compound, Compound] = {}  # call on the host -> call on the sequencer
+        self.position: Position = (0, END)
+        self.target: Position | None = None
+        self.mirror: list[Message] = []
+        self._fired: tuple[Any, Any] = (None, None)  # the rule engine and the last firing sent
+
+    # -- sessions --------------------------------------------------------------------
+
+    def handshake(self, tick: int, timeout: float) -> Welcome:
+        """Start a session with the host (it builds a fresh world at ``tick``); its Welcome.
+
+        Raises :class:`BusError` when no host shows itself or answers within ``timeout``.
+        """
+        if not self.conversation.peer_alive.wait(timeout):
+            raise BusError(f"no skill host for robot {self.robot!r} answers (waited {timeout:g} s)")
+        self.conversation.drain()
+        self.restart(uuid.uuid4().hex[:12])
+        self.conversation.declare_token(keys.sequencer_token(self.robot, self.session))
+        self.alive = True
+        self.mirror = []
+        try:
+            reply = self.exchange(keys.sequencer(self.robot, "hello"), [Hello(self.robot, tick)], timeout=timeout)
+        except HostLost:
+            raise BusError(f"the skill host of robot {self.robot!r} did not answer (waited {timeout:g} s)") from None
+        welcome = reply.last
+        if type(welcome) is not Welcome:
+            self.alive = False
+            raise BusError(f"the skill host of robot {self.robot!r} answered out of turn")
+        if welcome.error:
+            self.alive = False
+            raise BusError(f"the skill host of robot {self.robot!r}: {welcome.error}")
+        self.welcome = welcome
+        self.position = (tick, END)
+        self.lost = None
+        self.enabled.clear()
+        host = self.fleet.host
+        self.mirror = [FactAsserted(fact) for fact in host.memory] if host is not None else []
+        self._fired = (None, None)
+        return welcome
+
+    def lose(self, reason: str) -> None:
+        """The host is gone: no more turns; the fleet fails its running skills at the next safe point."""
+        if self.alive:
+            self.alive = False
+            self.lost = reason
+            self.conversation.declare_token(None)
+            log.warning("skill bus: robot %s: %s", self.robot, reason)
+
+    def poll(self) -> None:
+        """Between turns: notice the host going (or coming back); anything else is stale."""
+        while True:
+            event = self.next_event(0)
+            if event is None:
+                return
+            if event[0] == GONE and event[1] == keys.host_token(self.robot):
+                self.lose(HOST_LOST)
+
+    @property
+    def returned(self) -> bool:
+        """A lost host whose token is back: a new session can start."""
+        return not self.alive and self.lost is None and self.conversation.peer_alive.is_set()
+
+    # -- turns -------------------------------------------------------------------------
+
+    def exchange(self, key: str, messages: Sequence[Message], *, timeout: float | None = None) -> Frame:
+        """Send a frame (memory's changes first) and serve the host until it answers; its answer.
+
+        Raises :class:`HostLost` when the host goes or takes longer than ``timeout``
+        (default: the fleet's reply timeout) to answer.
+        """
+        if not self.alive:
+            raise HostLost(self.lost or HOST_LOST)
+        self.send(key, self._outgoing(messages), self.position)
+        limit = self.fleet.reply_timeout if timeout is None else timeout
+        deadline = time.monotonic() + limit
+        token = keys.host_token(self.robot)
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                self.lose(f"{HOST_LOST} (no answer within {limit:g} s)")
+                raise HostLost(HOST_LOST)
+            event = self.next_event(min(left, 0.25))
+            if not self.alive:
+                raise HostLost(HOST_LOST)
+            if event is None:
+                continue
+            kind, value = event
+            if kind == GONE:
+                if value == token:
+                    self.lose(HOST_LOST)
+                    raise HostLost(HOST_LOST)
+                continue
+            if kind in (ALIVE, HELLO):
+                continue
+            last = value.last
+            if type(last) in (Ack, Welcome):
+                self._notes(value)
+                return value
+            self._serve(value)
+            deadline = time.monotonic() + limit
+
+    def tick_to(self, target: Position) -> Position:
+        """Let the host run to ``target`` (or sooner, if its changes made the sequencer need to act
+        sooner); where it stopped."""
+        self.target = target
+        try:
+            reply = self.exchange(keys.clock(self.robot, "tick"),
+                                  [Tick(target[0], target[1], target[0] / self.fleet.rates[0])])
+        finally:
+            self.target = None
+        ack = reply.last
+        self.position = (ack.tick, ack.phase)  # type: ignore[union-attr]
+        return self.position
+
+    def enable(self, host_call: Compound, call: Compound) -> None:
+        if not self.alive:
+            self.fleet.fail_call(call, self.lost or HOST_LOST)
+            return
+        self.enabled.pop(host_call, None)
+        self.enabled[host_call] = call
+        try:
+            reply = self.exchange(keys.skill(self.robot, host_call.functor, "enable"), [Enable(host_call)])
+        except HostLost:
+            self.enabled.pop(host_call, None)
+            self.fleet.fail_call(call, HOST_LOST)
+            return
+        error = reply.last.error  # type: ignore[union-attr]
+        if error:
+            self.enabled.pop(host_call, None)
+            self.fleet.fail_call(call, f"the skill host could not enable it: {error}")
+
+    def disable(self, host_call: Compound) -> None:
+        if self.enabled.get(host_call) is not None:
+            del self.enabled[host_call]
+        if not self.alive:
+            return
+        try:
+            self.exchange(keys.skill(self.robot, host_call.functor, "disable"), [Disable(host_call)])
+        except HostLost:
+            pass
+
+    def fail_running(self) -> None:
+        """The host was lost: every skill it ran ends ``:fail`` with the reason, as a host would say it."""
+        reason, self.lost = self.lost or HOST_LOST, None
+        running, self.enabled = list(self.enabled.values()), {}
+        for call in running:
+            self.fleet.fail_call(call, reason)
+
+    # -- serving the host's changes ------------------------------------------------------
+
+    def _serve(self, frame: Frame) -> None:
+        """A batch of changes from the host: apply it as in one process, then hand the turn back."""
+        host = self.fleet.host
+        self.position = (frame.tick, frame.phase)
+        self._notes(frame)  # made on the host before these changes, at their own times
+        self.fleet.clock_to(self.position)
+        changes = []
+        for message in frame.messages:
+            change = message_change(message)
+            if change is not None:
+                changes.append(self._to_sequencer(change))
+        skill = self.enabled.get(frame.skill, frame.skill) if frame.skill is not None else None
+        source = f"skill {term_to_str(skill)}" if skill is not None else frame.source
+        if changes and host is not None:
+            host.change(changes, source, skill=skill)
+        where = self.fleet.horizon(self.position)
+        if self.target is not None:
+            where = min(where, self.target)
+        if self.alive:
+            self.send(keys.sequencer(self.robot, "ack"), self._outgoing([Ack(*where)]), self.position)
+
+    def _to_sequencer(self, change: tuple[str, Compound]) -> tuple[str, Compound]:
+        """A host's change as the sequencer says it: a finished skill is named by the sequencer's call."""
+        kind, fact = change
+        if fact.functor in ("done", "why") and len(fact.args) == 2 and fact.args[0] in self.enabled:
+            fact = Compound(fact.functor, (self.enabled[fact.args[0]], fact.args[1]))  # type: ignore[index]
+        return kind, fact
+
+    def _notes(self, frame: Frame) -> None:
+        host = self.fleet.host
+        for message in frame.messages:
+            if type(message) is Note and host is not None:
+                self.fleet.note(message)
+
+    def _outgoing(self, messages: Sequence[Message]) -> list[Message]:
+        """Memory's changes and the rules fired since the last frame, then ``messages``."""
+        out, self.mirror = self.mirror, []
+        host = self.fleet.host
+        rules = getattr(host, "rules", None)
+        if rules is not None:
+            engine, last = self._fired
+            fired = list(rules.fired)
+            if engine is rules:
+                for index in range(len(fired) - 1, -1, -1):
+                    if fired[index] is last:
+                        fired = fired[index + 1:]
+                        break
+            if fired:
+                self._fired = (rules, fired[-1])
+                out += [RuleFired(rule.name, tuple(rule.effects), fact) for rule, fact in fired]
+            else:
+                self._fired = (rules, last)
+        out += messages
+        return out
+
+
+class RemoteSkills:
+    """The skills of one or more robots' skill hosts over Zenoh, as one skill link (module docstring).
+
+    ``endpoints``: where to connect (``tcp/127.0.0.1:7447``); ``robots``:
+    the robots whose hosts to use (default: ``robot``).
+    """
+
+    def __init__(self, endpoints: Sequence[str], robots: Sequence[str] = (keys.DEFAULT_ROBOT,), *,
+                 connect_timeout: float = CONNECT_TIMEOUT, reply_timeout: float = REPLY_TIMEOUT) -> None:
+        if not endpoints:
+            raise BusError("give the endpoint of a skill host to connect to, e.g. --connect tcp/127.0.0.1:7447")
+        robots = list(dict.fromkeys(robots or (keys.DEFAULT_ROBOT,)))
+        for robot in robots:
+            try:
+                keys.check_robot(robot)
+            except ValueError as exc:
+                raise BusError(str(exc)) from None
+        self.endpoints = list(endpoints)
+        self.reply_timeout = reply_timeout
+        self.host: SkillHost | None = None
+        self.multi = len(robots) > 1
+        self.horizon: Callable[[Position], Position] = lambda position: position
+        self.clock_to: Callable[[Position], None] = lambda position: None
+        self.session = open_session(connect=self.endpoints)
+        self.links: dict[str, HostLink] = {}
+        try:
+            for robot in robots:
+                self.links[robot] = HostLink(self, self.session, robot)
+            for link in self.links.values():
+                try:
+                    link.handshake(0, connect_timeout)
+                except BusError as exc:
+                    raise BusError(f"{exc} at {', '.join(self.endpoints)}: start it there with "
+                                   f"atlas skills serve --robot {link.robot} --listen {self.endpoints[0]}") from None
+            rates = {link.welcome.rates for link in self.links.values()}  # type: ignore[union-attr]
+            worlds = {link.welcome.world for link in self.links.values()}  # type: ignore[union-attr]
+            if len(rates) > 1:
+                raise BusError("the skill hosts run at different rates; run them alike")
+        except BaseException:
+            self.close()
+            raise
+        self.rates: tuple[float, float, float] = rates.pop()
+        self.world = sorted(worlds)[0]
+
+    # -- the skill link ------------------------------------------------------------------
+
+    def connect(self, host: SkillHost) -> None:
+        self.host = host
+        host.memory.subscribe(self._memory_changed)
+        for link in self.links.values():
+            link.mirror = [FactAsserted(fact) for fact in host.memory]
+
+    def _memory_changed(self, kind: str, fact: Compound, time: float) -> None:
+        message = FactAsserted(fact) if kind == "assert" else FactRetracted(fact)
+        for link in self.links.values():
+            if link.alive:
+                link.mirror.append(message)
+
+    def skills(self) -> dict[str, set[int]]:
+        names: dict[str, set[int]] = {}
+        extra = 1 if self.multi else 0
+        for link in self.links.values():
+            for name, arities in link.welcome.skills.items():  # type: ignore[union-attr]
+                names.setdefault(name, set()).update(a + extra for a in arities)
+        return names
+
+    def produces(self) -> set[str]:
+        found = {"done", "why"}
+        for link in self.links.values():
+            found.update(link.welcome.produces)  # type: ignore[union-attr]
+        return found
+
+    def instance(self, call: Compound) -> Hashable:
+        """A skill is one instance per robot whatever its arguments, as on a host in process."""
+        if self.multi and call.args:
+            return (call.args[0], call.functor)
+        return call.functor
+
+    def _route(self, call: Compound) -> tuple[HostLink | None, Compound]:
+        if not self.multi:
+            return next(iter(self.links.values())), call
+        robot = call.args[0] if call.args else None
+        return self.links.get(robot) if isinstance(robot, str) else None, Compound(call.functor, call.args[1:])
+
+    def enable(self, call: Compound) -> None:
+        link, host_call = self._route(call)
+        if link is None:
+            self.fail_call(call, f"no robot {term_to_str(call.args[0]) if call.args else ''} on the skill bus "
+                                 f"(the robots are {', '.join(self.links)})")
+            return
+        link.enable(host_call, call)
+
+    def disable(self, call: Compound) -> None:
+        link, host_call = self._route(call)
+        if link is not None:
+            link.disable(host_call)
+
+    # -- what the sequencer side needs besides ----------------------------------------------
+
+    def prior_facts(self) -> list[Compound]:
+        """The prior-map facts the hosts' worlds give (each once, in order)."""
+        facts: dict[Compound, None] = {}
+        for link in self.links.values():
+            facts.update(dict.fromkeys(link.welcome.prior))  # type: ignore[union-attr]
+        return list(facts)
+
+    def fail_call(self, call: Compound, reason: str) -> None:
+        """End the skill ``call`` as a host would: ``(why CALL "reason")``, ``(done CALL :fail)``."""
+        if self.host is not None:
+            self.host.change([("assert", Compound("why", (call, String(reason)))),
+                              ("assert", Compound("done", (call, ":fail")))], f"skill {term_to_str(call)}", skill=call)
+
+    def note(self, note: Note) -> None:
+        """A trace record made on a host, traced here at its time."""
+        host = self.host
+        self.clock_to_time(note.t)
+        trace = getattr(host, "trace", None)
+        if trace is not None:
+            trace.emit(note.event, **note.data)
+
+    def clock_to_time(self, t: float) -> None:
+        host = self.host
+        if host is not None and t > host.timers.now:
+            host.timers.fire_due(t, late=False)
+
+    def alive(self) -> list[HostLink]:
+        return [link for link in self.links.values() if link.alive]
+
+    def close(self) -> None:
+        """Leave the bus: the hosts see this sequencer go and wait for the next."""
+        for link in self.links.values():
+            link.conversation.declare_token(None)
+            link.conversation.close()
+        close_session(self.session)

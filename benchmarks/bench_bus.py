@@ -1,0 +1,221 @@
+"""Benchmark the skill bus: the sequencer and the skills in one process, and over Eclipse Zenoh.
+
+Prints one JSON object a line:
+
+- ``bus-events``: facts a skill host posts to the sequencer, one batch each
+  (memory, rules and the wait index take each, and the host waits for its
+  turn back), per second: ``in_process`` (the skill link called directly)
+  and ``zenoh`` (two Zenoh peer sessions on loopback, the host on a thread
+  of this process, the whole protocol of ``skillbus.protocol``).
+- ``bus-latency``: enable → done round trip of a skill that finishes as soon
+  as it is enabled, median and 99th percentile in microseconds, both ways.
+- ``bus-deliver``: ``rap_library/missions/deliver.rap`` in simulated time
+  with the whole stack, simulated seconds per wall second, best of
+  ``--runs``: in one process, and over Zenoh with ``atlas skills serve``
+  running in another process (``ratio``: Zenoh over in process; target
+  >= 0.5). ``same_trace`` says whether the two traces were equal, byte for byte.
+
+Run: ``pip install '.[zenoh]' && python benchmarks/bench_bus.py`` (``--quick``
+for fewer events and runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import socket
+import statistics
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(HERE.parent)]  # the checkout, if not installed
+
+MISSION = HERE.parent / "rap_library" / "missions" / "deliver.rap"
+
+
+def emit(record: dict) -> None:
+    print(json.dumps(record), flush=True)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Emitter:
+    """A skill manager with two skills: ``(emit N)`` posts N facts, then finishes; ``(ping)`` finishes."""
+
+    def __init__(self) -> None:
+        self.host = None
+
+    def connect(self, host) -> None:
+        self.host = host
+
+    def skills(self) -> dict[str, set[int]]:
+        return {"emit": {1}, "ping": {0}}
+
+    def produces(self) -> set[str]:
+        return {"done", "event"}
+
+    def instance(self, call):
+        return call.functor
+
+    def enable(self, call) -> None:
+        from atlas_rap.logic import Compound
+
+        for i in range(call.args[0] if call.functor == "emit" else 0):
+            self.host.change([("assert", Compound("event", (i,)))], "skills")
+        self.host.change([("assert", Compound("done", (call, ":succeed")))], f"skill ({call.functor})", skill=call)
+
+    def disable(self, call) -> None:
+        pass
+
+
+def serve_emitter(endpoint: str, ready: threading.Event, stop: threading.Event) -> None:
+    """A skill host on this thread serving the :class:`Emitter`, one session."""
+    from atlas_rap.skillbus import keys
+    from atlas_rap.skillbus.host import HostSession, SessionEnded, await_hello
+    from atlas_rap.skillbus.messages import Welcome
+    from atlas_rap.skillbus.protocol import END
+    from atlas_rap.skillbus.zenoh_bus import Conversation, close_session, open_session
+
+    session = open_session(listen=[endpoint])
+    conversation = Conversation(session, keys.to_host("robot"), keys.sequencer_token("robot"))
+    conversation.declare_token(keys.host_token("robot"))
+    ready.set()
+    try:
+        hello = await_hello(conversation, "robot", stop.is_set)
+        if hello is None:
+            return
+        host = HostSession(conversation, "robot", hello.session, 0, lambda: 0)
+        manager = Emitter()
+        manager.connect(host)
+        host.manager = manager
+        host.send(keys.session("robot", "welcome"), [Welcome("robot", "bench", {"emit": (1,), "ping": (0,)},
+                                                             ("done", "event"))], (0, END))
+        host.first_tick()
+    except SessionEnded:
+        pass
+    finally:
+        conversation.close()
+        close_session(session)
+
+
+def measure(link_for, events: int, pings: int) -> tuple[float, list[float]]:
+    """(events per second, enable → done round trips in µs) through the link ``link_for()`` gives."""
+    from atlas_rap.logic import Compound
+    from atlas_rap.sequencer import Sequencer
+
+    link = link_for()
+    seq = Sequencer(skills=link)
+    start = time.perf_counter()
+    link.enable(Compound("emit", (events,)))
+    rate = events / (time.perf_counter() - start)
+    ping = Compound("ping", ())
+    times = []
+    for _ in range(pings):
+        start = time.perf_counter()
+        link.enable(ping)
+        times.append((time.perf_counter() - start) * 1e6)
+        assert Compound("done", (ping, ":succeed")) in seq.memory
+        seq.change([("retract", Compound("done", (ping, ":succeed")))], "bench")
+    return rate, times
+
+
+def bus_protocol(events: int, pings: int) -> None:
+    from atlas_rap.skillbus.remote import RemoteSkills
+
+    in_rate, in_times = measure(Emitter, events, pings)
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    ready, stop = threading.Event(), threading.Event()
+    thread = threading.Thread(target=serve_emitter, args=(endpoint, ready, stop), daemon=True)
+    thread.start()
+    ready.wait(10)
+    fleets = []
+
+    def remote():
+        fleets.append(RemoteSkills([endpoint]))
+        return fleets[-1]
+
+    try:
+        z_rate, z_times = measure(remote, events, pings)
+    finally:
+        stop.set()
+        for fleet in fleets:
+            fleet.close()
+        thread.join(10)
+    emit({"bench": "bus-events", "events": events, "in_process_per_s": round(in_rate),
+          "zenoh_per_s": round(z_rate)})
+    for name, times in (("in_process", in_times), ("zenoh", z_times)):
+        times.sort()
+        emit({"bench": "bus-latency", "transport": name, "round_trips": len(times),
+              "median_us": round(statistics.median(times), 1), "p99_us": round(times[int(0.99 * (len(times) - 1))], 1)})
+
+
+def run_deliver(connect: list[str], trace_path: Path) -> tuple[float, float, bool]:
+    """deliver.rap once; (wall seconds, simulated seconds, ok)."""
+    from atlas_rap.layers import MissionEngine
+    from atlas_rap.sequencer import JsonlSink, Trace
+
+    trace = Trace()
+    sink = JsonlSink(trace_path)
+    trace.add_sink(sink)
+    engine = MissionEngine(trace=trace, connect=connect)
+    engine.load_file(MISSION, require_post=True)
+    start = time.perf_counter()
+    result = engine.run_mission(600)
+    wall = time.perf_counter() - start
+    sink.close()
+    if engine.remote is not None:
+        engine.remote.close()
+    return wall, result.time, result.ok
+
+
+def bus_deliver(runs: int, out: Path) -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    host = subprocess.Popen([sys.executable, "-m", "atlas_rap", "skills", "serve", "--listen", endpoint],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=HERE.parent)
+    try:
+        host.stdout.readline()  # "skill host for robot robot ...": listening
+        best = {}
+        for name, connect in (("in_process", []), ("zenoh", [endpoint])):
+            speeds = []
+            for i in range(runs):
+                wall, sim, ok = run_deliver(connect, out / f"{name}.jsonl")
+                assert ok, f"deliver.rap failed {name}"
+                speeds.append(sim / wall)
+            best[name] = max(speeds)
+        same = (out / "in_process.jsonl").read_bytes() == (out / "zenoh.jsonl").read_bytes()
+        emit({"bench": "bus-deliver", "mission": "deliver.rap", "runs": runs,
+              "in_process_sim_s_per_wall_s": round(best["in_process"], 1),
+              "zenoh_sim_s_per_wall_s": round(best["zenoh"], 1),
+              "ratio": round(best["zenoh"] / best["in_process"], 3), "target_ratio": 0.5, "same_trace": same})
+    finally:
+        host.kill()
+        host.wait(10)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="fewer events and runs, to try it out")
+    parser.add_argument("--runs", type=int, default=5, help="runs of deliver.rap each way (best kept)")
+    args = parser.parse_args()
+    try:
+        import zenoh  # noqa: F401
+    except ImportError:
+        emit({"bench": "bus", "skipped": "eclipse-zenoh is not installed: pip install 'atlas-rap[zenoh]'"})
+        return
+    import tempfile
+
+    bus_protocol(2000 if args.quick else 20000, 200 if args.quick else 2000)
+    with tempfile.TemporaryDirectory() as folder:
+        bus_deliver(2 if args.quick else args.runs, Path(folder))
+
+
+if __name__ == "__main__":
+    main()

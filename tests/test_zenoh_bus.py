@@ -1,0 +1,225 @@
+"""Skills on their own host over Eclipse Zenoh, as a user runs them: `atlas skills serve` and
+`atlas run --connect` as real processes on loopback, each test on ports of its own.
+
+Every wait is on a condition with a deadline (a line of output, a process ending), never a
+fixed sleep; subprocess timeouts guard against hangs."""
+
+from __future__ import annotations
+
+import json
+import os
+import queue
+import signal
+import socket
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from cli_process import ENV, REPO, assert_no_traceback, atlas, atlas_command
+
+zenoh = pytest.importorskip("zenoh")
+
+DELIVER = str(REPO / "rap_library" / "missions" / "deliver.rap")
+BUS_ENV = {**ENV, "PYTHONUNBUFFERED": "1"}
+
+SPIN = """(world "lab-corridor-office")
+(define-virtual-skill (pause) (after 0.5 (finish :succeed)))
+(define-rap (spin ?heading)
+  (retries 40)
+  (method (task-net (sequence (t1 (pause)) (t2 (turn-to ?heading))))))
+(post (spin 180))
+"""
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Running:
+    """A process whose output lines are gathered as they come, to wait on."""
+
+    def __init__(self, *args: str, cwd: Path) -> None:
+        self.proc = subprocess.Popen(atlas_command(*args), cwd=cwd, env=BUS_ENV, text=True,
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+        self.lines: list[str] = []
+        self.seen: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        for line in self.proc.stdout:
+            self.lines.append(line)
+            self.seen.put(line)
+
+    def wait_for(self, text: str, timeout: float = 20.0) -> float:
+        """Wait until a line with ``text`` comes out; the monotonic time it was read."""
+        deadline = time.monotonic() + timeout
+        if any(text in line for line in self.lines):
+            return time.monotonic()
+        while time.monotonic() < deadline:
+            try:
+                line = self.seen.get(timeout=max(0.0, deadline - time.monotonic()))
+            except queue.Empty:
+                break
+            if text in line:
+                return time.monotonic()
+        raise AssertionError(f"no {text!r} within {timeout} s; output:\n{self.output}")
+
+    def finish(self, timeout: float = 30.0) -> int:
+        return self.proc.wait(timeout=timeout)
+
+    @property
+    def output(self) -> str:
+        return "".join(self.lines)
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+            self.proc.wait(timeout=10)
+
+
+@pytest.fixture
+def processes():
+    started: list[Running] = []
+    yield started
+    for running in started:
+        running.kill()
+
+
+def host(processes, tmp_path: Path, port: int, robot: str = "robot") -> Running:
+    running = Running("skills", "serve", "--listen", f"tcp/127.0.0.1:{port}", "--robot", robot, cwd=tmp_path)
+    processes.append(running)
+    running.wait_for(f"skill host for robot {robot}")
+    return running
+
+
+def sequencer(processes, tmp_path: Path, *args: str) -> Running:
+    running = Running("run", *args, cwd=tmp_path)
+    processes.append(running)
+    return running
+
+
+def test_deliver_over_zenoh_gives_the_same_trace_as_in_one_process_and_anyone_can_watch(processes, tmp_path):
+    port = free_port()
+    host(processes, tmp_path, port)
+    watched: list[bytes] = []
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("connect/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
+    config.insert_json5("listen/endpoints", "[]")
+    watcher = zenoh.open(config)
+    try:
+        subscriber = watcher.declare_subscriber("atlas/robot/event/**", zenoh.handlers.Callback(
+            lambda sample: watched.append(sample.payload.to_bytes()), indirect=False))
+        alone = atlas("run", DELIVER, "--quiet", "--trace", "alone.jsonl", cwd=tmp_path)
+        assert alone.returncode == 0, alone.stderr
+        remote = sequencer(processes, tmp_path, DELIVER, "--quiet", "--trace", "bus.jsonl",
+                           "--connect", f"tcp/127.0.0.1:{port}")
+        assert remote.finish() == 0, remote.output
+        subscriber.undeclare()
+    finally:
+        watcher.close()
+    assert "Traceback" not in remote.output
+    assert (tmp_path / "bus.jsonl").read_bytes() == (tmp_path / "alone.jsonl").read_bytes()
+    frames = [json.loads(data) for data in watched]
+    done = [m for f in frames for m in f["messages"] if m["type"] == "done"]
+    assert [m["call"] for m in done] == [["navigate-to", "office"], ["navigate-to", "lab"]]
+
+
+def test_a_killed_host_fails_the_waiting_step_within_a_second_and_the_mission_ends(processes, tmp_path):
+    port = free_port()
+    served = host(processes, tmp_path, port)
+    run = sequencer(processes, tmp_path, DELIVER, "--realtime", "--connect", f"tcp/127.0.0.1:{port}")
+    run.wait_for("enable (navigate-to office)")
+    killed = time.monotonic()
+    served.kill()
+    seen = run.wait_for("skill host lost", timeout=5)
+    assert seen - killed < 1.0
+    assert run.finish(timeout=20) == 1
+    assert "Traceback" not in run.output
+    assert "finished :fail: skill host lost" in run.output
+
+
+def test_a_restarted_host_lets_a_retry_succeed(processes, tmp_path):
+    port = free_port()
+    (tmp_path / "spin.rap").write_text(SPIN, encoding="utf-8")
+    served = host(processes, tmp_path, port)
+    run = sequencer(processes, tmp_path, "spin.rap", "--realtime", "--connect", f"tcp/127.0.0.1:{port}")
+    run.wait_for("enable (turn-to 180)")
+    served.kill()
+    run.wait_for("skill host lost", timeout=5)
+    again = host(processes, tmp_path, port)
+    again.wait_for("session 1 started", timeout=15)
+    assert run.finish(timeout=30) == 0, run.output
+    assert "(spin 180) succeeded" in run.output
+
+
+def test_a_malformed_message_on_the_bus_is_logged_and_dropped(processes, tmp_path):
+    port, mine = free_port(), free_port()
+    (tmp_path / "spin.rap").write_text(SPIN, encoding="utf-8")
+    host(processes, tmp_path, port)
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{mine}"]))
+    config.insert_json5("connect/endpoints", "[]")
+    prankster = zenoh.open(config)
+    try:
+        arrived = threading.Event()
+        token = prankster.liveliness().declare_subscriber("atlas/robot/sequencer/*", zenoh.handlers.Callback(
+            lambda sample: arrived.set(), indirect=False), history=True)
+        run = sequencer(processes, tmp_path, "spin.rap", "--realtime", "--connect", f"tcp/127.0.0.1:{port}",
+                        "--connect", f"tcp/127.0.0.1:{mine}")
+        assert arrived.wait(15), run.output
+        for key, data in [("atlas/robot/event/done", b"\x00 not json"),
+                          ("atlas/robot/event/facts", b'{"v": 1, "type": "asserted", "fact": 7}'),
+                          ("atlas/robot/clock/ack", b'{"v": 99, "type": "ack", "tick": 1, "phase": 0}'),
+                          ("atlas/robot/event/facts", b'{"v": 1, "type": "enable", "call": ["stop"]}')]:
+            prankster.put(key, data)
+        code = run.finish(timeout=30)
+        token.undeclare()
+    finally:
+        prankster.close()
+    assert code == 0, run.output
+    assert "cannot be decoded" in run.output and "Traceback" not in run.output
+    assert "(spin 180) succeeded" in run.output
+
+
+def test_two_robots_on_one_bus_each_do_their_own_steps(processes, tmp_path):
+    alice, bob = free_port(), free_port()
+    host(processes, tmp_path, alice, "alice")
+    host(processes, tmp_path, bob, "bob")
+    run = sequencer(processes, tmp_path, str(REPO / "examples" / "two-robots.rap"), "--trace", "two.jsonl",
+                    "--connect", f"tcp/127.0.0.1:{alice}", "--connect", f"tcp/127.0.0.1:{bob}",
+                    "--robot", "alice", "--robot", "bob")
+    assert run.finish() == 0, run.output
+    facts = [json.loads(line).get("fact") for line in (tmp_path / "two.jsonl").read_text().splitlines()]
+    assert "(done (navigate-to alice office) :succeed)" in facts
+    assert "(done (navigate-to bob storeroom) :succeed)" in facts
+    assert "(at alice office)" in facts and "(at bob storeroom)" in facts
+
+
+def test_connecting_where_nobody_answers_is_a_clear_error_within_seconds(tmp_path):
+    started = time.monotonic()
+    done = atlas("run", DELIVER, "--connect", f"tcp/127.0.0.1:{free_port()}", cwd=tmp_path)
+    assert time.monotonic() - started < 10
+    assert_no_traceback(done)
+    assert done.returncode == 1
+    assert "no skill host for robot 'robot' answers" in done.stderr
+    assert "atlas skills serve" in done.stderr
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--connect", "localhost:7447"], "is not a Zenoh endpoint"),
+    (["--connect", "tcp/127.0.0.1:1", "--world", "maze"], "cannot go with --connect"),
+    (["--robot", "alice"], "--robot needs --connect"),
+])
+def test_bad_bus_options_are_clear_errors(tmp_path, args, message):
+    done = atlas("run", DELIVER, *args, cwd=tmp_path)
+    assert_no_traceback(done)
+    assert done.returncode in (1, 2)
+    assert message in done.stderr
