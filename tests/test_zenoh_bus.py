@@ -203,6 +203,36 @@ def test_two_robots_on_one_bus_each_do_their_own_steps(processes, tmp_path):
     assert "(at alice office)" in facts and "(at bob storeroom)" in facts
 
 
+def test_the_planner_gives_steps_to_two_robots_on_their_own_hosts(processes, tmp_path):
+    alice, bob = free_port(), free_port()
+    host(processes, tmp_path, alice, "alice")
+    host(processes, tmp_path, bob, "bob")
+    run = sequencer(processes, tmp_path, str(REPO / "examples" / "two-robot-errands.rap"), "--trace", "plan.jsonl",
+                    "--connect", f"tcp/127.0.0.1:{alice}", "--connect", f"tcp/127.0.0.1:{bob}",
+                    "--robot", "alice", "--robot", "bob")
+    assert run.finish(timeout=60) == 0, run.output
+    assert "Traceback" not in run.output
+    records = [json.loads(line) for line in (tmp_path / "plan.jsonl").read_text().splitlines()]
+    ready = [r for r in records if r["event"] == "plan-ready"]
+    assert len(ready) == 1 and ready[0]["agents"] == ["alice", "bob"]
+    started = {r["step"]: r for r in records if r["event"] == "plan-step-started"}
+    done = {r["step"]: r for r in records if r["event"] == "plan-step-done"}
+    assert started and set(done) == set(started)
+    assert {r["agent"] for r in done.values()} == {"alice", "bob"}
+    for step in done.values():  # each step's RAP drove its own agent, on that agent's host
+        assert step["action"].startswith(f"(travel-to {step['agent']} ")
+    first: dict[str, float] = {}
+    for step in sorted(started.values(), key=lambda r: r["t"]):
+        first.setdefault(step["agent"], step["t"])
+    assert first["alice"] == first["bob"]  # the two agents' steps run at once
+    assert not any(r["event"] in ("plan-step-failed", "replanned", "plan-abandoned") for r in records)
+    assert [r["event"] for r in records if r["event"] == "plan-done"] == ["plan-done"]
+    facts = [r.get("fact") for r in records]
+    assert "(done (navigate-to alice office) :succeed)" in facts
+    assert "(done (navigate-to bob storeroom) :succeed)" in facts
+    assert (records[-1]["event"], records[-1]["task"]) == ("task-succeeded", "(errands)")
+
+
 def test_connecting_where_nobody_answers_is_a_clear_error_within_seconds(tmp_path):
     started = time.monotonic()
     done = atlas("run", DELIVER, "--connect", f"tcp/127.0.0.1:{free_port()}", cwd=tmp_path)
