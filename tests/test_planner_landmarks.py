@@ -13,7 +13,7 @@ from atlas_rap.planner.ground import ground
 from atlas_rap.planner.landmarks import find_landmarks, landmark_search
 from atlas_rap.planner.pddl import load_pddl, parse_pddl
 from atlas_rap.planner.plan_file import validate_plan
-from atlas_rap.planner.search import RelaxedPlanHeuristic
+from atlas_rap.planner.relaxation import RelaxedPlanHeuristic
 
 solve_module = importlib.import_module("atlas_rap.planner.solve")  # the module (the package exports solve())
 

@@ -26,7 +26,8 @@ import time
 from typing import Callable
 
 from atlas_rap.planner.ground import GroundTask
-from atlas_rap.planner.search import BOOST, INFINITY, RelaxedPlanHeuristic, SearchResult, _path_to
+from atlas_rap.planner.relaxation import INFINITY, RelaxedPlanHeuristic, relaxed_plan_heuristic
+from atlas_rap.planner.search import BOOST, SearchResult, _path_to
 
 
 def find_landmarks(task: GroundTask, heuristic: RelaxedPlanHeuristic) -> frozenset[int]:
@@ -82,7 +83,7 @@ def landmark_search(task: GroundTask, heuristic: RelaxedPlanHeuristic | None = N
                     max_evaluations: int | None = None) -> SearchResult:
     """LAMA's first search (module docstring): hFF and the landmark count, with preferred operators."""
     started = time.process_time()
-    heuristic = heuristic or RelaxedPlanHeuristic(task)
+    heuristic = heuristic or relaxed_plan_heuristic(task)
     landmarks = find_landmarks(task, heuristic)
     goals = frozenset(task.goal)
     adds, negs, deletes = heuristic.add_sets, heuristic.negs, heuristic.deletes
@@ -141,7 +142,7 @@ def landmark_search(task: GroundTask, heuristic: RelaxedPlanHeuristic | None = N
         seen = reached[state] | (landmarks & child)
         reached[child] = seen
         expanded += 1
-        if expanded % 64 == 0 and stop is not None and stop():
+        if expanded % 8 == 0 and stop is not None and stop():
             return result("timeout")
         if task.is_goal(child):
             return result("solved", child)

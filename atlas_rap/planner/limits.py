@@ -2,7 +2,7 @@
 
 ``atlas plan --timeout S --memory MB`` (and :func:`~atlas_rap.planner.solve.solve`)
 give one :class:`Limits` to grounding, search, shortening and counterplanning;
-each phase asks :meth:`Limits.expired` at its own checkpoints (every 64
+each phase asks :meth:`Limits.expired` at its own checkpoints (every 8
 expansions in a search) and stops when it says so. What the planner then
 returns is decided once, in ``solve``: no plan yet is status ``timeout`` (or
 ``memory``); a plan whose shortening was cut keeps its last valid form and

@@ -1,19 +1,19 @@
 """Forward search: greedy best-first search guided by the FF heuristic.
 
-What the best satisficing planners do, in plain Python:
+What the best satisficing planners do, in Python:
 
-- **hFF** (Hoffmann & Nebel's relaxed plan) computed on a layered relaxed
-  planning graph by counting unsatisfied preconditions: each evaluation
-  touches every (fact, action) incidence at most once, and states are
-  frozensets of fact numbers, so set operations run in C.
+- **hFF** (Hoffmann & Nebel's relaxed plan), from
+  :mod:`~atlas_rap.planner.relaxation` (pure Python on small tasks, numpy
+  on large ones). States are frozensets of fact numbers, so set operations
+  run in C.
 - **Helpful actions**: the applicable actions that add a fact the relaxed
   plan needs at its first layer. Successors reached by them also go into a
   *preferred* queue, and the search alternates between the two queues,
   with a boost of the preferred one whenever the heuristic improves
   (Fast Downward's dual-queue, as in LAMA's first iteration).
-- The evaluation that computes h also finds the applicable actions (those
-  whose counter reaches zero in the first layer), so generating successors
-  costs nothing more.
+- The evaluation that computes h also finds the applicable actions (the
+  first layer of the relaxed exploration), so generating successors costs
+  nothing more.
 - Lazy evaluation (a state is evaluated when it is taken from the queue,
   and enters it with its parent's value), as in LAMA: far fewer
   evaluations than eager search on these domains, at a few more
@@ -34,8 +34,8 @@ from dataclasses import dataclass
 from typing import Callable, Collection, Sequence
 
 from atlas_rap.planner.ground import GroundAction, GroundTask
+from atlas_rap.planner.relaxation import INFINITY, RelaxedPlanHeuristic, relaxed_plan_heuristic
 
-INFINITY = float("inf")
 BOOST = 1000
 
 
@@ -52,102 +52,13 @@ class SearchResult:
     heuristic: RelaxedPlanHeuristic | None = None
 
 
-class RelaxedPlanHeuristic:
-    """hFF over a task's actions, with helpful actions and the applicable set.
-
-    It also holds, once, what the searches need to apply an action by number:
-    ``negs`` (negative preconditions), ``deletes`` and ``add_sets`` (frozensets).
-    """
-
-    def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None) -> None:
-        self.actions = list(task.actions if actions is None else actions)
-        n_facts = len(task.facts)
-        self.pre_of: list[list[int]] = [[] for _ in range(n_facts)]
-        self.pre_count: list[int] = []
-        self.adds: list[tuple[int, ...]] = []
-        self.pres: list[tuple[int, ...]] = []
-        self.no_pre: list[int] = []
-        for i, action in enumerate(self.actions):
-            for f in action.pre:
-                self.pre_of[f].append(i)
-            self.pre_count.append(len(action.pre))
-            self.adds.append(action.add)
-            self.pres.append(action.pre)
-            if not action.pre:
-                self.no_pre.append(i)
-        self.goal = task.goal
-        self.negs = [a.neg for a in self.actions]
-        self.deletes = [frozenset(a.delete) for a in self.actions]
-        self.add_sets = [frozenset(a.add) for a in self.actions]
-
-    def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
-        """(h, applicable action numbers, helpful action numbers) of ``state``."""
-        counter = self.pre_count[:]
-        pre_of = self.pre_of
-        adds = self.adds
-        level: dict[int, int] = dict.fromkeys(state, 0)
-        achiever: dict[int, int] = {}
-        goals = self.goal
-        missing = sum(1 for g in goals if g not in level)
-        current: list[int] = list(state)
-        applicable: list[int] = []
-        layer = 0
-        while True:
-            fired: list[int] = list(self.no_pre) if layer == 0 else []
-            for f in current:
-                for a in pre_of[f]:
-                    c = counter[a] - 1
-                    counter[a] = c
-                    if c == 0:
-                        fired.append(a)
-            if layer == 0:
-                applicable = fired
-                if missing == 0:
-                    return 0, applicable, set()
-            following: list[int] = []
-            nxt = layer + 1
-            for a in fired:
-                for g in adds[a]:
-                    if g not in level:
-                        level[g] = nxt
-                        achiever[g] = a
-                        following.append(g)
-            if not following:
-                return INFINITY, applicable, set()
-            missing -= sum(1 for g in goals if level.get(g) == nxt)
-            if missing <= 0:
-                break
-            current = following
-            layer = nxt
-        # Extract the relaxed plan backwards from the goals.
-        pres = self.pres
-        relaxed: set[int] = set()
-        marked: set[int] = set(goals)
-        stack = [g for g in goals if level[g] > 0]
-        first_layer_needs: set[int] = set()
-        while stack:
-            g = stack.pop()
-            if level[g] == 1:
-                first_layer_needs.add(g)
-            a = achiever[g]
-            if a in relaxed:
-                continue
-            relaxed.add(a)
-            for p in pres[a]:
-                if p not in marked and level[p] > 0:
-                    marked.add(p)
-                    stack.append(p)
-        helpful = {a for a in applicable if not first_layer_needs.isdisjoint(adds[a])}
-        return len(relaxed), applicable, helpful
-
-
 Settle = Callable[[frozenset[int], GroundAction], frozenset[int]]
 
 
 def greedy_best_first(task: GroundTask, timeout: float | None = None,
                       actions: Sequence[GroundAction] | None = None,
                       init: frozenset[int] | None = None, settle: Settle | None = None, *,
-                      shallow_first: bool = True, max_evaluations: int | None = None,
+                      max_evaluations: int | None = None,
                       heuristic: RelaxedPlanHeuristic | None = None,
                       stop: Callable[[], bool] | None = None) -> SearchResult:
     """Search ``task`` from ``init`` (default the task's initial state) with ``actions``
@@ -157,13 +68,11 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
 
     ``settle(state, action)``, when given, changes each state an action
     reaches before it is evaluated: counterplanning passes the worst that
-    uncontrolled agents can do there. ``shallow_first`` breaks ties between
-    equal heuristic values towards the shallower node, else in order of
-    generation; the two find different plans, which the planner uses as a
-    small portfolio.
+    uncontrolled agents can do there. Ties between equal heuristic values go
+    to the shallower node, then in order of generation.
     """
     started = time.process_time()
-    heuristic = heuristic or RelaxedPlanHeuristic(task, actions)
+    heuristic = heuristic or relaxed_plan_heuristic(task, actions)
     acts = heuristic.actions
     start = task.init if init is None else init
     is_goal = task.is_goal
@@ -181,7 +90,7 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
 
     def open_successors(h: float, state: frozenset[int], applicable: list[int], helpful: set[int]) -> None:
         nonlocal tick
-        g = depth[state] + 1 if shallow_first else 0
+        g = depth[state] + 1
         for a in applicable:
             neg = negs[a]
             if neg and any(n in state for n in neg):
@@ -220,7 +129,7 @@ def greedy_best_first(task: GroundTask, timeout: float | None = None,
         parents[child] = (state, a)
         depth[child] = g
         expanded += 1
-        if expanded % 64 == 0 and ((timeout is not None and time.process_time() - started > timeout)
+        if expanded % 8 == 0 and ((timeout is not None and time.process_time() - started > timeout)
                                    or (stop is not None and stop())):
             return result("timeout")
         if is_goal(child):
@@ -481,7 +390,7 @@ def shorter_plan(task: GroundTask, plan: list[GroundAction], budget: int, weight
     LAMA-style planner; pass the first search's ``heuristic`` to reuse it.
     ``timeout`` (CPU seconds) and ``stop()`` end it early, with None."""
     started = time.process_time()
-    heuristic = heuristic or RelaxedPlanHeuristic(task)
+    heuristic = heuristic or relaxed_plan_heuristic(task)
     acts = heuristic.actions
     bound = len(plan)
     start = task.init
@@ -514,7 +423,7 @@ def shorter_plan(task: GroundTask, plan: list[GroundAction], budget: int, weight
         parents[child] = (state, a)
         if task.is_goal(child):
             return _path_to(child, parents, acts)
-        if evaluated % 64 == 0 and ((timeout is not None and time.process_time() - started > timeout)
+        if evaluated % 8 == 0 and ((timeout is not None and time.process_time() - started > timeout)
                                     or (stop is not None and stop())):
             return None
         h, applicable, helpful = heuristic.evaluate(child)

@@ -1,0 +1,221 @@
+"""hFF, the FF heuristic (Hoffmann & Nebel's relaxed plan), with helpful actions.
+
+Use :func:`relaxed_plan_heuristic` to get the one for a task; the searches of
+:mod:`~atlas_rap.planner.search` and :mod:`~atlas_rap.planner.landmarks` call
+its ``evaluate(state)`` once per state they evaluate, and it returns
+
+- **h**: the number of actions of a relaxed plan (deletes ignored) from
+  ``state`` to the goals, or infinity when the goals are unreachable even so;
+- **the applicable actions** (their numbers): the relaxed exploration finds
+  them in its first layer, so generating successors costs nothing more;
+- **the helpful actions**: the applicable ones that add a fact the relaxed
+  plan needs at its first layer (FF's helpful actions, Fast Downward's
+  preferred operators).
+
+The exploration is layered (each fact gets the first layer it is reached in)
+and counts satisfied preconditions per action. Two backends compute it:
+
+- :class:`RelaxedPlanHeuristic`, pure Python over lists: each evaluation
+  touches each (fact, action) precondition incidence at most once.
+- :class:`VectorRelaxedPlanHeuristic`, numpy and scipy.sparse: each layer is a
+  sparse matrix-vector product over the precondition incidences and one over
+  the add incidences. A layer costs about 20 µs of call overhead, so it pays
+  only on large tasks: on depot p12 (3,762 actions, 16,542 incidences) it
+  evaluates in 0.4 ms against 0.93 ms; on blocks with 15 blocks (480 actions)
+  it would take 0.21 ms against 0.15. :func:`relaxed_plan_heuristic` picks it
+  from VECTOR_INCIDENCES precondition incidences up (measured 2026-12-02).
+
+Both extract the relaxed plan backwards from the goals, choosing for a fact
+of layer ``l`` an achiever that fired in layer ``l - 1``; they choose by
+different rules (the first to fire in Python, the lowest number in numpy), so
+the same task always gets the same backend and the same plans, but the two
+can differ in h on the same state.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+from atlas_rap.planner.ground import GroundAction, GroundTask
+
+INFINITY = float("inf")
+VECTOR_INCIDENCES = 6000  # precondition incidences from which numpy is faster (see the module docstring)
+
+
+def relaxed_plan_heuristic(task: GroundTask, actions: Sequence[GroundAction] | None = None) -> RelaxedPlanHeuristic:
+    """The hFF of ``task`` over ``actions`` (default its own), with the faster backend for its size."""
+    acts = list(task.actions if actions is None else actions)
+    incidences = sum(len(a.pre) for a in acts)
+    kind = VectorRelaxedPlanHeuristic if incidences >= VECTOR_INCIDENCES else RelaxedPlanHeuristic
+    return kind(task, acts)
+
+
+class RelaxedPlanHeuristic:
+    """hFF over a task's actions in pure Python (module docstring).
+
+    It also holds, once, what the searches need to apply an action by number:
+    ``negs`` (negative preconditions), ``deletes`` and ``add_sets`` (frozensets),
+    and the incidence lists the landmark finder uses (``pre_of``, ``pres``, ``adds``).
+    """
+
+    def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None) -> None:
+        self.actions = list(task.actions if actions is None else actions)
+        self.n_facts = n_facts = len(task.facts)
+        self.pre_of: list[list[int]] = [[] for _ in range(n_facts)]
+        self.pre_count: list[int] = []
+        self.adds: list[tuple[int, ...]] = []
+        self.pres: list[tuple[int, ...]] = []
+        self.no_pre: list[int] = []
+        for i, action in enumerate(self.actions):
+            for f in action.pre:
+                self.pre_of[f].append(i)
+            self.pre_count.append(len(action.pre))
+            self.adds.append(action.add)
+            self.pres.append(action.pre)
+            if not action.pre:
+                self.no_pre.append(i)
+        self.goal = task.goal
+        self.is_goal_fact = [False] * n_facts
+        for g in self.goal:
+            self.is_goal_fact[g] = True
+        self.n_goals = len(set(self.goal))
+        self.negs = [a.neg for a in self.actions]
+        self.deletes = [frozenset(a.delete) for a in self.actions]
+        self.add_sets = [frozenset(a.add) for a in self.actions]
+
+    def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
+        """(h, applicable action numbers, helpful action numbers) of ``state``."""
+        counter = self.pre_count[:]
+        pre_of = self.pre_of
+        adds = self.adds
+        is_goal = self.is_goal_fact
+        level = [-1] * self.n_facts
+        for f in state:
+            level[f] = 0
+        missing = self.n_goals - sum(1 for g in set(self.goal) if level[g] == 0)
+        achiever: dict[int, int] = {}
+        fired: list[int] = list(self.no_pre)
+        new_facts: list[int] | frozenset[int] = state
+        applicable: list[int] = fired
+        layer = 0
+        while True:
+            append = fired.append
+            for f in new_facts:
+                for a in pre_of[f]:
+                    c = counter[a] - 1
+                    counter[a] = c
+                    if c == 0:
+                        append(a)
+            if layer == 0 and missing == 0:
+                return 0, applicable, set()
+            following: list[int] = []
+            layer += 1
+            for a in fired:
+                for g in adds[a]:
+                    if level[g] < 0:
+                        level[g] = layer
+                        achiever[g] = a
+                        following.append(g)
+                        if is_goal[g]:
+                            missing -= 1
+            if not following:
+                return INFINITY, applicable, set()
+            if missing <= 0:
+                break
+            new_facts = following
+            fired = []
+        return self._relaxed_plan(level, achiever.__getitem__, applicable)
+
+    def _relaxed_plan(self, level: list[int], achiever, applicable: list[int]) -> tuple[int, list[int], set[int]]:
+        """h and the helpful actions, from each fact's layer and ``achiever(fact)``."""
+        pres, adds = self.pres, self.adds
+        relaxed: set[int] = set()
+        goals = self.goal
+        marked: set[int] = set(goals)
+        stack = [g for g in goals if level[g] > 0]
+        first_layer_needs: set[int] = set()
+        while stack:
+            g = stack.pop()
+            if level[g] == 1:
+                first_layer_needs.add(g)
+            a = achiever(g)
+            if a in relaxed:
+                continue
+            relaxed.add(a)
+            for p in pres[a]:
+                if p not in marked and level[p] > 0:
+                    marked.add(p)
+                    stack.append(p)
+        helpful = {a for a in applicable if not first_layer_needs.isdisjoint(adds[a])}
+        return len(relaxed), applicable, helpful
+
+
+class VectorRelaxedPlanHeuristic(RelaxedPlanHeuristic):
+    """hFF with the exploration as sparse matrix-vector products (module docstring)."""
+
+    def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None) -> None:
+        import numpy as np  # here, not at the top: they cost `atlas plan` 0.1 s of start-up on small tasks
+        from scipy import sparse
+
+        super().__init__(task, actions)
+        self._np = np
+        n_actions, n_facts = len(self.actions), self.n_facts
+        rows = [a for a, pre in enumerate(self.pres) for _ in pre]
+        cols = [f for pre in self.pres for f in pre]
+        self.pre_matrix = sparse.csr_matrix((np.ones(len(rows), dtype=np.int32), (rows, cols)),
+                                            shape=(n_actions, n_facts))
+        rows = [f for add in self.adds for f in add]
+        cols = [a for a, add in enumerate(self.adds) for _ in add]
+        self.add_matrix = sparse.csr_matrix((np.ones(len(rows), dtype=np.int32), (rows, cols)),
+                                            shape=(n_facts, n_actions))
+        self.pre_needed = np.array(self.pre_count, dtype=np.int32)
+        self.goal_mask = np.zeros(n_facts, dtype=bool)
+        self.goal_mask[list(self.goal)] = True
+        adders: list[list[int]] = [[] for _ in range(n_facts)]
+        for a, add in enumerate(self.adds):
+            for f in add:
+                adders[f].append(a)
+        self.adders = adders
+
+    def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
+        np, n_facts = self._np, self.n_facts
+        pre_matrix, add_matrix, needed = self.pre_matrix, self.add_matrix, self.pre_needed
+        facts = np.fromiter(state, dtype=np.intp, count=len(state))
+        reached = np.zeros(n_facts, dtype=bool)
+        reached[facts] = True
+        fact_level = np.full(n_facts, -1, dtype=np.int32)
+        fact_level[facts] = 0
+        action_level = np.full(len(needed), -1, dtype=np.int32)
+        satisfied = pre_matrix @ reached.view(np.int8).astype(np.int32)
+        fired = satisfied == needed
+        applicable = np.flatnonzero(fired).tolist()
+        missing = self.goal_mask & ~reached
+        if not missing.any():
+            return 0, applicable, set()
+        new_actions = fired
+        layer = 0
+        while True:
+            action_level[new_actions] = layer
+            layer += 1
+            gained = add_matrix @ new_actions.view(np.int8).astype(np.int32)
+            new_facts = (gained > 0) & ~reached
+            if not new_facts.any():
+                return INFINITY, applicable, set()
+            reached |= new_facts
+            fact_level[new_facts] = layer
+            missing &= ~new_facts
+            if not missing.any():
+                break
+            satisfied += pre_matrix @ new_facts.view(np.int8).astype(np.int32)
+            now = satisfied == needed
+            new_actions = now & ~fired
+            fired = now
+        levels = fact_level.tolist()
+        fired_in = action_level.tolist()
+        adders = self.adders
+
+        def achiever(fact: int) -> int:
+            wanted = levels[fact] - 1
+            return next(a for a in adders[fact] if fired_in[a] == wanted)
+
+        return self._relaxed_plan(levels, achiever, applicable)

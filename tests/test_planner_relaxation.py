@@ -1,0 +1,83 @@
+"""hFF's two backends: pure Python for small tasks, numpy for large ones. They must agree
+on what matters to the search (which actions apply, whether the goals are reachable at
+all, that helpful actions apply) and lead to valid plans; each picks achievers by its own
+rule, so h itself may differ by an action or two, never by the relaxed exploration."""
+
+from __future__ import annotations
+
+import importlib
+import random
+from pathlib import Path
+
+from pddl_problems import blocks_problem, gripper_problem
+
+from atlas_rap.planner.ground import ground
+from atlas_rap.planner.pddl import load_pddl
+from atlas_rap.planner.plan_file import validate_plan
+from atlas_rap.planner.relaxation import (
+    INFINITY,
+    RelaxedPlanHeuristic,
+    VectorRelaxedPlanHeuristic,
+    relaxed_plan_heuristic,
+)
+from atlas_rap.planner.search import greedy_best_first
+
+relaxation = importlib.import_module("atlas_rap.planner.relaxation")
+
+
+def random_walk_states(task, steps: int, seed: int) -> list[frozenset[int]]:
+    """States along a random walk from the start (each one reachable)."""
+    rng = random.Random(seed)
+    state, states = task.init, [task.init]
+    for _ in range(steps):
+        moves = [a for a in task.actions if task.applicable(a, state)]
+        if not moves:
+            break
+        state = task.apply(rng.choice(moves), state)
+        states.append(state)
+    return states
+
+
+def test_both_backends_see_the_same_applicable_actions_and_reachability(tmp_path: Path) -> None:
+    (tmp_path / "g").mkdir(), (tmp_path / "b").mkdir()
+    for domain, problem in (gripper_problem(tmp_path / "g", 6), blocks_problem(tmp_path / "b", 7, seed=3)):
+        task = ground(load_pddl(domain, problem))
+        python, vector = RelaxedPlanHeuristic(task), VectorRelaxedPlanHeuristic(task)
+        for state in random_walk_states(task, 40, seed=1):
+            h_py, applicable_py, helpful_py = python.evaluate(state)
+            h_np, applicable_np, helpful_np = vector.evaluate(state)
+            expected = {i for i, a in enumerate(task.actions) if all(p in state for p in a.pre)}
+            assert set(applicable_py) == set(applicable_np) == expected
+            assert (h_py == INFINITY) == (h_np == INFINITY)
+            assert (h_py == 0) == (h_np == 0) == task.is_goal(state)
+            assert helpful_np <= set(applicable_np) and helpful_py <= set(applicable_py)
+            if 0 < h_np < INFINITY:
+                assert helpful_np, "a state short of the goals has a helpful action"
+
+
+def test_the_goals_unreachable_even_relaxed_are_infinity_for_both(tmp_path: Path) -> None:
+    domain, problem = gripper_problem(tmp_path, 2)
+    task = ground(load_pddl(domain, problem))
+    empty = frozenset()  # no robot anywhere, no ball anywhere: nothing applies
+    assert RelaxedPlanHeuristic(task).evaluate(empty)[0] == INFINITY
+    assert VectorRelaxedPlanHeuristic(task).evaluate(empty)[0] == INFINITY
+
+
+def test_the_numpy_backend_guides_the_search_to_valid_plans(tmp_path: Path) -> None:
+    (tmp_path / "g").mkdir(), (tmp_path / "b").mkdir()
+    for domain, problem in (gripper_problem(tmp_path / "g", 8), blocks_problem(tmp_path / "b", 8, seed=5)):
+        parsed = load_pddl(domain, problem)
+        task = ground(parsed)
+        found = greedy_best_first(task, heuristic=VectorRelaxedPlanHeuristic(task))
+        assert found.status == "solved"
+        assert validate_plan(parsed, [a.term for a in found.plan]).ok
+
+
+def test_large_tasks_get_the_numpy_backend(tmp_path: Path, monkeypatch) -> None:
+    domain, problem = gripper_problem(tmp_path, 4)
+    task = ground(load_pddl(domain, problem))
+    incidences = sum(len(a.pre) for a in task.actions)
+    monkeypatch.setattr(relaxation, "VECTOR_INCIDENCES", incidences + 1)
+    assert type(relaxed_plan_heuristic(task)) is RelaxedPlanHeuristic
+    monkeypatch.setattr(relaxation, "VECTOR_INCIDENCES", incidences)
+    assert type(relaxed_plan_heuristic(task)) is VectorRelaxedPlanHeuristic
