@@ -17,6 +17,7 @@ from atlas_rap.planner.plan_file import validate_plan
 from atlas_rap.planner.relaxation import (
     INFINITY,
     RelaxedPlanHeuristic,
+    SwitchingRelaxedPlanHeuristic,
     VectorRelaxedPlanHeuristic,
     relaxed_plan_heuristic,
 )
@@ -73,11 +74,36 @@ def test_the_numpy_backend_guides_the_search_to_valid_plans(tmp_path: Path) -> N
         assert validate_plan(parsed, [a.term for a in found.plan]).ok
 
 
-def test_large_tasks_get_the_numpy_backend(tmp_path: Path, monkeypatch) -> None:
+def test_the_backend_whose_estimated_cost_is_lower_is_chosen(tmp_path: Path, monkeypatch) -> None:
     domain, problem = gripper_problem(tmp_path, 4)
     task = ground(load_pddl(domain, problem))
+    assert type(relaxed_plan_heuristic(task)) is RelaxedPlanHeuristic  # 4 balls: Python's (the real costs)
+    monkeypatch.setattr(relaxation, "NUMPY_SECONDS_PER_LAYER", 1e-9)
+    monkeypatch.setattr(relaxation, "NUMPY_SECONDS_PER_LAYER_INCIDENCE", 0.0)
+    monkeypatch.setattr(relaxation, "PYTHON_SECONDS_PER_INCIDENCE", 1e-12)
+    assert type(relaxed_plan_heuristic(task)) is RelaxedPlanHeuristic  # Python is cheaper still
+
+
+def test_where_numpy_is_cheaper_the_search_changes_to_it_once_the_import_is_repaid(tmp_path: Path,
+                                                                                    monkeypatch) -> None:
+    domain, problem = gripper_problem(tmp_path, 4)
+    parsed = load_pddl(domain, problem)
+    task = ground(parsed)
+    monkeypatch.setattr(relaxation, "NUMPY_SECONDS_PER_LAYER", 0.0)
+    monkeypatch.setattr(relaxation, "NUMPY_SECONDS_PER_LAYER_INCIDENCE", 0.0)
+    monkeypatch.setattr(relaxation, "NUMPY_IMPORT_SECONDS", 0.0)  # repaid at once
+    heuristic = relaxed_plan_heuristic(task)
+    assert type(heuristic) is SwitchingRelaxedPlanHeuristic and heuristic.after == 0
+    vector = VectorRelaxedPlanHeuristic(task)
+    assert heuristic.evaluate(task.init) == vector.evaluate(task.init)
     incidences = sum(len(a.pre) for a in task.actions)
-    monkeypatch.setattr(relaxation, "VECTOR_INCIDENCES", incidences + 1)
-    assert type(relaxed_plan_heuristic(task)) is RelaxedPlanHeuristic
-    monkeypatch.setattr(relaxation, "VECTOR_INCIDENCES", incidences)
-    assert type(relaxed_plan_heuristic(task)) is VectorRelaxedPlanHeuristic
+    monkeypatch.setattr(relaxation, "NUMPY_IMPORT_SECONDS", 10 * incidences * relaxation.PYTHON_SECONDS_PER_INCIDENCE)
+    heuristic = relaxed_plan_heuristic(task)
+    assert heuristic.after == 10
+    python = RelaxedPlanHeuristic(task)
+    states = random_walk_states(task, 12, seed=2)
+    for i, state in enumerate(states):
+        expected = (python if i < 10 else vector).evaluate(state)
+        assert heuristic.evaluate(state) == expected
+    found = greedy_best_first(task, heuristic=relaxed_plan_heuristic(task))
+    assert found.status == "solved" and validate_plan(parsed, [a.term for a in found.plan]).ok

@@ -19,11 +19,21 @@ and counts satisfied preconditions per action. Two backends compute it:
   touches each (fact, action) precondition incidence at most once.
 - :class:`VectorRelaxedPlanHeuristic`, numpy and scipy.sparse: each layer is a
   sparse matrix-vector product over the precondition incidences and one over
-  the add incidences. A layer costs about 20 µs of call overhead, so it pays
-  only on large tasks: on depot p12 (3,762 actions, 16,542 incidences) it
-  evaluates in 0.4 ms against 0.93 ms; on blocks with 15 blocks (480 actions)
-  it would take 0.21 ms against 0.15. :func:`relaxed_plan_heuristic` picks it
-  from VECTOR_INCIDENCES precondition incidences up (measured 2026-12-02).
+  the add incidences. A layer costs some 15 µs of calls, so it pays only on
+  large tasks whose goals are few layers away: on depot p12 (3,762 actions,
+  16,542 incidences, 10 layers) it evaluates in 0.47 ms against 0.93 ms; on
+  blocks with 15 blocks (1,185 incidences, 13 layers) it would take 0.24 ms
+  against 0.14; on triangle-tireworld p40 (16,558 incidences but 80 layers)
+  3.4 ms against 2.0.
+
+:func:`relaxed_plan_heuristic` estimates both costs from the task's size and
+the number of layers between its initial state and its goals (constants
+measured on the shared benchmarks, 2026-12-02). Importing scipy costs about
+0.25 s, more than many whole searches, so where numpy is cheaper the search
+starts in Python and changes to numpy after as many evaluations as it takes
+the saving to repay the import (:class:`SwitchingRelaxedPlanHeuristic`). The
+change comes after a count of evaluations, never a time, so the same task
+still gives the same plan.
 
 Both extract the relaxed plan backwards from the goals, choosing for a fact
 of layer ``l`` an achiever that fired in layer ``l - 1``; they choose by
@@ -34,20 +44,32 @@ can differ in h on the same state.
 
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 from atlas_rap.planner.ground import GroundAction, GroundTask
 
 INFINITY = float("inf")
-VECTOR_INCIDENCES = 6000  # precondition incidences from which numpy is faster (see the module docstring)
+PYTHON_SECONDS_PER_INCIDENCE = 56e-9  # an evaluation in Python, per precondition incidence
+NUMPY_SECONDS_PER_LAYER = 15e-6  # an evaluation in numpy, per layer: the calls ...
+NUMPY_SECONDS_PER_LAYER_INCIDENCE = 1.5e-9  # ... and the products, per precondition incidence
+NUMPY_IMPORT_SECONDS = 0.25  # importing numpy and scipy.sparse
 
 
 def relaxed_plan_heuristic(task: GroundTask, actions: Sequence[GroundAction] | None = None) -> RelaxedPlanHeuristic:
-    """The hFF of ``task`` over ``actions`` (default its own), with the faster backend for its size."""
-    acts = list(task.actions if actions is None else actions)
-    incidences = sum(len(a.pre) for a in acts)
-    kind = VectorRelaxedPlanHeuristic if incidences >= VECTOR_INCIDENCES else RelaxedPlanHeuristic
-    return kind(task, acts)
+    """The hFF of ``task`` over ``actions`` (default its own), with the backend that
+    should evaluate its states faster (module docstring)."""
+    python = RelaxedPlanHeuristic(task, actions)
+    incidences = sum(python.pre_count)
+    if incidences * PYTHON_SECONDS_PER_INCIDENCE < 5 * NUMPY_SECONDS_PER_LAYER:
+        return python  # no need to look: one numpy layer would cost more than a whole evaluation here
+    if python.evaluate(task.init)[0] in (0, INFINITY):
+        return python
+    numpy_cost = python.layers * (NUMPY_SECONDS_PER_LAYER + incidences * NUMPY_SECONDS_PER_LAYER_INCIDENCE)
+    saving = incidences * PYTHON_SECONDS_PER_INCIDENCE - numpy_cost
+    if saving <= 0:
+        return python
+    return SwitchingRelaxedPlanHeuristic(task, actions, after=math.ceil(NUMPY_IMPORT_SECONDS / saving))
 
 
 class RelaxedPlanHeuristic:
@@ -56,6 +78,7 @@ class RelaxedPlanHeuristic:
     It also holds, once, what the searches need to apply an action by number:
     ``negs`` (negative preconditions), ``deletes`` and ``add_sets`` (frozensets),
     and the incidence lists the landmark finder uses (``pre_of``, ``pres``, ``adds``).
+    ``layers`` is how many layers the last evaluation that reached the goals took.
     """
 
     def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None) -> None:
@@ -82,6 +105,7 @@ class RelaxedPlanHeuristic:
         self.negs = [a.neg for a in self.actions]
         self.deletes = [frozenset(a.delete) for a in self.actions]
         self.add_sets = [frozenset(a.add) for a in self.actions]
+        self.layers = 0
 
     def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
         """(h, applicable action numbers, helpful action numbers) of ``state``."""
@@ -124,6 +148,7 @@ class RelaxedPlanHeuristic:
                 break
             new_facts = following
             fired = []
+        self.layers = layer
         return self._relaxed_plan(level, achiever.__getitem__, applicable)
 
     def _relaxed_plan(self, level: list[int], achiever, applicable: list[int]) -> tuple[int, list[int], set[int]]:
@@ -219,3 +244,19 @@ class VectorRelaxedPlanHeuristic(RelaxedPlanHeuristic):
             return next(a for a in adders[fact] if fired_in[a] == wanted)
 
         return self._relaxed_plan(levels, achiever, applicable)
+
+
+class SwitchingRelaxedPlanHeuristic(RelaxedPlanHeuristic):
+    """hFF in Python for the first ``after`` evaluations, then in numpy (module docstring)."""
+
+    def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None, *, after: int) -> None:
+        super().__init__(task, actions)
+        self.task, self.after, self.evaluated = task, after, 0
+
+    def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
+        self.evaluated += 1
+        if self.evaluated > self.after:
+            vector = VectorRelaxedPlanHeuristic(self.task, self.actions)
+            self.evaluate = vector.evaluate  # type: ignore[method-assign]  # from now on, straight to numpy
+            return vector.evaluate(state)
+        return super().evaluate(state)
