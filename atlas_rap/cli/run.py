@@ -34,8 +34,9 @@ from atlas_rap.cli.options import (POSITIVE, OutputFile, bus_options, check_bus_
                    "(with no world: a timeline of the plan steps, re-plans and tasks).")
 @click.option("--record", "record_file", type=OutputFile(), metavar="RUN.mcap",
               help="Record the run for Foxglove as MCAP (pose, path, sonar, grid, scene, topology, route, "
-                   "primary layer, trace; in simulated time), even if the run fails or is interrupted. "
-                   "Needs atlas-rap[foxglove].")
+                   "primary layer, trace; in simulated time), even if the run fails or is interrupted. With "
+                   "--connect: the trace and primary layer (the host records the world: atlas skills serve "
+                   "--record). Needs atlas-rap[foxglove].")
 @click.option("--live", is_flag=True,
               help="Serve the run live to Foxglove over WebSocket (prints the ws:// URL); paced to the wall "
                    "clock unless --no-realtime. Needs atlas-rap[foxglove].")
@@ -63,7 +64,7 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     out, err = console(), console(err=True)
     layering = layer_engine_options(no_prior_map, map_in, map_out, layers, layer_rules)
     check_bus_options(connect, robots, **{"--world": world, "--map": topology_file, "--render": render,
-                      "--record": record_file, "--live": live, "--no-prior-map": no_prior_map, "--map-in": map_in,
+                      "--live (the host serves the world live: atlas skills serve --live)": live, "--no-prior-map": no_prior_map, "--map-in": map_in,
                       "--layers": tuple(layers) != ("I", "II", "III", "IV"), "--seed (the host's: atlas skills serve --seed)": seed})
     realtime = live if realtime is None else realtime
     engine = MissionEngine(world, seed=seed, topology=topology_file, realtime=realtime, connect=connect,

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import signal
 import sys
 
 import click
 
-from atlas_rap.cli.options import world_help
+from atlas_rap.cli.options import OutputFile, world_help
 
 
 @click.group("skills")
@@ -24,15 +25,25 @@ def skills_group() -> None:
 @click.option("--robot", default="robot", show_default=True, metavar="NAME",
               help="The robot's name on the bus: its keys (atlas/NAME/...) and the symbol its facts use.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the simulation's random choices.")
-def serve(world: str, listen: tuple[str, ...], connect: tuple[str, ...], robot: str, seed: int) -> None:
+@click.option("--record", "record_file", type=OutputFile(), metavar="HOST.mcap",
+              help="Record each session's world for Foxglove as MCAP (pose, tf, path, sonar, scene, topology, "
+                   "route; in simulated time): the first session to HOST.mcap, later ones to HOST-2.mcap, ...; "
+                   "each file is finished when its session ends, and on Ctrl-C or SIGTERM. "
+                   "Needs atlas-rap[foxglove].")
+@click.option("--live", is_flag=True,
+              help="Serve the world live to Foxglove over WebSocket (prints the ws:// URL), session after "
+                   "session; run the sequencer with --realtime to watch it. Needs atlas-rap[foxglove].")
+@click.option("--live-port", type=click.IntRange(0, 65535), default=8765, show_default=True, metavar="PORT",
+              help="The port --live listens on, on 127.0.0.1 (0: any free port).")
+def serve(world: str, listen: tuple[str, ...], connect: tuple[str, ...], robot: str, seed: int,
+          record_file: str | None, live: bool, live_port: int) -> None:
     """Run the simulation and the skill manager as a skill host for `atlas run --connect`.
 
     It serves one sequencer at a time, each with a fresh world, until
-    Ctrl-C. Key expressions: atlas/NAME/skill/SKILL/enable|disable,
-    atlas/NAME/event/** (facts, done), atlas/NAME/clock/**; liveliness
-    token atlas/NAME/host.
+    Ctrl-C or SIGTERM (exit 130, 143). Key expressions:
+    atlas/NAME/skill/SKILL/enable|disable, atlas/NAME/event/** (facts,
+    done), atlas/NAME/clock/**; liveliness token atlas/NAME/host.
     """
-    from atlas_rap.errors import AtlasError
     from atlas_rap.layers.skill_host import SkillHostServer
     from atlas_rap.skillbus.keys import check_robot
 
@@ -41,22 +52,48 @@ def serve(world: str, listen: tuple[str, ...], connect: tuple[str, ...], robot: 
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--robot") from None
     endpoints = listen or (() if connect else ("tcp/127.0.0.1:7447",))
+    recorder = None
+    if record_file or live:
+        from atlas_rap.layers.recording import HostRecorder
+
+        recorder = HostRecorder(path=record_file, live=live, port=live_port)
     try:
-        server = SkillHostServer(world, robot=robot, seed=seed, listen=endpoints, connect=connect)
-    except AtlasError:
+        server = SkillHostServer(world, robot=robot, seed=seed, listen=endpoints, connect=connect,
+                                 recorder=recorder)
+    except BaseException:
+        if recorder is not None:
+            recorder.close()
         raise
     where = ", ".join(endpoints + connect)
     click.echo(f"skill host for robot {robot} in world {server.world.name} on {where} (Ctrl-C to stop)")
+    if recorder is not None and recorder.url:
+        click.echo(f"live: {recorder.url} (Foxglove: Open connection, Foxglove WebSocket)")
     sys.stdout.flush()
 
     def said(text: str) -> None:
         click.echo(f"robot {robot}: {text}")
         sys.stdout.flush()
 
+    previous = signal.signal(signal.SIGTERM, _terminated)
     try:
         server.serve(on_session=said)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, _Terminated) as exc:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # the files are being finished: a second one waits
         server.close()
         click.echo("skill host stopped", err=True)
-        sys.exit(130)
+        sys.exit(143 if isinstance(exc, _Terminated) else 130)
+    except BaseException:  # an error (a recording that cannot be written): the files finished, the bus left
+        server.close()
+        raise
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     server.close()
+
+
+class _Terminated(BaseException):
+    """SIGTERM came: the host stops as on Ctrl-C (its recording finished)."""
+
+
+def _terminated(signum: int, frame: object) -> None:
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    raise _Terminated()

@@ -13,7 +13,8 @@
 - ``experiment``: the seed's skill-acquisition experiment; ``figures``: its plots.
 - ``picture``: an observer of a run that draws it as a PNG.
 - ``recording``: an observer of a run that records it for Foxglove (MCAP, live
-  WebSocket; ``foxglove_messages`` makes the messages); ``mcap_reader`` and
+  WebSocket; in one process, or split between a skill host and the sequencer;
+  ``foxglove_messages`` makes the messages); ``mcap_reader`` and
   ``mcap_picture`` read a recording back and draw it.
 """
 

@@ -54,13 +54,21 @@ A run with no world (``--world none``) has only the last two. A live
 viewer that connects late gets the latest scene, topology, route, grid,
 path and primary layer when it subscribes (the WebSocket server forgets
 what it sent before); the MCAP file is not affected by viewers.
+
+The world's channels (:data:`WORLD_TOPICS`) are sampled by one
+:class:`WorldSampler`, which reads whatever holds the world: the engine in one
+process, or a skill host's session (``atlas skills serve --record HOST.mcap``,
+``--live``: a :class:`HostRecorder`, a file per session). With the skills on
+another host (``atlas run --connect --record``) the sequencer's
+:class:`RunRecorder` records the trace and the primary layer; both files
+are in the same simulated time, so Foxglove opens them together.
 """
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable
 
 from atlas_rap.errors import AtlasError
 from atlas_rap.skills.beliefs import GRID, ROUTE, SONAR, TOPOLOGY
@@ -92,6 +100,9 @@ TOPICS: dict[str, tuple[str, str]] = {
 }
 """Topic → (schema name, the SDK's channel class); see the module docstring for what each carries."""
 
+WORLD_TOPICS = tuple(topic for topic in TOPICS if not topic.startswith("/atlas/"))
+"""The world's channels: all but the trace and the primary layer (what a skill host records)."""
+
 _LATCHED = ("/world/scene", "/map/topology", "/robot/route", "/map/grid", "/robot/path", "/atlas/primary_layer")
 """What a live viewer connecting late is sent again: the latest of each (per scene entity)."""
 
@@ -121,18 +132,25 @@ class _Output:
     """One place messages go: a Foxglove context with a channel per topic, and its sink
     (an MCAP writer or a WebSocket server). A live one keeps the latest latched messages."""
 
-    def __init__(self, fox: Any, live: bool) -> None:
+    def __init__(self, fox: Any, live: bool, topics: Iterable[str] = TOPICS) -> None:
         self.context = fox.Context()
         self.channels: dict[str, Any] = {}
-        for topic, (_, kind) in TOPICS.items():
+        for topic in topics:
+            kind = TOPICS[topic][1]
             if kind:
                 self.channels[topic] = getattr(fox.channels, kind)(topic, context=self.context)
             else:
                 self.channels[topic] = fox.Channel(topic, schema=_PRIMARY_SCHEMA, context=self.context)
-        self.latched: dict[str, dict[str, Any]] | None = {topic: {} for topic in _LATCHED} if live else None
+        self.latched: dict[str, dict[str, Any]] | None = None
+        if live:
+            self.forget()
         self.pending: set[str] = set()  # topics a viewer subscribed to since the last sample
         self.writer: Any = None
         self.server: Any = None
+
+    def forget(self) -> None:
+        """A live one forgets the latched messages (a skill host's new session: a new world)."""
+        self.latched = {topic: {} for topic in _LATCHED if topic in self.channels}
 
     def send(self, topic: str, message: Any, ns: int, key: str) -> None:
         self.channels[topic].log(message, log_time=ns)
@@ -168,48 +186,60 @@ def _subscriptions(fox: Any, output: _Output) -> Any:
     return Subscriptions()
 
 
-class RunRecorder:
-    """Records one run to an MCAP file (``path``) and/or serves it live (``live``) for Foxglove.
+def _open_file(fox: Any, path: str | Path, topics: Iterable[str], flag: str = "--record") -> _Output:
+    """An MCAP file's output (:class:`AtlasError` when it cannot be written)."""
+    output = _Output(fox, live=False, topics=topics)
+    try:
+        output.writer = fox.open_mcap(path, allow_overwrite=True, context=output.context)
+    except Exception as exc:  # the SDK's own errors: a folder, no permission
+        raise AtlasError(f"{flag} {path}: cannot write it ({exc})") from None
+    return output
 
-    ``host``/``port``: where the live WebSocket server listens (port 0: any
-    free port; :attr:`url` says which). ``pose_rate``, ``grid_period``: see
-    :data:`POSE_RATE`, :data:`GRID_PERIOD`. Raises :class:`AtlasError` when
-    the SDK is missing, the file cannot be made or the port cannot be had.
+
+def _open_live(fox: Any, host: str, port: int, topics: Iterable[str]) -> _Output:
+    """A live WebSocket server's output (:class:`AtlasError` when the port cannot be had)."""
+    output = _Output(fox, live=True, topics=topics)
+    try:
+        output.server = fox.start_server(name="atlas-rap", host=host, port=port, context=output.context,
+                                         capabilities=[fox.websocket.Capability.Time],
+                                         server_listener=_subscriptions(fox, output))
+    except Exception as exc:  # the port is taken, the host is not this machine's
+        raise AtlasError(f"--live: cannot serve on {host}:{port} ({exc})") from None
+    return output
+
+
+def _live_url(host: str, live: _Output | None) -> str | None:
+    if live is None or live.server is None:
+        return None
+    return f"ws://{host}:{live.server.port}"
+
+
+class WorldSampler:
+    """Samples a run's world into the world channels (:data:`WORLD_TOPICS`): the one implementation,
+    for a run in one process (:class:`RunRecorder`) and for a skill host (:class:`HostRecorder`).
+
+    ``source`` holds the world and is read at each sample (it may be built after the sampler is
+    made): ``simulation`` (None: no world here, nothing is sampled), ``manager`` (the skill
+    manager: its beliefs give the sonar, grid, topology and route), ``world`` (the simulated
+    world), ``stack`` (the layer stack or None: the believed world, the grid's version) and
+    ``now()`` (simulated seconds). A :class:`~atlas_rap.layers.engine.MissionEngine` is one, a
+    skill host's session another. ``outputs``: where every message goes; ``live``: the one
+    of them that is a WebSocket server (its time is broadcast and late viewers served at each
+    sample). ``start``: when the world starts (the walls, places and prior topology are stamped then).
     """
 
-    def __init__(self, engine: Any, *, path: str | Path | None = None, live: bool = False,
-                 host: str = "127.0.0.1", port: int = 8765, pose_rate: float = POSE_RATE,
-                 grid_period: float = GRID_PERIOD) -> None:
-        fox = require_foxglove()
+    def __init__(self, source: Any, outputs: list[_Output], *, live: _Output | None = None,
+                 pose_rate: float = POSE_RATE, grid_period: float = GRID_PERIOD, start: float = 0.0) -> None:
         from atlas_rap.layers import foxglove_messages
 
         self.m = foxglove_messages
-        self.engine = engine
+        self.source = source
+        self.outputs = outputs
+        self.live = live
         self.pose_rate = pose_rate
         self.grid_period = grid_period
-        self.outputs: list[_Output] = []
-        self.live: _Output | None = None
-        self.closed = False
-        self._host = host
-        if path is not None:
-            output = _Output(fox, live=False)
-            try:
-                output.writer = fox.open_mcap(path, allow_overwrite=True, context=output.context)
-            except Exception as exc:  # the SDK's own errors: a folder, no permission
-                raise AtlasError(f"--record {path}: cannot write it ({exc})") from None
-            self.outputs.append(output)
-        if live:
-            output = _Output(fox, live=True)
-            try:
-                output.server = fox.start_server(name="atlas-rap", host=host, port=port, context=output.context,
-                                                 capabilities=[fox.websocket.Capability.Time],
-                                                 server_listener=_subscriptions(fox, output))
-            except Exception as exc:  # the port is taken, the host is not this machine's
-                self._close_outputs()
-                raise AtlasError(f"--live: cannot serve on {host}:{port} ({exc})") from None
-            self.outputs.append(output)
-            self.live = output
-        self._sample_index = 0
+        self.start = start
+        self._sample_index = math.floor(start * pose_rate + 1e-9)
         self._last_sample: float | None = None
         self._started = False
         self._path: list[Any] = []
@@ -225,38 +255,19 @@ class RunRecorder:
         self._doors: dict[str, bool] | None = None
         self._obstacles: list | None = None
         self.counts: dict[str, int] = {topic: 0 for topic in TOPICS}
-        engine.trace.add_sink(self)
 
-    @property
-    def url(self) -> str | None:
-        """The live view's ``ws://host:port`` (None without ``live``)."""
-        if self.live is None or self.live.server is None:
-            return None
-        return f"ws://{self._host}:{self.live.server.port}"
-
-    # -- writing ---------------------------------------------------------------
-
-    def _send(self, topic: str, message: Any, t: float, key: str = "") -> None:
+    def send(self, topic: str, message: Any, t: float, key: str = "") -> None:
+        """Write ``message`` on ``topic`` at simulated time ``t`` to every output."""
         ns = self.m.nanoseconds(t)
         for output in self.outputs:
             output.send(topic, message, ns, key)
         self.counts[topic] += 1
 
-    def __call__(self, record: dict) -> None:
-        """The trace sink: a log line per record; a primary-layer message per switch."""
-        if self.closed:
-            return
-        t = record["t"]
-        self._send("/atlas/trace", self.m.log_line(record), t)
-        if record["event"] == "layer-switched":
-            self._send("/atlas/primary_layer", {"layer": record.get("layer"), "previous": record.get("previous"),
-                                                "reason": record.get("reason", "")}, t)
-
     def pace(self, t: float) -> None:
-        """The engine's ``pace`` hook (``run_mission(until, pace=recorder.pace)``): samples the
-        world when a pose sample is due at simulated time ``t``."""
+        """A ``pace`` hook (the executive's, at every sequencer tick): samples the world when a
+        pose sample is due at simulated time ``t``."""
         index = math.floor(t * self.pose_rate + 1e-9)
-        if index <= self._sample_index or self.closed:
+        if index <= self._sample_index:
             return
         self._sample_index = index
         self.sample(t)
@@ -268,8 +279,8 @@ class RunRecorder:
             ns = self.m.nanoseconds(t)
             live.server.broadcast_time(ns)
             live.resend(ns)
-        engine = self.engine
-        sim = engine.simulation
+        source = self.source
+        sim = source.simulation
         if sim is None:
             return
         if not self._started:
@@ -278,47 +289,47 @@ class RunRecorder:
         m = self.m
         x, y, heading = sim.pose
         where = m.pose(x, y, heading)
-        self._send("/robot/pose", m.pose_in_frame(t, where), t)
-        self._send("/tf", m.robot_transform(t, x, y, heading), t)
+        self.send("/robot/pose", m.pose_in_frame(t, where), t)
+        self.send("/tf", m.robot_transform(t, x, y, heading), t)
         self._grow_path(t, x, y, heading, where)
-        beliefs = engine.manager.context.beliefs
+        beliefs = source.manager.context.beliefs
         sonar = beliefs.get(SONAR)
         if sonar is not None and sonar is not self._sonar:
             self._sonar = sonar
-            config = engine.world.sonar
-            self._send("/robot/sonar", m.sonar_scan(t, where, sonar[0], sonar[1], sim.radius, config.max_range), t)
+            config = source.world.sonar
+            self.send("/robot/sonar", m.sonar_scan(t, where, sonar[0], sonar[1], sim.radius, config.max_range), t)
         grid = beliefs.get(GRID)
         if grid is not None:
-            self._grid_key = (id(grid), engine.stack.grid_version if engine.stack is not None else 0)
+            self._grid_key = (id(grid), source.stack.grid_version if source.stack is not None else 0)
             if self._grid_key != self._grid_sent and t >= self._grid_due:
                 self._send_grid(t, grid)
         topology = beliefs.get(TOPOLOGY)
         if topology is not None and topology is not self._topology:
             self._topology = topology
-            self._send("/map/topology", m.scene(m.topology_entity(t, topology)), t)
+            self.send("/map/topology", m.scene(m.topology_entity(t, topology)), t)
         route = beliefs.get(ROUTE)
         route_key = (id(route), route.index) if route is not None else None
         if route_key != self._route_key:
             self._route_key = route_key
             update = m.scene(m.route_entity(t, route)) if route is not None else m.scene(deleted=[(t, "route")])
-            self._send("/robot/route", update, t)
+            self.send("/robot/route", update, t)
         doors = sim.doors_open
         if doors != self._doors:
             self._doors = doors
-            self._send("/world/scene", m.scene(m.doors_entity(t, engine.world, doors)), t, "doors")
+            self.send("/world/scene", m.scene(m.doors_entity(t, source.world, doors)), t, "doors")
         obstacles = sim.obstacles()
         if obstacles != self._obstacles:
             self._obstacles = obstacles
-            self._send("/world/scene", m.scene(m.obstacles_entity(t, obstacles)), t, "obstacles")
+            self.send("/world/scene", m.scene(m.obstacles_entity(t, obstacles)), t, "obstacles")
 
     def _start(self) -> None:
-        """The world as it starts (t = 0): walls, places, and the prior map's graph."""
+        """The world as it starts: walls, places, and the prior map's graph."""
         self._started = True
-        m, engine = self.m, self.engine
-        self._send("/world/scene", m.scene(m.walls_entity(0.0, engine.world)), 0.0, "walls")
-        self._send("/world/scene", m.scene(m.places_entity(0.0, engine.world)), 0.0, "places")
-        believed = engine.stack.world if engine.stack is not None else engine.world
-        self._send("/map/topology", m.scene(m.prior_topology_entity(0.0, believed)), 0.0)
+        m, source, t = self.m, self.source, self.start
+        self.send("/world/scene", m.scene(m.walls_entity(t, source.world)), t, "walls")
+        self.send("/world/scene", m.scene(m.places_entity(t, source.world)), t, "places")
+        believed = source.stack.world if source.stack is not None else source.world
+        self.send("/map/topology", m.scene(m.prior_topology_entity(t, believed)), t)
 
     def _grow_path(self, t: float, x: float, y: float, heading: float, where: Any) -> None:
         last = self._path_at
@@ -332,14 +343,90 @@ class RunRecorder:
     def _send_path(self, t: float) -> None:
         self._path_sent = len(self._path)
         self._path_due = t + max(PATH_PERIOD, len(self._path) / 1000.0)
-        self._send("/robot/path", self.m.path(t, self._path), t)
+        self.send("/robot/path", self.m.path(t, self._path), t)
 
     def _send_grid(self, t: float, grid: Any) -> None:
         self._grid_sent = self._grid_key
         self._grid_due = t + self.grid_period
-        self._send("/map/grid", self.m.occupancy_grid(t, grid), t)
+        self.send("/map/grid", self.m.occupancy_grid(t, grid), t)
 
-    # -- the end -----------------------------------------------------------------
+    def finish(self) -> None:
+        """The end of the world's run: a last pose sample if it ended after the last one, the
+        last path and grid (the outputs stay open)."""
+        source = self.source
+        if source.simulation is None:
+            return
+        end = source.now()
+        if self._last_sample is None or end > self._last_sample + 1e-9:
+            self.sample(end)
+            end = self._last_sample
+        if len(self._path) != self._path_sent:
+            self._send_path(end)
+        grid = source.manager.context.beliefs.get(GRID)
+        if grid is not None and self._grid_key != self._grid_sent:
+            self._send_grid(end, grid)
+
+
+class RunRecorder:
+    """Records one run to an MCAP file (``path``) and/or serves it live (``live``) for Foxglove.
+
+    ``host``/``port``: where the live WebSocket server listens (port 0: any
+    free port; :attr:`url` says which). ``pose_rate``, ``grid_period``: see
+    :data:`POSE_RATE`, :data:`GRID_PERIOD`. Raises :class:`AtlasError` when
+    the SDK is missing, the file cannot be made or the port cannot be had.
+    With ``atlas run --connect`` the engine has no world of its own (the skill
+    host records it: :class:`HostRecorder`), so only the trace and the primary
+    layer are recorded here.
+    """
+
+    def __init__(self, engine: Any, *, path: str | Path | None = None, live: bool = False,
+                 host: str = "127.0.0.1", port: int = 8765, pose_rate: float = POSE_RATE,
+                 grid_period: float = GRID_PERIOD) -> None:
+        fox = require_foxglove()
+        self.engine = engine
+        self.outputs: list[_Output] = []
+        self.live: _Output | None = None
+        self.closed = False
+        self._host = host
+        if path is not None:
+            self.outputs.append(_open_file(fox, path, TOPICS))
+        if live:
+            try:
+                self.live = _open_live(fox, host, port, TOPICS)
+            except AtlasError:
+                self._close_outputs()
+                raise
+            self.outputs.append(self.live)
+        self.world = WorldSampler(engine, self.outputs, live=self.live, pose_rate=pose_rate,
+                                  grid_period=grid_period)
+        self.counts = self.world.counts
+        engine.trace.add_sink(self)
+
+    @property
+    def url(self) -> str | None:
+        """The live view's ``ws://host:port`` (None without ``live``)."""
+        return _live_url(self._host, self.live)
+
+    def __call__(self, record: dict) -> None:
+        """The trace sink: a log line per record; a primary-layer message per switch."""
+        if self.closed:
+            return
+        t = record["t"]
+        send = self.world.send
+        send("/atlas/trace", self.world.m.log_line(record), t)
+        if record["event"] == "layer-switched":
+            send("/atlas/primary_layer", {"layer": record.get("layer"), "previous": record.get("previous"),
+                                          "reason": record.get("reason", "")}, t)
+
+    def pace(self, t: float) -> None:
+        """The engine's ``pace`` hook (``run_mission(until, pace=recorder.pace)``): samples the
+        world when a pose sample is due at simulated time ``t``."""
+        if not self.closed:
+            self.world.pace(t)
+
+    def sample(self, t: float) -> None:
+        """Everything that is sampled, at simulated time ``t`` (:meth:`WorldSampler.sample`)."""
+        self.world.sample(t)
 
     def close(self) -> None:
         """Finish the recording (safe to call twice, and after a failed or interrupted run): a last
@@ -348,17 +435,7 @@ class RunRecorder:
         if self.closed:
             return
         try:
-            engine = self.engine
-            if engine.built and engine.simulation is not None:
-                end = engine.now()
-                if self._last_sample is None or end > self._last_sample + 1e-9:
-                    self.sample(end)
-                    end = self._last_sample
-                if len(self._path) != self._path_sent:
-                    self._send_path(end)
-                grid = engine.grid
-                if grid is not None and self._grid_key != self._grid_sent:
-                    self._send_grid(end, grid)
+            self.world.finish()
         finally:
             self.closed = True
             self._close_outputs()
@@ -367,3 +444,81 @@ class RunRecorder:
         for output in self.outputs:
             output.close()
 
+
+class HostRecorder:
+    """A skill host's recording (``atlas skills serve --record HOST.mcap --live``): the world
+    channels (:data:`WORLD_TOPICS`) of each sequencer's session, sampled by a :class:`WorldSampler`
+    at the host's sequencer ticks, in the same simulated time as the sequencer's own recording.
+
+    Each session is a file of its own, closed when the session ends (however it ends):
+    the first is ``path``, the next ``HOST-2.mcap``, ``HOST-3.mcap``, ... (:func:`session_file`).
+    The live server (``live``) serves from the host's start to its end, one session after
+    another (a viewer stays connected; time starts again with each session's world).
+    """
+
+    def __init__(self, *, path: str | Path | None = None, live: bool = False, host: str = "127.0.0.1",
+                 port: int = 8765, pose_rate: float = POSE_RATE, grid_period: float = GRID_PERIOD) -> None:
+        self.fox = require_foxglove()
+        self.path = Path(path) if path is not None else None
+        self.pose_rate = pose_rate
+        self.grid_period = grid_period
+        self._host = host
+        self.live = _open_live(self.fox, host, port, WORLD_TOPICS) if live else None
+        self.sampler: WorldSampler | None = None
+        self.file: _Output | None = None
+        self.file_path: Path | None = None
+        self.written: list[Path] = []
+        self.closed = False
+
+    @property
+    def url(self) -> str | None:
+        """The live view's ``ws://host:port`` (None without ``live``)."""
+        return _live_url(self._host, self.live)
+
+    def begin(self, source: Any, number: int, start: float) -> WorldSampler:
+        """Session ``number`` starts at simulated time ``start`` with the world of ``source``
+        (see :class:`WorldSampler`); its sampler, whose :meth:`~WorldSampler.pace` is the
+        host's executive's hook."""
+        self.end()
+        outputs: list[_Output] = []
+        if self.path is not None:
+            self.file_path = session_file(self.path, number)
+            self.file = _open_file(self.fox, self.file_path, WORLD_TOPICS)
+            outputs.append(self.file)
+        if self.live is not None:
+            self.live.forget()
+            outputs.append(self.live)
+        self.sampler = WorldSampler(source, outputs, live=self.live, pose_rate=self.pose_rate,
+                                    grid_period=self.grid_period, start=start)
+        return self.sampler
+
+    def end(self) -> Path | None:
+        """The session ends: its last samples, and its file closed; the file written (or None)."""
+        sampler, self.sampler = self.sampler, None
+        file, self.file = self.file, None
+        written, self.file_path = self.file_path, None
+        try:
+            if sampler is not None:
+                sampler.finish()
+        finally:
+            if file is not None:
+                file.close()
+                self.written.append(written)  # type: ignore[arg-type]
+        return written if file is not None else None
+
+    def close(self) -> Path | None:
+        """The host ends: the session's file closed (:meth:`end`, its path), the live server stopped."""
+        if self.closed:
+            return None
+        self.closed = True
+        try:
+            return self.end()
+        finally:
+            if self.live is not None:
+                self.live.close()
+
+
+def session_file(path: str | Path, number: int) -> Path:
+    """The file of a skill host's session ``number``: ``path`` for the first, ``NAME-2.mcap``, ... after."""
+    path = Path(path)
+    return path if number <= 1 else path.with_name(f"{path.stem}-{number}{path.suffix}")

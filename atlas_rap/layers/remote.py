@@ -133,6 +133,11 @@ class RemoteExecutive:
                 pace(now)
             seq.advance_to(now)
         else:
+            if phase == END and tick % self.sequencer_every == 0:  # a stride over a sequencer tick: paced too
+                if self._own_pace is not None:
+                    self._own_pace(now)
+                if pace is not None:
+                    pace(now)
             self._clock_to(reached)
         self._look_after_hosts()
 

@@ -21,15 +21,23 @@ So the host steps physics and skills exactly as a run in one process does
 and stops where the sequencer needs to act, and a run over the bus gives
 the same trace as in one process.
 
+Recording (``atlas skills serve --record HOST.mcap``, ``--live``): the host
+records its world (pose, tf, path, sonar, scene, topology, route) with a
+:class:`~atlas_rap.layers.recording.HostRecorder`, sampled at the host's
+sequencer ticks as a run in one process samples it, one file per session,
+closed when the session ends however it ends; the sequencer's side records
+the trace and the primary layer (``atlas run --connect --record``).
+
 Not on the bus yet: mapping while driving (``--no-prior-map``, ``--map-in``,
-Layer IV), a topological map file (``--map``), ``--layers``, pictures and
-recordings of the world (``--render``, ``--record``), and the REPL's
-``:map`` and ``:layers``; each needs the host's world on the sequencer's side.
+Layer IV), a topological map file (``--map``), ``--layers``, pictures of
+the world (``--render``), and the REPL's ``:map`` and ``:layers``; each
+needs the host's world on the sequencer's side.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from atlas_rap.layers.clock import Clock
@@ -46,21 +54,40 @@ from atlas_rap.skillbus.protocol import BEGIN, END, log
 from atlas_rap.skillbus.zenoh_bus import Conversation, close_session, open_session
 
 
+@dataclass
+class SessionWorld:
+    """What one session's world is made of, as a recording reads it
+    (:class:`~atlas_rap.layers.recording.WorldSampler`'s ``source``)."""
+
+    simulation: Any
+    manager: Any
+    world: Any
+    stack: Any
+    clock: Clock
+
+    def now(self) -> float:
+        return self.clock.now
+
+
 class SkillHostServer:
     """Serves one robot's skills on the bus, to one sequencer at a time (see the module docstring).
 
     ``world``: a shipped world's name or a world file; ``listen`` / ``connect``:
-    Zenoh endpoints; ``robot``: the robot's name on the bus.
+    Zenoh endpoints; ``robot``: the robot's name on the bus; ``recorder``: a
+    :class:`~atlas_rap.layers.recording.HostRecorder` that records each session's
+    world (or None); it is told of each session's start and end, and closed by :meth:`close`.
     """
 
     def __init__(self, world: str, *, robot: str = keys.DEFAULT_ROBOT, seed: int = 0,
-                 listen: Sequence[str] = (), connect: Sequence[str] = (), rates: Rates = Rates()) -> None:
+                 listen: Sequence[str] = (), connect: Sequence[str] = (), rates: Rates = Rates(),
+                 recorder: Any = None) -> None:
         from atlas_rap.sim.world import load_world
 
         self.robot = keys.check_robot(robot)
         self.world = load_world(world)
         self.seed = seed
         self.rates = rates
+        self.recorder = recorder
         self.session = open_session(listen=listen, connect=connect)
         self.conversation = Conversation(self.session, keys.to_host(robot), keys.sequencer_token(robot))
         self.conversation.declare_token(keys.host_token(robot))  # after the subscriptions: seen only when ready
@@ -77,15 +104,19 @@ class SkillHostServer:
             self.sessions += 1
             if on_session is not None:
                 on_session(f"session {self.sessions} started at t={hello.last.tick / self.rates.physics:g} s")
+            reason = "stopped: the host stops"
             try:
                 self._run(hello)
                 reason = "ended"
             except SessionEnded as exc:
                 reason = str(exc)
-            finally:
+            finally:  # also when the host is stopped mid-session (Ctrl-C, SIGTERM): a whole file
                 self.current = None
-            if on_session is not None:
-                on_session(f"session {self.sessions} {reason}")
+                written = self.recorder.end() if self.recorder is not None else None
+                if on_session is not None:
+                    on_session(f"session {self.sessions} {reason}")
+                    if written is not None:
+                        on_session(f"recording written to {written}")
 
     def _run(self, hello: Frame) -> None:
         """One sequencer's session: a fresh world at its time, then its ticks until it goes."""
@@ -107,6 +138,10 @@ class SkillHostServer:
         stack.add(OperationalLayer(stack))
         stack.add(TacticalLayer(stack))
         executive = Executive(simulation, manager, session, self.rates, stack=stack, clock=clock)
+        pace = None
+        if self.recorder is not None:
+            pace = self.recorder.begin(SessionWorld(simulation, manager, self.world, stack, clock),
+                                       self.sessions, clock.now).pace
         prior = [session._out(fact) for fact in prior_facts(self.world)] + [Compound("map", ("prior",))]
         welcome = Welcome(self.robot, self.world.name, {name: tuple(sorted(a)) for name, a in manager.skills().items()},
                           tuple(sorted(manager.produces())), tuple(prior),
@@ -120,14 +155,17 @@ class SkillHostServer:
             elif session.position >= target:
                 session.reach(session.position[1])
             else:
-                executive.step()
+                executive.step(pace)
                 session.reach(END)
 
     def close(self) -> None:
-        """Leave the bus (the token goes: a sequencer using this host sees it lost)."""
+        """Finish the recording (if any), and leave the bus (the token goes: a sequencer using this
+        host sees it lost)."""
+        if self.recorder is not None:
+            self.recorder.close()
         self.conversation.declare_token(None)
         self.conversation.close()
         close_session(self.session)
 
 
-__all__ = ["SkillHostServer", "log"]
+__all__ = ["SessionWorld", "SkillHostServer", "log"]
