@@ -14,6 +14,9 @@ Prints one JSON object a line:
   ``--runs``: in one process, and over Zenoh with ``atlas skills serve``
   running in another process (``ratio``: Zenoh over in process; target
   >= 0.5). ``same_trace`` says whether the two traces were equal, byte for byte.
+- ``record``: what ``--record`` costs the same run in one process (best with
+  over best without; target <= 1.3), measured by ``bench_record.py``, which
+  also measures it on a run that maps.
 
 Run: ``pip install '.[zenoh]' && python benchmarks/bench_bus.py`` (``--quick``
 for fewer events and runs).
@@ -215,6 +218,14 @@ def main() -> None:
     bus_protocol(2000 if args.quick else 20000, 200 if args.quick else 2000)
     with tempfile.TemporaryDirectory() as folder:
         bus_deliver(2 if args.quick else args.runs, Path(folder))
+        try:
+            import foxglove  # noqa: F401
+        except ImportError:
+            emit({"bench": "record", "skipped": "foxglove-sdk is not installed: pip install 'atlas-rap[foxglove]'"})
+        else:
+            from bench_record import bench as bench_record
+
+            bench_record("record", 3 if args.quick else args.runs, True, Path(folder))
 
 
 if __name__ == "__main__":

@@ -62,7 +62,7 @@ def relaxed_plan_heuristic(task: GroundTask, actions: Sequence[GroundAction] | N
     python = RelaxedPlanHeuristic(task, actions)
     incidences = sum(python.pre_count)
     if incidences * PYTHON_SECONDS_PER_INCIDENCE < 5 * NUMPY_SECONDS_PER_LAYER:
-        return python  # no need to look: one numpy layer would cost more than a whole evaluation here
+        return python  # no need to look: five numpy layers would cost more than a whole evaluation here
     if python.evaluate(task.init)[0] in (0, INFINITY):
         return python
     numpy_cost = python.layers * (NUMPY_SECONDS_PER_LAYER + incidences * NUMPY_SECONDS_PER_LAYER_INCIDENCE)
