@@ -19,6 +19,15 @@ def test_the_files_that_ship_are_clean():
     assert done.stdout.count("ok: ") == len(shipped)
 
 
+def test_the_two_robot_examples_check_clean_for_two_robots_on_the_bus():
+    examples = sorted(str(p.relative_to(REPO)) for p in (REPO / "examples").glob("*.rap"))
+    assert len(examples) >= 2
+    done = atlas("check", *examples, "--robot", "alice", "--robot", "bob", cwd=REPO)
+    assert done.returncode == 0, done.stderr
+    alone = atlas("check", "examples/two-robots.rap", cwd=REPO)  # one robot: its skills take no name
+    assert alone.returncode == 1 and "navigate-to takes 1 argument, not 2" in alone.stderr
+
+
 def test_shipped_files_are_found_from_any_directory(tmp_path):
     done = atlas("check", "rap_library/missions/site-visit.rap", cwd=tmp_path)
     assert done.returncode == 0, done.stderr

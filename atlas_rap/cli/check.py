@@ -15,7 +15,10 @@ from atlas_rap.cli.console import console, secho, styles_on
 @click.option("--tree", is_flag=True, help="Print the AST of each file as a tree.")
 @click.option("--format", "format_", is_flag=True,
               help="Print each file as atlas reads it, pretty-printed (includes not expanded).")
-def check(files: tuple[str, ...], tree: bool, format_: bool) -> None:
+@click.option("--robot", "robots", multiple=True, metavar="NAME",
+              help="Check for a run with these robots on the skill bus (atlas run --connect --robot ...): "
+                   "with two or more, every stock skill takes the robot's name first.")
+def check(files: tuple[str, ...], tree: bool, format_: bool, robots: tuple[str, ...]) -> None:
     """Validate .rap and .ap FILES and what they include.
 
     Prints every problem with file:line:column and a caret under it, and
@@ -35,7 +38,7 @@ def check(files: tuple[str, ...], tree: bool, format_: bool) -> None:
                 _echo_problem(problem.render())
             secho(f"{path}: {_plural(len(exc.problems), 'problem')}", fg="red", err=True)
             continue
-        problems = _sequencer_problems(program) + _planner_problems(program, path)
+        problems = _sequencer_problems(program, robot_first=len(set(robots)) > 1) + _planner_problems(program, path)
         for problem in problems:
             _echo_problem(problem.render())
         if any(problem.severity == "error" for problem in problems):
@@ -57,9 +60,10 @@ def check(files: tuple[str, ...], tree: bool, format_: bool) -> None:
         sys.exit(1)
 
 
-def _sequencer_problems(program) -> list:
+def _sequencer_problems(program, robot_first: bool = False) -> list:
     """Load-time checks of the RAPs against the skills they can use: the program's virtual
-    skills, and the stock skills of a simulated world unless the program says ``(world none)``."""
+    skills, and the stock skills of a simulated world unless the program says ``(world none)``
+    (``robot_first``: with the robot's name as a first argument, as over the bus with several robots)."""
     from atlas_rap.lang import ast
     from atlas_rap.sequencer.checks import check_program
     from atlas_rap.skills.catalog import STOCK_EVENTS, STOCK_SKILLS
@@ -72,7 +76,9 @@ def _sequencer_problems(program) -> list:
     names, events = virtual.skills(), virtual.produces()
     worlds = program.of_type(ast.WorldDecl)
     if not worlds or worlds[-1].world != "none":  # a world run also has the stock skills
-        names = {**STOCK_SKILLS, **names}
+        stock = {name: {n + 1 for n in arities} for name, arities in STOCK_SKILLS.items()} if robot_first \
+            else STOCK_SKILLS
+        names = {**stock, **names}
         events |= STOCK_EVENTS
     return check_program(program, names, events)
 
