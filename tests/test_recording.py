@@ -179,13 +179,7 @@ def test_live_serves_the_run_over_websocket_in_real_time(tmp_path):
         assert url, line
         client = FoxgloveClient(url.group())
         try:
-            ops: dict[str, dict] = {}
-            while "advertise" not in ops:
-                opcode, payload = client.frame()
-                if opcode == 1:
-                    op = json.loads(payload)
-                    ops[op["op"]] = op
-            channels = {c["topic"]: c for c in ops["advertise"]["channels"]}
+            channels = client.advertised()
             assert {topic: c["schemaName"] for topic, c in channels.items()} == \
                 {topic: schema for topic, (schema, _) in TOPICS.items()}
             wanted = {1: "/world/scene", 2: "/robot/pose"}

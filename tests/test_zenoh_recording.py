@@ -20,18 +20,10 @@ pytest.importorskip("foxglove")
 pytest.importorskip("mcap")
 
 from mcap.reader import make_reader  # noqa: E402
-from test_zenoh_bus import DELIVER, Running, free_port  # noqa: E402
+from bus_processes import DELIVER, Running, free_port, processes  # noqa: E402,F401  (processes: a fixture)
 
 from atlas_rap.layers.mcap_reader import read_recording  # noqa: E402
 from atlas_rap.layers.recording import POSE_RATE, WORLD_TOPICS  # noqa: E402
-
-
-@pytest.fixture
-def processes():
-    started: list[Running] = []
-    yield started
-    for running in started:
-        running.kill()
 
 
 def recording_host(processes, tmp_path: Path, port: int, *args: str) -> Running:
@@ -148,13 +140,7 @@ def test_a_host_serves_its_world_live(processes, tmp_path):
     url = re.search(r"ws://127\.0\.0\.1:\d+", served.output).group()
     client = FoxgloveClient(url)
     try:
-        ops: dict[str, dict] = {}
-        while "advertise" not in ops:
-            opcode, payload = client.frame()
-            if opcode == 1:
-                op = json.loads(payload)
-                ops[op["op"]] = op
-        channels = {c["topic"]: c for c in ops["advertise"]["channels"]}
+        channels = client.advertised()
         assert set(channels) == set(WORLD_TOPICS)
         client.send_json({"op": "subscribe", "subscriptions": [{"id": 1, "channelId": channels["/robot/pose"]["id"]}]})
         run = Running("run", DELIVER, "--quiet", "--realtime", "--until", "2", "--connect", f"tcp/127.0.0.1:{port}",

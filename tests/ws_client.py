@@ -63,6 +63,15 @@ class FoxgloveClient:
             payload = bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
         return first & 0x0F, payload
 
+    def advertised(self) -> dict[str, dict]:
+        """Wait for the server's ``advertise`` op; its channels by topic."""
+        while True:
+            opcode, payload = self.frame()
+            if opcode == 1:
+                op = json.loads(payload)
+                if op["op"] == "advertise":
+                    return {c["topic"]: c for c in op["channels"]}
+
     def send_json(self, op: dict) -> None:
         """Send a JSON op as a text frame."""
         self._send(1, json.dumps(op).encode())
