@@ -69,7 +69,7 @@ def relaxed_plan_heuristic(task: GroundTask, actions: Sequence[GroundAction] | N
     saving = incidences * PYTHON_SECONDS_PER_INCIDENCE - numpy_cost
     if saving <= 0:
         return python
-    return SwitchingRelaxedPlanHeuristic(task, actions, after=math.ceil(NUMPY_IMPORT_SECONDS / saving))
+    return SwitchingRelaxedPlanHeuristic(task, actions, after=math.ceil(NUMPY_IMPORT_SECONDS / saving), built=python)
 
 
 class RelaxedPlanHeuristic:
@@ -79,9 +79,21 @@ class RelaxedPlanHeuristic:
     ``negs`` (negative preconditions), ``deletes`` and ``add_sets`` (frozensets),
     and the incidence lists the landmark finder uses (``pre_of``, ``pres``, ``adds``).
     ``layers`` is how many layers the last evaluation that reached the goals took.
+
+    ``built``, one already made for the same task and actions, lends its lists
+    (nothing changes them after they are built) instead of building them again.
     """
 
-    def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None) -> None:
+    _BUILT = ("actions", "n_facts", "pre_of", "pre_count", "adds", "pres", "no_pre", "goal", "is_goal_fact",
+              "n_goals", "negs", "deletes", "add_sets")
+
+    def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None, *,
+                 built: RelaxedPlanHeuristic | None = None) -> None:
+        self.layers = 0
+        if built is not None:
+            for name in self._BUILT:
+                setattr(self, name, getattr(built, name))
+            return
         self.actions = list(task.actions if actions is None else actions)
         self.n_facts = n_facts = len(task.facts)
         self.pre_of: list[list[int]] = [[] for _ in range(n_facts)]
@@ -105,7 +117,6 @@ class RelaxedPlanHeuristic:
         self.negs = [a.neg for a in self.actions]
         self.deletes = [frozenset(a.delete) for a in self.actions]
         self.add_sets = [frozenset(a.add) for a in self.actions]
-        self.layers = 0
 
     def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
         """(h, applicable action numbers, helpful action numbers) of ``state``."""
@@ -178,11 +189,12 @@ class RelaxedPlanHeuristic:
 class VectorRelaxedPlanHeuristic(RelaxedPlanHeuristic):
     """hFF with the exploration as sparse matrix-vector products (module docstring)."""
 
-    def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None) -> None:
+    def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None, *,
+                 built: RelaxedPlanHeuristic | None = None) -> None:
         import numpy as np  # here, not at the top: they cost `atlas plan` 0.1 s of start-up on small tasks
         from scipy import sparse
 
-        super().__init__(task, actions)
+        super().__init__(task, actions, built=built)
         self._np = np
         n_actions, n_facts = len(self.actions), self.n_facts
         rows = [a for a, pre in enumerate(self.pres) for _ in pre]
@@ -249,14 +261,15 @@ class VectorRelaxedPlanHeuristic(RelaxedPlanHeuristic):
 class SwitchingRelaxedPlanHeuristic(RelaxedPlanHeuristic):
     """hFF in Python for the first ``after`` evaluations, then in numpy (module docstring)."""
 
-    def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None, *, after: int) -> None:
-        super().__init__(task, actions)
+    def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None, *, after: int,
+                 built: RelaxedPlanHeuristic | None = None) -> None:
+        super().__init__(task, actions, built=built)
         self.task, self.after, self.evaluated = task, after, 0
 
     def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
         self.evaluated += 1
         if self.evaluated > self.after:
-            vector = VectorRelaxedPlanHeuristic(self.task, self.actions)
+            vector = VectorRelaxedPlanHeuristic(self.task, self.actions, built=self)
             self.evaluate = vector.evaluate  # type: ignore[method-assign]  # from now on, straight to numpy
             return vector.evaluate(state)
         return super().evaluate(state)
