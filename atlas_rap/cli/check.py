@@ -66,6 +66,7 @@ def _sequencer_problems(program, robot_first: bool = False) -> list:
     (``robot_first``: with the robot's name as a first argument, as over the bus with several robots)."""
     from atlas_rap.lang import ast
     from atlas_rap.sequencer.checks import check_program
+    from atlas_rap.skillbus.remote import robot_first as with_robot_first
     from atlas_rap.skills.catalog import STOCK_EVENTS, STOCK_SKILLS
     from atlas_rap.skills.virtual import VirtualSkills
 
@@ -76,9 +77,7 @@ def _sequencer_problems(program, robot_first: bool = False) -> list:
     names, events = virtual.skills(), virtual.produces()
     worlds = program.of_type(ast.WorldDecl)
     if not worlds or worlds[-1].world != "none":  # a world run also has the stock skills
-        stock = {name: {n + 1 for n in arities} for name, arities in STOCK_SKILLS.items()} if robot_first \
-            else STOCK_SKILLS
-        names = {**stock, **names}
+        names = {**(with_robot_first(STOCK_SKILLS) if robot_first else STOCK_SKILLS), **names}
         events |= STOCK_EVENTS
     return check_program(program, names, events)
 

@@ -50,6 +50,12 @@ REPLY_TIMEOUT = 10.0
 """Seconds a host may take to answer (a stride of physics and skills) before it counts as lost."""
 
 
+def robot_first(skills: dict[str, set[int]]) -> dict[str, set[int]]:
+    """The arities of ``skills`` when every call takes the robot's name first, as they do
+    with several robots on the bus: ``(navigate-to alice office)``."""
+    return {name: {n + 1 for n in arities} for name, arities in skills.items()}
+
+
 class HostLost(Exception):
     """The host of a robot was lost while the sequencer waited for it."""
 
@@ -329,11 +335,10 @@ class RemoteSkills:
 
     def skills(self) -> dict[str, set[int]]:
         names: dict[str, set[int]] = {}
-        extra = 1 if self.multi else 0
         for link in self.links.values():
             for name, arities in link.welcome.skills.items():  # type: ignore[union-attr]
-                names.setdefault(name, set()).update(a + extra for a in arities)
-        return names
+                names.setdefault(name, set()).update(arities)
+        return robot_first(names) if self.multi else names
 
     def produces(self) -> set[str]:
         found = {"done", "why"}
