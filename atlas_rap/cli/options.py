@@ -42,6 +42,11 @@ class OutputFolder(click.ParamType):
         return str(output_folder(value, _option(param)))
 
 
+LIVE_PORT = click.option("--live-port", type=click.IntRange(0, 65535), default=8765, show_default=True,
+                         metavar="PORT", help="The port --live listens on, on 127.0.0.1 (0: any free port).")
+"""``--live-port``, for the commands that serve a run to Foxglove (``atlas run``, ``atlas skills serve``)."""
+
+
 def world_help(default: str) -> str:
     """The help of a ``--world`` option: the shipped worlds by name, a file, or none."""
     from atlas_rap.shipped import shipped_worlds

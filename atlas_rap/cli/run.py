@@ -7,8 +7,8 @@ import time
 
 import click
 
-from atlas_rap.cli.options import (POSITIVE, OutputFile, bus_options, check_bus_options, layer_engine_options,
-                                   layer_options, world_help)
+from atlas_rap.cli.options import (LIVE_PORT, POSITIVE, OutputFile, bus_options, check_bus_options,
+                                   layer_engine_options, layer_options, world_help)
 
 
 @click.command()
@@ -40,8 +40,7 @@ from atlas_rap.cli.options import (POSITIVE, OutputFile, bus_options, check_bus_
 @click.option("--live", is_flag=True,
               help="Serve the run live to Foxglove over WebSocket (prints the ws:// URL); paced to the wall "
                    "clock unless --no-realtime. Needs atlas-rap[foxglove].")
-@click.option("--live-port", type=click.IntRange(0, 65535), default=8765, show_default=True, metavar="PORT",
-              help="The port --live listens on, on 127.0.0.1 (0: any free port).")
+@LIVE_PORT
 @layer_options
 @bus_options
 def run(mission_file: str, world: str | None, seed: int, trace_file: str | None, quiet: bool, verbose: bool,

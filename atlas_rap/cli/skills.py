@@ -7,7 +7,7 @@ import sys
 
 import click
 
-from atlas_rap.cli.options import OutputFile, world_help
+from atlas_rap.cli.options import LIVE_PORT, OutputFile, world_help
 
 
 @click.group("skills")
@@ -33,8 +33,7 @@ def skills_group() -> None:
 @click.option("--live", is_flag=True,
               help="Serve the world live to Foxglove over WebSocket (prints the ws:// URL), session after "
                    "session; run the sequencer with --realtime to watch it. Needs atlas-rap[foxglove].")
-@click.option("--live-port", type=click.IntRange(0, 65535), default=8765, show_default=True, metavar="PORT",
-              help="The port --live listens on, on 127.0.0.1 (0: any free port).")
+@LIVE_PORT
 def serve(world: str, listen: tuple[str, ...], connect: tuple[str, ...], robot: str, seed: int,
           record_file: str | None, live: bool, live_port: int) -> None:
     """Run the simulation and the skill manager as a skill host for `atlas run --connect`.
