@@ -4,16 +4,22 @@ Prints one JSON object a line:
 
 - ``bus-events``: facts a skill host posts to the sequencer, one batch each
   (memory, rules and the wait index take each, and the host waits for its
-  turn back), per second: ``in_process`` (the skill link called directly)
-  and ``zenoh`` (two Zenoh peer sessions on loopback, the host on a thread
-  of this process, the whole protocol of ``skillbus.protocol``).
+  turn back), per second: ``in_process`` (the skill link called directly),
+  ``zenoh`` (two Zenoh peer sessions on loopback, the host on a thread
+  of this process, the whole protocol of ``skillbus.protocol``, every frame
+  authenticated) and ``zenoh_unauthenticated`` (the same with frames neither
+  tagged nor checked, as the bus was before it admitted only its own sequencer).
 - ``bus-latency``: enable → done round trip of a skill that finishes as soon
-  as it is enabled, median and 99th percentile in microseconds, both ways.
+  as it is enabled, median and 99th percentile in microseconds, each way.
 - ``bus-deliver``: ``rap_library/missions/deliver.rap`` in simulated time
   with the whole stack, simulated seconds per wall second, best of
-  ``--runs``: in one process, and over Zenoh with ``atlas skills serve``
-  running in another process (``ratio``: Zenoh over in process; target
-  >= 0.5). ``same_trace`` says whether the two traces were equal, byte for byte.
+  ``--runs``, the runs of the three ways interleaved: in one process; over
+  Zenoh with ``atlas skills serve`` running in another process, frames
+  authenticated; and the same without authentication (``SkillHostServer(secret=None)``
+  and ``BusSettings(authenticate=False)``, which no command offers).
+  ``ratio``: Zenoh over in process (target >= 0.5); ``auth_cost``: the
+  authenticated run's wall time over the unauthenticated one's (target <= 1.1).
+  ``same_trace`` says whether the three traces were equal, byte for byte.
 - ``record``: what ``--record`` costs the same run in one process (best with
   over best without; target <= 1.3), measured by ``bench_record.py``, which
   also measures it on a run that maps.
@@ -79,28 +85,28 @@ class Emitter:
         pass
 
 
-def serve_emitter(endpoint: str, ready: threading.Event, stop: threading.Event) -> None:
-    """A skill host on this thread serving the :class:`Emitter`, one session."""
+def serve_emitter(endpoint: str, ready: threading.Event, stop: threading.Event, secret) -> None:
+    """A skill host on this thread serving the :class:`Emitter`, one session (``secret`` None: no
+    authentication)."""
     from atlas_rap.skillbus import keys
-    from atlas_rap.skillbus.host import HostSession, SessionEnded, await_hello
+    from atlas_rap.skillbus.host import HostDoor, HostSession, SessionEnded, await_hello
     from atlas_rap.skillbus.messages import Welcome
-    from atlas_rap.skillbus.protocol import END
     from atlas_rap.skillbus.zenoh_bus import Conversation, close_session, open_session
 
     session = open_session(listen=[endpoint])
     conversation = Conversation(session, keys.to_host("robot"), keys.sequencer_token("robot"))
     conversation.declare_token(keys.host_token("robot"))
+    door = HostDoor(conversation, "robot", secret)
     ready.set()
     try:
-        hello = await_hello(conversation, "robot", stop.is_set)
+        hello = await_hello(door, stop.is_set)
         if hello is None:
             return
-        host = HostSession(conversation, "robot", hello.session, 0, lambda: 0)
+        host = HostSession(door, hello, 0, lambda: 0)
         manager = Emitter()
         manager.connect(host)
         host.manager = manager
-        host.send(keys.session("robot", "welcome"), [Welcome("robot", "bench", {"emit": (1,), "ping": (0,)},
-                                                             ("done", "event"))], (0, END))
+        host.welcome(Welcome("robot", "bench", {"emit": (1,), "ping": (0,)}, ("done", "event")))
         host.first_tick()
     except SessionEnded:
         pass
@@ -130,45 +136,60 @@ def measure(link_for, events: int, pings: int) -> tuple[float, list[float]]:
     return rate, times
 
 
-def bus_protocol(events: int, pings: int) -> None:
-    from atlas_rap.skillbus.remote import RemoteSkills
+def bus_protocol(events: int, pings: int, rounds: int) -> None:
+    """The events and round trips of each way, ``rounds`` times interleaved; the best round of each kept."""
+    import os
 
-    in_rate, in_times = measure(Emitter, events, pings)
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    ready, stop = threading.Event(), threading.Event()
-    thread = threading.Thread(target=serve_emitter, args=(endpoint, ready, stop), daemon=True)
-    thread.start()
-    ready.wait(10)
-    fleets = []
+    from atlas_rap.skillbus.auth import TOKEN_ENV, secret_from_env
+    from atlas_rap.skillbus.remote import BusSettings, RemoteSkills
 
-    def remote():
-        fleets.append(RemoteSkills([endpoint]))
-        return fleets[-1]
+    os.environ.setdefault(TOKEN_ENV, os.urandom(32).hex())  # this process is both host and sequencer
+    rates: dict[str, float] = {}
+    latencies: dict[str, list[float]] = {}
 
-    try:
-        z_rate, z_times = measure(remote, events, pings)
-    finally:
-        stop.set()
-        for fleet in fleets:
-            fleet.close()
-        thread.join(10)
-    emit({"bench": "bus-events", "events": events, "in_process_per_s": round(in_rate),
-          "zenoh_per_s": round(z_rate)})
-    for name, times in (("in_process", in_times), ("zenoh", z_times)):
+    def keep(name: str, rate: float, times: list[float]) -> None:
+        if rate > rates.get(name, 0.0):
+            rates[name], latencies[name] = rate, times
+
+    for _ in range(rounds):
+        keep("in_process", *measure(Emitter, events, pings))
+        for name, secret in (("zenoh", secret_from_env()), ("zenoh_unauthenticated", None)):
+            endpoint = f"tcp/127.0.0.1:{free_port()}"
+            ready, stop = threading.Event(), threading.Event()
+            thread = threading.Thread(target=serve_emitter, args=(endpoint, ready, stop, secret), daemon=True)
+            thread.start()
+            ready.wait(10)
+            fleets = []
+
+            def remote():
+                fleets.append(RemoteSkills(BusSettings((endpoint,), authenticate=secret is not None)))
+                return fleets[-1]
+
+            try:
+                keep(name, *measure(remote, events, pings))
+            finally:
+                stop.set()
+                for fleet in fleets:
+                    fleet.close()
+                thread.join(10)
+    emit({"bench": "bus-events", "events": events, "rounds": rounds,
+          **{f"{name}_per_s": round(rate) for name, rate in rates.items()},
+          "auth_cost": round(rates["zenoh_unauthenticated"] / rates["zenoh"], 3)})
+    for name, times in latencies.items():
         times.sort()
         emit({"bench": "bus-latency", "transport": name, "round_trips": len(times),
               "median_us": round(statistics.median(times), 1), "p99_us": round(times[int(0.99 * (len(times) - 1))], 1)})
 
 
-def run_deliver(connect: list[str], trace_path: Path) -> tuple[float, float, bool]:
-    """deliver.rap once; (wall seconds, simulated seconds, ok)."""
+def run_deliver(bus, trace_path: Path) -> tuple[float, float, bool]:
+    """deliver.rap once (``bus``: a BusSettings, or None in one process); (wall seconds, simulated seconds, ok)."""
     from atlas_rap.layers import MissionEngine
     from atlas_rap.sequencer import JsonlSink, Trace
 
     trace = Trace()
     sink = JsonlSink(trace_path)
     trace.add_sink(sink)
-    engine = MissionEngine(trace=trace, connect=connect)
+    engine = MissionEngine(trace=trace, bus=bus)
     engine.load_file(MISSION, require_post=True)
     start = time.perf_counter()
     result = engine.run_mission(600)
@@ -179,28 +200,45 @@ def run_deliver(connect: list[str], trace_path: Path) -> tuple[float, float, boo
     return wall, result.time, result.ok
 
 
+UNAUTHENTICATED_HOST = """
+import sys
+from atlas_rap.layers.skill_host import SkillHostServer
+server = SkillHostServer("lab-corridor-office", secret=None, listen=[sys.argv[1]])
+print("skill host without authentication", flush=True)
+server.serve()
+"""
+
+
 def bus_deliver(runs: int, out: Path) -> None:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    host = subprocess.Popen([sys.executable, "-m", "atlas_rap", "skills", "serve", "--listen", endpoint],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=HERE.parent)
+    from atlas_rap.skillbus.remote import BusSettings
+
+    secure, plain = f"tcp/127.0.0.1:{free_port()}", f"tcp/127.0.0.1:{free_port()}"
+    hosts = [subprocess.Popen([sys.executable, "-m", "atlas_rap", "skills", "serve", "--listen", secure],
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=HERE.parent),
+             subprocess.Popen([sys.executable, "-c", UNAUTHENTICATED_HOST, plain],
+                              stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=HERE.parent)]
     try:
-        host.stdout.readline()  # "skill host for robot robot ...": listening
-        best = {}
-        for name, connect in (("in_process", []), ("zenoh", [endpoint])):
-            speeds = []
-            for i in range(runs):
-                wall, sim, ok = run_deliver(connect, out / f"{name}.jsonl")
+        for host in hosts:
+            host.stdout.readline()  # "skill host ...": listening
+        ways = {"in_process": None, "zenoh": BusSettings((secure,)),
+                "zenoh_unauthenticated": BusSettings((plain,), authenticate=False)}
+        speeds: dict[str, list[float]] = {name: [] for name in ways}
+        for i in range(runs):  # interleaved, so that the machine's moods fall on every way alike
+            for name, bus in ways.items():
+                wall, sim, ok = run_deliver(bus, out / f"{name}.jsonl")
                 assert ok, f"deliver.rap failed {name}"
-                speeds.append(sim / wall)
-            best[name] = max(speeds)
-        same = (out / "in_process.jsonl").read_bytes() == (out / "zenoh.jsonl").read_bytes()
+                speeds[name].append(sim / wall)
+        best = {name: max(values) for name, values in speeds.items()}
+        traces = {(out / f"{name}.jsonl").read_bytes() for name in ways}
         emit({"bench": "bus-deliver", "mission": "deliver.rap", "runs": runs,
-              "in_process_sim_s_per_wall_s": round(best["in_process"], 1),
-              "zenoh_sim_s_per_wall_s": round(best["zenoh"], 1),
-              "ratio": round(best["zenoh"] / best["in_process"], 3), "target_ratio": 0.5, "same_trace": same})
+              **{f"{name}_sim_s_per_wall_s": round(speed, 1) for name, speed in best.items()},
+              "ratio": round(best["zenoh"] / best["in_process"], 3), "target_ratio": 0.5,
+              "auth_cost": round(best["zenoh_unauthenticated"] / best["zenoh"], 3), "target_auth_cost": 1.1,
+              "same_trace": len(traces) == 1})
     finally:
-        host.kill()
-        host.wait(10)
+        for host in hosts:
+            host.kill()
+            host.wait(10)
 
 
 def main() -> None:
@@ -215,7 +253,7 @@ def main() -> None:
         return
     import tempfile
 
-    bus_protocol(2000 if args.quick else 20000, 200 if args.quick else 2000)
+    bus_protocol(2000 if args.quick else 20000, 200 if args.quick else 2000, 2 if args.quick else args.runs)
     with tempfile.TemporaryDirectory() as folder:
         bus_deliver(2 if args.quick else args.runs, Path(folder))
         try:

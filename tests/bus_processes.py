@@ -1,5 +1,8 @@
 """Processes of `atlas` on the skill bus, for the Zenoh tests: each on ports of its own,
-their output gathered as it comes so a test waits on a line, not on a clock."""
+their output gathered as it comes so a test waits on a line, not on a clock.
+
+The processes of a test run keep their token files in a runtime folder of their own
+(``ATLAS_RUNTIME_DIR``), as a user's processes on one machine share theirs."""
 
 from __future__ import annotations
 
@@ -8,6 +11,8 @@ import queue
 import signal
 import socket
 import subprocess
+import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -16,7 +21,9 @@ import pytest
 from cli_process import ENV, REPO, atlas_command
 
 DELIVER = str(REPO / "rap_library" / "missions" / "deliver.rap")
-BUS_ENV = {**ENV, "PYTHONUNBUFFERED": "1"}
+RUNTIME = tempfile.mkdtemp(prefix="atlas-runtime-")
+BUS_ENV = {**ENV, "PYTHONUNBUFFERED": "1", "ATLAS_RUNTIME_DIR": RUNTIME}
+ATTACKER = str(Path(__file__).resolve().parent / "bus_attacker.py")
 
 
 def free_port() -> int:
@@ -28,9 +35,11 @@ def free_port() -> int:
 class Running:
     """A process whose output lines are gathered as they come, to wait on."""
 
-    def __init__(self, *args: str, cwd: Path) -> None:
-        self.proc = subprocess.Popen(atlas_command(*args), cwd=cwd, env=BUS_ENV, text=True,
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
+    def __init__(self, *args: str, cwd: Path, command: list[str] | None = None, env: dict | None = None,
+                 stdin: bool = False) -> None:
+        self.proc = subprocess.Popen(command or atlas_command(*args), cwd=cwd, env={**BUS_ENV, **(env or {})},
+                                     text=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                     stdin=subprocess.PIPE if stdin else subprocess.DEVNULL, start_new_session=True)
         self.lines: list[str] = []
         self.seen: queue.Queue[str] = queue.Queue()
         threading.Thread(target=self._read, daemon=True).start()
@@ -57,6 +66,14 @@ class Running:
     def finish(self, timeout: float = 30.0) -> int:
         return self.proc.wait(timeout=timeout)
 
+    def say(self, line: str) -> None:
+        """Write a line to the process's input."""
+        self.proc.stdin.write(line + "\n")
+        self.proc.stdin.flush()
+
+    def close_input(self) -> None:
+        self.proc.stdin.close()
+
     @property
     def output(self) -> str:
         return "".join(self.lines)
@@ -65,6 +82,14 @@ class Running:
         if self.proc.poll() is None:
             os.killpg(self.proc.pid, signal.SIGKILL)
             self.proc.wait(timeout=10)
+
+
+def attacker(processes: list, tmp_path: Path, mode: str, *args: str) -> Running:
+    """A stranger on the bus (``bus_attacker.py``: eclipse-zenoh only), ready."""
+    running = Running(cwd=tmp_path, command=[sys.executable, ATTACKER, *args, mode], stdin=True)
+    processes.append(running)
+    running.wait_for("ready")
+    return running
 
 
 @pytest.fixture

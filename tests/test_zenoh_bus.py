@@ -18,10 +18,8 @@ from cli_process import REPO, assert_no_traceback, atlas
 zenoh = pytest.importorskip("zenoh")
 
 SPIN = """(world "lab-corridor-office")
-(define-virtual-skill (pause) (after 0.5 (finish :succeed)))
 (define-rap (spin ?heading)
-  (retries 40)
-  (method (task-net (sequence (t1 (pause)) (t2 (turn-to ?heading))))))
+  (method (task-net (sequence (t1 (turn-to ?heading))))))
 (post (spin 180))
 """
 
@@ -67,63 +65,45 @@ def test_deliver_over_zenoh_gives_the_same_trace_as_in_one_process_and_anyone_ca
     assert [m["call"] for m in done] == [["navigate-to", "office"], ["navigate-to", "lab"]]
 
 
-def test_a_killed_host_fails_the_waiting_step_within_a_second_and_the_mission_ends(processes, tmp_path):
+def test_a_killed_host_fails_the_waiting_step_within_a_second_and_its_retry_waits_out_the_grace(processes, tmp_path):
     port = free_port()
     served = host(processes, tmp_path, port)
-    run = sequencer(processes, tmp_path, DELIVER, "--realtime", "--connect", f"tcp/127.0.0.1:{port}")
+    run = sequencer(processes, tmp_path, DELIVER, "--realtime", "--host-grace", "2",
+                    "--connect", f"tcp/127.0.0.1:{port}")
     run.wait_for("enable (navigate-to office)")
     killed = time.monotonic()
     served.kill()
     seen = run.wait_for("skill host lost", timeout=5)
     assert seen - killed < 1.0
-    assert run.finish(timeout=20) == 1
+    assert run.finish(timeout=30) == 1
     assert "Traceback" not in run.output
     assert "finished :fail: skill host lost" in run.output
+    assert "waiting up to 2 s for it to come back" in run.output
+    assert "skill host lost (not back within 2 s)" in run.output
 
 
-def test_a_restarted_host_lets_a_retry_succeed(processes, tmp_path):
+def test_a_host_restarted_within_the_grace_serves_the_retry_and_the_mission_succeeds(processes, tmp_path):
     port = free_port()
     (tmp_path / "spin.rap").write_text(SPIN, encoding="utf-8")
     served = host(processes, tmp_path, port)
-    run = sequencer(processes, tmp_path, "spin.rap", "--realtime", "--connect", f"tcp/127.0.0.1:{port}")
+    run = sequencer(processes, tmp_path, "spin.rap", "--realtime", "--trace", "spin.jsonl",
+                    "--connect", f"tcp/127.0.0.1:{port}")
     run.wait_for("enable (turn-to 180)")
     served.kill()
     run.wait_for("skill host lost", timeout=5)
+    run.wait_for("waiting up to 30 s")
     again = host(processes, tmp_path, port)
     again.wait_for("session 1 started", timeout=15)
     assert run.finish(timeout=30) == 0, run.output
     assert "(spin 180) succeeded" in run.output
-
-
-def test_a_malformed_message_on_the_bus_is_logged_and_dropped(processes, tmp_path):
-    port, mine = free_port(), free_port()
-    (tmp_path / "spin.rap").write_text(SPIN, encoding="utf-8")
-    host(processes, tmp_path, port)
-    config = zenoh.Config()
-    config.insert_json5("mode", '"peer"')
-    config.insert_json5("scouting/multicast/enabled", "false")
-    config.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{mine}"]))
-    config.insert_json5("connect/endpoints", "[]")
-    prankster = zenoh.open(config)
-    try:
-        arrived = threading.Event()
-        token = prankster.liveliness().declare_subscriber("atlas/robot/sequencer/*", zenoh.handlers.Callback(
-            lambda sample: arrived.set(), indirect=False), history=True)
-        run = sequencer(processes, tmp_path, "spin.rap", "--realtime", "--connect", f"tcp/127.0.0.1:{port}",
-                        "--connect", f"tcp/127.0.0.1:{mine}")
-        assert arrived.wait(15), run.output
-        for key, data in [("atlas/robot/event/done", b"\x00 not json"),
-                          ("atlas/robot/event/facts", b'{"v": 1, "type": "asserted", "fact": 7}'),
-                          ("atlas/robot/clock/ack", b'{"v": 99, "type": "ack", "tick": 1, "phase": 0}'),
-                          ("atlas/robot/event/facts", b'{"v": 1, "type": "enable", "call": ["stop"]}')]:
-            prankster.put(key, data)
-        code = run.finish(timeout=30)
-        token.undeclare()
-    finally:
-        prankster.close()
-    assert code == 0, run.output
-    assert "cannot be decoded" in run.output and "Traceback" not in run.output
-    assert "(spin 180) succeeded" in run.output
+    records = [json.loads(line) for line in (tmp_path / "spin.jsonl").read_text().splitlines()]
+    attempts = [r["attempt"] for r in records if r["event"] == "method-selected"]
+    assert attempts == [1, 2]  # the failure the loss caused, then one retry that waited for the host
+    events = [r["event"] for r in records]
+    assert events.index("skill-waiting") < events.index("skill-resumed")
+    waited = next(r for r in records if r["event"] == "skill-resumed")["t"] - \
+        next(r for r in records if r["event"] == "skill-waiting")["t"]
+    assert waited > 0.5  # it waited in time (the host took that long to come back), not in no time
 
 
 def test_two_robots_on_one_bus_each_do_their_own_steps(processes, tmp_path):

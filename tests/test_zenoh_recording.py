@@ -97,7 +97,8 @@ def test_deliver_over_the_bus_is_recorded_on_both_sides_as_in_one_process(proces
 def test_a_host_stopped_mid_run_leaves_a_whole_recording(processes, tmp_path, signum, code):
     port = free_port()
     served = recording_host(processes, tmp_path, port, "--record", "host.mcap")
-    run = Running("run", DELIVER, "--realtime", "--connect", f"tcp/127.0.0.1:{port}", cwd=tmp_path)
+    run = Running("run", DELIVER, "--realtime", "--host-grace", "1", "--connect", f"tcp/127.0.0.1:{port}",
+                  cwd=tmp_path)
     processes.append(run)
     run.wait_for("(door-open lab-door)")  # 8 s into the run
     served.proc.send_signal(signum)

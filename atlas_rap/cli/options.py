@@ -100,27 +100,3 @@ def layer_engine_options(no_prior_map: bool, map_in: str | None, map_out: str | 
     if map_out and not (no_prior_map or map_in):
         raise click.UsageError("--map-out needs a map built while driving: add --no-prior-map or --map-in")
     return {"prior_map": not no_prior_map, "map_in": map_in, "layers": layers, "layer_rules": layer_rules}
-
-
-def bus_options(command):
-    """``--connect`` and ``--robot``: run the sequencer against skill hosts on the Zenoh skill bus."""
-    command = click.option(
-        "--robot", "robots", multiple=True, metavar="NAME",
-        help="With --connect: the robot whose skill host to use (repeatable; default: robot). With several, "
-             "every skill takes the robot's name first: (navigate-to alice office).")(command)
-    command = click.option(
-        "--connect", "connect", multiple=True, metavar="ENDPOINT",
-        help="Use the skills of a skill host (atlas skills serve) at this Zenoh endpoint, e.g. "
-             "tcp/127.0.0.1:7447, instead of simulating the world here (repeatable).")(command)
-    return command
-
-
-def check_bus_options(connect: tuple[str, ...], robots: tuple[str, ...], **others: object) -> None:
-    """Usage errors for options that cannot go with ``--connect`` (``others``: flag name → value given)."""
-    if robots and not connect:
-        raise click.UsageError("--robot needs --connect (the robot's skill host on the bus)")
-    if connect:
-        given = [name for name, value in others.items() if value]
-        if given:
-            raise click.UsageError(f"{', '.join(given)} cannot go with --connect: the skill host runs the world "
-                                   f"(not supported over the bus yet)")

@@ -17,12 +17,15 @@ import sys
 import threading
 import time
 from contextlib import contextmanager
-from typing import Iterable, Iterator, TextIO
+from typing import TYPE_CHECKING, Iterable, Iterator, TextIO
 
 import click
 
-from atlas_rap.cli.options import (POSITIVE, OutputFile, bus_options, check_bus_options, layer_engine_options,
-                                   layer_options, world_help)
+from atlas_rap.cli.bus_options import bus_options, check_bus_options
+from atlas_rap.cli.options import POSITIVE, OutputFile, layer_engine_options, layer_options, world_help
+
+if TYPE_CHECKING:
+    from atlas_rap.skillbus.remote import BusSettings
 
 
 @click.command()
@@ -39,7 +42,7 @@ from atlas_rap.cli.options import (POSITIVE, OutputFile, bus_options, check_bus_
 @bus_options
 def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str | None, verbose: bool,
          speed: float, no_prior_map: bool, map_in: str | None, map_out: str | None, layers: tuple[str, ...],
-         layer_rules: str | None, connect: tuple[str, ...], robots: tuple[str, ...]) -> None:
+         layer_rules: str | None, bus: BusSettings | None) -> None:
     """Load FILEs, then read forms, queries and commands (:help lists them).
 
     Type any top-level form (define-rap, post, include, plan, ...),
@@ -57,10 +60,10 @@ def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str |
     width = None if interactive else 200
     out, err = console(width=width), console(err=True, width=width)
     layering = layer_engine_options(no_prior_map, map_in, map_out, layers, layer_rules)
-    check_bus_options(connect, robots, **{"--world": world, "--no-prior-map": no_prior_map, "--map-in": map_in,
+    check_bus_options(bus, **{"--world": world, "--no-prior-map": no_prior_map, "--map-in": map_in,
                       "--layers": tuple(layers) != ("I", "II", "III", "IV")})
-    if connect:
-        layering.update(connect=connect, robots=robots)
+    if bus is not None:
+        layering.update(bus=bus)
     session = Session(world, seed, out=out, err=err, trace_file=trace_file, verbose=verbose, map_out=map_out,
                       engine_options=layering)
     try:

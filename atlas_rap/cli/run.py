@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import sys
 import time
+from typing import TYPE_CHECKING
 
 import click
 
-from atlas_rap.cli.options import (LIVE_PORT, POSITIVE, OutputFile, bus_options, check_bus_options,
-                                   layer_engine_options, layer_options, world_help)
+from atlas_rap.cli.bus_options import bus_options, check_bus_options
+from atlas_rap.cli.options import LIVE_PORT, POSITIVE, OutputFile, layer_engine_options, layer_options, world_help
+
+if TYPE_CHECKING:
+    from atlas_rap.skillbus.remote import BusSettings
 
 
 @click.command()
@@ -47,7 +51,7 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         until: float, realtime: bool | None, show_agenda: bool, show_memory: bool, topology_file: str | None,
         render: str | None, record_file: str | None, live: bool, live_port: int, no_prior_map: bool,
         map_in: str | None, map_out: str | None, layers: tuple[str, ...], layer_rules: str | None,
-        connect: tuple[str, ...], robots: tuple[str, ...]) -> None:
+        bus: BusSettings | None) -> None:
     """Run a mission: post its tasks, run the RAPs, print a live trace and a summary.
 
     Exits 0 when every posted task succeeded, 1 when one failed (the
@@ -62,12 +66,12 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
 
     out, err = console(), console(err=True)
     layering = layer_engine_options(no_prior_map, map_in, map_out, layers, layer_rules)
-    check_bus_options(connect, robots, **{"--world": world, "--map": topology_file, "--render": render,
+    check_bus_options(bus, **{"--world": world, "--map": topology_file, "--render": render,
                       "--live (the host serves the world live: atlas skills serve --live)": live, "--no-prior-map": no_prior_map, "--map-in": map_in,
                       "--layers": tuple(layers) != ("I", "II", "III", "IV"), "--seed (the host's: atlas skills serve --seed)": seed})
     realtime = live if realtime is None else realtime
-    engine = MissionEngine(world, seed=seed, topology=topology_file, realtime=realtime, connect=connect,
-                           robots=robots, **layering)
+    engine = MissionEngine(world, seed=seed, topology=topology_file, realtime=realtime, bus=bus,
+                           **layering)
     recorder = None
     if record_file or live:
         from atlas_rap.layers.recording import RunRecorder

@@ -7,7 +7,8 @@ import sys
 
 import click
 
-from atlas_rap.cli.options import LIVE_PORT, OutputFile, world_help
+from atlas_rap.cli.bus_options import MAX_MESSAGE, ZENOH_CONFIG
+from atlas_rap.cli.options import LIVE_PORT, POSITIVE, OutputFile, world_help
 
 
 @click.group("skills")
@@ -34,37 +35,61 @@ def skills_group() -> None:
               help="Serve the world live to Foxglove over WebSocket (prints the ws:// URL), session after "
                    "session; run the sequencer with --realtime to watch it. Needs atlas-rap[foxglove].")
 @LIVE_PORT
+@click.option("--token-file", "token_file", type=click.Path(dir_okay=False), metavar="FILE",
+              help="Where the host keeps the bus's secret that every sequencer must hold: made at the first "
+                   "start (readable only by you), kept across restarts. Default: a file per robot in your "
+                   "runtime folder, printed at start. ATLAS_BUS_TOKEN, if set, is the secret instead.")
+@ZENOH_CONFIG
+@click.option("--lease", type=POSITIVE, default=10.0, show_default=True, metavar="SECONDS",
+              help="A sequencer that sends nothing for this long loses the host (its link beats every second "
+                   "while it thinks).")
+@MAX_MESSAGE
 def serve(world: str, listen: tuple[str, ...], connect: tuple[str, ...], robot: str, seed: int,
-          record_file: str | None, live: bool, live_port: int) -> None:
+          record_file: str | None, live: bool, live_port: int, token_file: str | None, zenoh_config: str | None,
+          lease: float, max_message: int) -> None:
     """Run the simulation and the skill manager as a skill host for `atlas run --connect`.
 
     It serves one sequencer at a time, each with a fresh world, until
-    Ctrl-C or SIGTERM (exit 130, 143). Key expressions:
+    Ctrl-C or SIGTERM (exit 130, 143). Only a sequencer that holds the
+    host's secret gets in: on this machine `atlas run --connect` finds it
+    in the token file; elsewhere, copy the file and pass --token-file.
+    Every frame is authenticated (HMAC-SHA256); for encryption across
+    machines, listen on tls/ with --zenoh-config. Key expressions:
     atlas/NAME/skill/SKILL/enable|disable, atlas/NAME/event/** (facts,
     done), atlas/NAME/clock/**; liveliness token atlas/NAME/host.
     """
     from atlas_rap.layers.skill_host import SkillHostServer
+    from atlas_rap.skillbus.auth import host_secret
     from atlas_rap.skillbus.keys import check_robot
+    from atlas_rap.skillbus.zenoh_bus import exposure_warning
 
     try:
         check_robot(robot)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--robot") from None
-    endpoints = listen or (() if connect else ("tcp/127.0.0.1:7447",))
+    has_listen = bool(listen) or bool(zenoh_config and _configured_listen(zenoh_config))
+    endpoints = listen or (() if connect or has_listen else ("tcp/127.0.0.1:7447",))
+    secret = host_secret(robot, token_file)
+    warning = exposure_warning(endpoints, zenoh_config)
+    if warning:
+        click.echo(warning, err=True)
     recorder = None
     if record_file or live:
         from atlas_rap.layers.recording import HostRecorder
 
         recorder = HostRecorder(path=record_file, live=live, port=live_port)
     try:
-        server = SkillHostServer(world, robot=robot, seed=seed, listen=endpoints, connect=connect,
-                                 recorder=recorder)
+        server = SkillHostServer(world, robot=robot, secret=secret, seed=seed, listen=endpoints, connect=connect,
+                                 zenoh_config=zenoh_config, lease=lease, max_message=max_message, recorder=recorder)
     except BaseException:
         if recorder is not None:
             recorder.close()
         raise
-    where = ", ".join(endpoints + connect)
+    from atlas_rap.skillbus.zenoh_bus import configured_endpoints
+
+    where = ", ".join(dict.fromkeys([*configured_endpoints(zenoh_config, "listen"), *endpoints, *connect]))
     click.echo(f"skill host for robot {robot} in world {server.world.name} on {where} (Ctrl-C to stop)")
+    click.echo(f"token: {secret.source} (a sequencer on another machine needs a copy: --token-file)")
     if recorder is not None and recorder.url:
         click.echo(f"live: {recorder.url} (Foxglove: Open connection, Foxglove WebSocket)")
     sys.stdout.flush()
@@ -87,6 +112,13 @@ def serve(world: str, listen: tuple[str, ...], connect: tuple[str, ...], robot: 
     finally:
         signal.signal(signal.SIGTERM, previous)
     server.close()
+
+
+def _configured_listen(zenoh_config: str) -> bool:
+    """Whether Zenoh's configuration file names endpoints to listen on."""
+    from atlas_rap.skillbus.zenoh_bus import configured_endpoints
+
+    return bool(configured_endpoints(zenoh_config, "listen"))
 
 
 class _Terminated(BaseException):

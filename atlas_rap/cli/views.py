@@ -81,6 +81,9 @@ class LiveTrace:
             verb = "took" if record["outcome"] == ":preempted" else "keeps"
             return text.append(f"{indent}  ⚠ [{record['winner_id']}] {record['winner']} {verb} {record['skill']} "
                                f"from {who} ({record['outcome']})", style="yellow")
+        if event in ("skill-waiting", "skill-resumed"):
+            mark = "⏸" if event == "skill-waiting" else "⏵"
+            return text.append(f"  {mark} {record['skill']}: {record['reason']}", style="yellow")
         if event == "memory-error":
             return text.append(f"  ✗ memory error on {record['fact']}: {record['error']}", style="bold red")
         if event == "layer-switched":

@@ -55,6 +55,7 @@ from atlas_rap.sequencer.checks import check_program
 from atlas_rap.sequencer.introspect import waiting_for
 from atlas_rap.sequencer.task import SUCCEEDED
 from atlas_rap.shipped import shipped_root
+from atlas_rap.skillbus.remote import BusSettings
 from atlas_rap.skillbus.skill_link import CombinedSkills
 from atlas_rap.skills.beliefs import GRID, TOPOLOGY
 from atlas_rap.skills.virtual import VirtualSkills, skill_names
@@ -113,8 +114,9 @@ class MissionEngine:
     while it drives, from ``map_in`` (an ``occupancy.npz``) if given.
     ``layers`` are the layers enabled; ``layer_rules`` the file of switching
     rules (default: the shipped ``rap_library/layers.rap``); ``realtime``
-    paces simulated time to the wall clock. ``connect`` (Zenoh endpoints)
-    uses the skill hosts of ``robots`` on the skill bus instead of building
+    paces simulated time to the wall clock. ``bus`` (a
+    :class:`~atlas_rap.skillbus.remote.BusSettings`: endpoints, robots, tokens)
+    uses the robots' skill hosts on the skill bus instead of building
     the world here (``layers.remote``; what runs where: ``layers.skill_host``).
     """
 
@@ -122,10 +124,9 @@ class MissionEngine:
                  trace: Trace | None = None, topology: str | None = None, mapping: bool = False,
                  rates: Rates = Rates(), prior_map: bool = True, map_in: str | Path | None = None,
                  layers: Iterable[str] = LAYER_NAMES, layer_rules: str | Path | None = None,
-                 realtime: bool = False, connect: Iterable[str] = (), robots: Iterable[str] = ()) -> None:
+                 realtime: bool = False, bus: BusSettings | None = None) -> None:
         self.world_flag = world
-        self.connect = tuple(connect)
-        self.robots = tuple(robots)
+        self.bus = bus
         self.remote: Any = None  # the skill bus's RemoteSkills, with --connect
         self.prior_map = prior_map
         self.map_in = map_in
@@ -204,7 +205,7 @@ class MissionEngine:
 
     def _build(self, chosen: str, form: ast.WorldDecl | None = None, line: str | None = None) -> None:
         """Make the world (unless ``none``), its skills beside the virtual ones, and the sequencer."""
-        if self.connect:
+        if self.bus is not None:
             from atlas_rap.layers.remote import build_remote
 
             build_remote(self, chosen, form, line)

@@ -153,7 +153,8 @@ class RemoteExecutive:
         return min(reached) if reached else target
 
     def _look_after_hosts(self) -> None:
-        """Lost hosts: fail the skills they ran. Hosts come back: a new session at this time."""
+        """Lost hosts: fail the skills they ran, and (after the grace) those waiting for them. Hosts
+        come back: a new session at this time, which serves the skills that waited."""
         for link in self.fleet.links.values():
             link.poll()
             if link.lost is not None:
@@ -161,6 +162,7 @@ class RemoteExecutive:
                 link.fail_running()
             elif link.returned and self.position[1] >= END:
                 self._rejoin(link)
+            link.give_up_waiting(self.time)
 
     def _rejoin(self, link: HostLink) -> None:
         tick = self.position[0]
@@ -170,6 +172,7 @@ class RemoteExecutive:
         except (BusError, HostLost):
             link.alive = False
             return
+        link.resume_waiting()
 
     # -- where to stop next ----------------------------------------------------------------
 
@@ -228,7 +231,7 @@ class RemoteWorld:
 
 def build_remote(engine: Any, chosen: str, form: Any = None, line: str | None = None) -> None:
     """Set up ``engine`` (a :class:`~atlas_rap.layers.engine.MissionEngine`) on the skill hosts of
-    ``engine.connect``: the remote skills beside the program's virtual ones, the sequencer, the
+    ``engine.bus``: the remote skills beside the program's virtual ones, the sequencer, the
     planner and the lock-step executive. ``chosen`` is the world the program names (``form``)."""
     unsupported = [flag for flag, used in (
         ("--map", engine.topology is not None), ("--no-prior-map", not engine.prior_map),
@@ -241,7 +244,7 @@ def build_remote(engine: Any, chosen: str, form: Any = None, line: str | None = 
         raise SourceError(Problem("this program runs with no world ((world none)); --connect runs programs on "
                                   "a skill host's world", form.loc, line,
                                   "run it without --connect, or name the host's world"))
-    fleet = RemoteSkills(engine.connect, engine.robots or ("robot",))
+    fleet = RemoteSkills(engine.bus)
     try:
         if form is not None and Path(chosen).stem != fleet.world:
             raise SourceError(Problem(f"this program names the world '{form.world}', but the skill host runs "

@@ -48,8 +48,9 @@ from atlas_rap.layers.operational import OperationalLayer
 from atlas_rap.layers.tactical import TacticalLayer
 from atlas_rap.logic import Compound
 from atlas_rap.skillbus import keys
-from atlas_rap.skillbus.host import HostSession, SessionEnded, await_hello
-from atlas_rap.skillbus.messages import Frame, Welcome
+from atlas_rap.skillbus.auth import Secret
+from atlas_rap.skillbus.host import LEASE, HostDoor, HostSession, SessionEnded, Superseded, await_hello
+from atlas_rap.skillbus.messages import MAX_MESSAGE, Frame, Welcome
 from atlas_rap.skillbus.protocol import BEGIN, END, log
 from atlas_rap.skillbus.zenoh_bus import Conversation, close_session, open_session
 
@@ -73,13 +74,18 @@ class SkillHostServer:
     """Serves one robot's skills on the bus, to one sequencer at a time (see the module docstring).
 
     ``world``: a shipped world's name or a world file; ``listen`` / ``connect``:
-    Zenoh endpoints; ``robot``: the robot's name on the bus; ``recorder``: a
+    Zenoh endpoints; ``robot``: the robot's name on the bus; ``secret``: the bus's
+    secret (``skillbus.auth.host_secret``), which every sequencer must hold (None: no
+    authentication, for measuring what it costs); ``zenoh_config``: Zenoh's own
+    configuration file; ``lease``: seconds a silent sequencer keeps the host;
+    ``max_message``: the largest message taken, in bytes; ``recorder``: a
     :class:`~atlas_rap.layers.recording.HostRecorder` that records each session's
     world (or None); it is told of each session's start and end, and closed by :meth:`close`.
     """
 
-    def __init__(self, world: str, *, robot: str = keys.DEFAULT_ROBOT, seed: int = 0,
-                 listen: Sequence[str] = (), connect: Sequence[str] = (), rates: Rates = Rates(),
+    def __init__(self, world: str, *, robot: str = keys.DEFAULT_ROBOT, secret: Secret | None, seed: int = 0,
+                 listen: Sequence[str] = (), connect: Sequence[str] = (), zenoh_config: str | None = None,
+                 lease: float = LEASE, max_message: int = MAX_MESSAGE, rates: Rates = Rates(),
                  recorder: Any = None) -> None:
         from atlas_rap.sim.world import load_world
 
@@ -87,9 +93,13 @@ class SkillHostServer:
         self.world = load_world(world)
         self.seed = seed
         self.rates = rates
+        self.lease = lease
         self.recorder = recorder
-        self.session = open_session(listen=listen, connect=connect)
-        self.conversation = Conversation(self.session, keys.to_host(robot), keys.sequencer_token(robot))
+        self.session = open_session(listen=listen, connect=connect, config_file=zenoh_config,
+                                    max_message=max_message)
+        self.conversation = Conversation(self.session, keys.to_host(robot), keys.sequencer_token(robot),
+                                         max_message=max_message, robot=robot)
+        self.door = HostDoor(self.conversation, self.robot, secret)
         self.conversation.declare_token(keys.host_token(robot))  # after the subscriptions: seen only when ready
         self.sessions = 0
         self.current: HostSession | None = None
@@ -97,17 +107,20 @@ class SkillHostServer:
     def serve(self, stop: Callable[[], bool] = lambda: False,
               on_session: Callable[[str], None] | None = None) -> None:
         """Serve sequencers one after another until ``stop()``; ``on_session`` hears of each start and end."""
+        hello: tuple[Frame, bytes] | None = None
         while not stop():
-            hello = await_hello(self.conversation, self.robot, stop)
+            hello = hello or await_hello(self.door, stop)
             if hello is None:
                 return
             self.sessions += 1
             if on_session is not None:
-                on_session(f"session {self.sessions} started at t={hello.last.tick / self.rates.physics:g} s")
-            reason = "stopped: the host stops"
+                on_session(f"session {self.sessions} started at t={hello[0].last.tick / self.rates.physics:g} s")
+            reason, taken_by = "stopped: the host stops", None
             try:
                 self._run(hello)
                 reason = "ended"
+            except Superseded as exc:
+                reason, taken_by = str(exc), exc.hello
             except SessionEnded as exc:
                 reason = str(exc)
             finally:  # also when the host is stopped mid-session (Ctrl-C, SIGTERM): a whole file
@@ -117,17 +130,18 @@ class SkillHostServer:
                     on_session(f"session {self.sessions} {reason}")
                     if written is not None:
                         on_session(f"recording written to {written}")
+            hello = taken_by
 
-    def _run(self, hello: Frame) -> None:
+    def _run(self, hello: tuple[Frame, bytes]) -> None:
         """One sequencer's session: a fresh world at its time, then its ticks until it goes."""
         from atlas_rap.sim.physics import Simulation
         from atlas_rap.sim.prior import prior_facts
         from atlas_rap.skills.stock import stock_manager
 
-        tick = hello.last.tick  # type: ignore[union-attr]
+        tick = hello[0].last.tick  # type: ignore[union-attr]
         clock = Clock(self.rates.physics)
         clock.ticks = tick
-        session = self.current = HostSession(self.conversation, self.robot, hello.session, tick, lambda: clock.ticks)
+        session = self.current = HostSession(self.door, hello, tick, lambda: clock.ticks, lease=self.lease)
         session.timers.now = clock.now
         simulation = Simulation(self.world, seed=self.seed, dt=1.0 / self.rates.physics)
         manager = stock_manager(self.world, simulation, simulation.rng)
@@ -146,7 +160,7 @@ class SkillHostServer:
         welcome = Welcome(self.robot, self.world.name, {name: tuple(sorted(a)) for name, a in manager.skills().items()},
                           tuple(sorted(manager.produces())), tuple(prior),
                           (self.rates.physics, self.rates.skills, self.rates.sequencer))
-        session.send(keys.session(self.robot, "welcome"), [welcome], (tick, END))
+        session.welcome(welcome)
         session.first_tick()
         while True:
             target = session.target

@@ -17,24 +17,119 @@ and waits for the next tick.
 A host speaks of its robot as ``robot``, as the stock skills do; on the
 bus its facts say the robot's name (``--robot alice``: ``(at alice
 office)``), and facts about ``alice`` coming back say ``robot`` again.
+
+**Who gets in.** :class:`HostDoor` is where sequencers knock: a Hello whose
+tag does not hold under the host's secret is refused (with a hint, at most
+once a second) and starts nothing; a Hello seen before (a replay) is
+dropped. A session is *established* once the sequencer's first frame after
+the Welcome holds; until then a newer Hello that holds takes its place, so
+a replayed Hello of an earlier run cannot keep the host. Established, the
+session lasts while the sequencer is alive and speaks: a sequencer that
+sends nothing that holds for ``lease`` seconds (frames, or the beats its
+link sends every second while it thinks) loses the host, so a silent
+squatter cannot hold it.
 """
 
 from __future__ import annotations
 
-from collections import deque
+import time
+from collections import OrderedDict, deque
 from types import SimpleNamespace
 from typing import Any, Callable, Iterable
 
 from atlas_rap.logic import Compound, Memory, Term
 from atlas_rap.skillbus import keys
+from atlas_rap.skillbus.auth import NONCE, TAG, TO_HOST, TO_SEQUENCER, Secret, new_nonce, session_key, verify
 from atlas_rap.skillbus.messages import (Ack, Disable, Done, Enable, FactAsserted, FactRetracted, Frame, Hello,
-                                         Message, Note, RuleFired, Tick, Welcome, changes_to_messages)
-from atlas_rap.skillbus.protocol import BEGIN, END, GONE, HELLO, SEQUENCER, SKILLS, Peer, Position, log
+                                         Message, Note, RuleFired, Tick, Welcome, changes_to_messages, decode)
+from atlas_rap.skillbus.protocol import BEGIN, END, FRAME, GONE, HELLO, SEQUENCER, SKILLS, Peer, Position, log
 from atlas_rap.skillbus.zenoh_bus import Conversation
+
+LEASE = 10.0
+"""Seconds a session lasts with nothing that holds from its sequencer (``atlas skills serve --lease``)."""
+
+REFUSAL = ("refused: this sequencer's token is not the skill host's; use the token file the host printed at "
+           "start (on another machine: copy it and pass --token-file FILE), or the host's ATLAS_BUS_TOKEN")
+"""What a sequencer whose Hello does not hold is told."""
 
 
 class SessionEnded(Exception):
-    """The sequencer of the session went away (or a new one took over)."""
+    """The sequencer of the session went away, fell silent, or a newer Hello took its place."""
+
+
+class Superseded(SessionEnded):
+    """A Hello that holds came before the session was established: it takes the host."""
+
+    def __init__(self, hello: tuple[Frame, bytes]) -> None:
+        super().__init__("a new sequencer took the host before this one's first frame")
+        self.hello = hello
+
+
+class HostDoor:
+    """Where sequencers knock (module docstring): checks Hellos, refuses the others, welcomes."""
+
+    SEEN = 4096
+
+    def __init__(self, conversation: Conversation, robot: str, secret: Secret | None) -> None:
+        self.conversation = conversation
+        self.robot = robot
+        self.secret = secret
+        self.hello_key = keys.sequencer(robot, "hello")
+        self._seen: OrderedDict[bytes, None] = OrderedDict()
+        self._refused_at = 0.0
+
+    def admit(self, key: str, payload: bytes, attachment: bytes) -> tuple[Frame, bytes] | None:
+        """A Hello that holds and was not seen before, and its nonce; None (logged) otherwise."""
+        nonce = attachment[TAG:] if len(attachment) == TAG + NONCE else b""
+        if self.secret is not None and not verify(self.secret.key, TO_HOST, key, payload, attachment, nonce=True):
+            self.conversation.drops("a Hello that fails authentication (a sequencer without the host's token?)", key)
+            self._refuse(key, payload)
+            return None
+        try:
+            frame = decode(payload, max_bytes=self.conversation.max_message)
+        except Exception as exc:
+            self.conversation.drops("a Hello that cannot be decoded", key, str(exc))
+            return None
+        if type(frame) is not Frame or frame.seq != 0 or type(frame.last) is not Hello:
+            self.conversation.drops("a frame on the Hello key that is no Hello", key)
+            return None
+        if frame.last.robot != self.robot:
+            self.conversation.drops(f"a Hello for robot {frame.last.robot!r}", key)
+            return None
+        if self.secret is not None:
+            if nonce in self._seen:
+                self.conversation.drops("a Hello seen before (a replay)", key)
+                return None
+            self._seen[nonce] = None
+            if len(self._seen) > self.SEEN:
+                self._seen.popitem(last=False)
+        return frame, nonce
+
+    def _refuse(self, key: str, payload: bytes) -> None:
+        """Tell a sequencer whose Hello does not hold why (untagged: only a hint; once a second at most)."""
+        now = time.monotonic()
+        if now - self._refused_at < 1.0:
+            return
+        self._refused_at = now
+        try:
+            frame = decode(payload, max_bytes=self.conversation.max_message)
+        except Exception:
+            return
+        if type(frame) is Frame and type(frame.last) is Hello:
+            refusal = Frame(frame.session, 0, (Welcome(self.robot, error=REFUSAL),))
+            self.conversation.put(keys.session(self.robot, "welcome"), refusal.to_bytes())
+
+    def welcome(self, peer: Peer, hello: tuple[Frame, bytes], welcome: Welcome, position: Position) -> None:
+        """Start ``peer``'s session with the sequencer of ``hello``: make the session's key with a
+        fresh nonce of the host's, and send ``welcome`` tagged under it with that nonce."""
+        frame, sequencer_nonce = hello
+        peer.restart(frame.session)
+        peer.expected = 1  # the Hello was frame 0
+        nonce = b""
+        if self.secret is not None:
+            nonce = new_nonce()
+            peer.key = session_key(self.secret, frame.session, sequencer_nonce, nonce)
+        peer.send(keys.session(self.robot, "welcome"), [welcome], position, nonce=nonce)
 
 
 class _Timers:
@@ -62,15 +157,24 @@ class _Trace:
 class HostSession(Peer):
     """One session of a skill host with a sequencer; see the module docstring.
 
-    ``ticks`` says which tick the host's clock is at; the host's executive
-    drives physics and skills and calls the stop points.
+    ``hello``: the sequencer's Hello and nonce (from :class:`HostDoor`); ``ticks``
+    says which tick the host's clock is at; the host's executive drives physics and
+    skills and calls the stop points. :meth:`welcome` starts the session.
     """
 
-    def __init__(self, conversation: Conversation, robot: str, session: str, tick: int,
-                 ticks: Callable[[], int]) -> None:
-        super().__init__(conversation, robot)
-        self.restart(session)
-        self.expected = 1  # the Hello was frame 0
+    outbound = TO_SEQUENCER
+
+    def __init__(self, door: HostDoor, hello: tuple[Frame, bytes], tick: int, ticks: Callable[[], int], *,
+                 lease: float = LEASE) -> None:
+        super().__init__(door.conversation, door.robot, door.secret)
+        robot = door.robot
+        self.door = door
+        self.hello = hello
+        self.session = hello[0].session
+        self.lease = lease
+        self.established = False  # the sequencer's first frame after the Welcome held
+        self.beat_key = keys.sequencer(robot, "beat")
+        self.last_beat = -1
         self.memory = Memory()
         self.rules = SimpleNamespace(fired=deque(maxlen=16))
         self.timers = _Timers(self)
@@ -80,8 +184,13 @@ class HostSession(Peer):
         self._ticks = ticks
         self.position: Position = (tick, END)
         self.target: Position = (tick, END)
-        self.token = keys.sequencer_token(robot, session)
+        self.token = keys.sequencer_token(robot, self.session)
         self.rename = robot != keys.DEFAULT_ROBOT
+
+    def welcome(self, welcome: Welcome) -> None:
+        """Start the session: the Welcome, tagged under the session's new key."""
+        self.door.welcome(self, self.hello, welcome, self.position)
+        self.heard = time.monotonic()
 
     # -- what skills and layers call (the sequencer's interface) ------------------------
 
@@ -133,17 +242,22 @@ class HostSession(Peer):
     def wait(self, answer: type[Message]) -> Frame:
         """Serve the sequencer until it sends a frame ending with ``answer``; that frame.
 
-        There is no timeout: the sequencer may think for long (the planner), and
-        its going is seen through its liveliness token (:class:`SessionEnded`).
+        The sequencer may think for long (the planner): its link beats meanwhile. The
+        session ends (:class:`SessionEnded`) when its liveliness token goes or nothing
+        that holds came from it for ``lease`` seconds.
         """
         while True:
             event = self.next_event(0.5)
+            if time.monotonic() - self.heard > self.lease:
+                raise SessionEnded(f"the sequencer sent nothing for {self.lease:g} s (its lease ran out)")
             if event is None:
                 continue
             kind, value = event
-            if kind == GONE and value == self.token:
+            if kind == GONE and value == self.token:  # (a stranger's copy of the token going is not seen)
                 raise SessionEnded("the sequencer went away")
             if kind == HELLO:
+                if not self.established:
+                    raise Superseded(value)
                 self._busy(value)
                 continue
             if not isinstance(value, Frame):
@@ -155,8 +269,31 @@ class HostSession(Peer):
             if type(last) in (Enable, Disable):
                 self._command(last)  # type: ignore[arg-type]
             else:
-                log.warning("skill bus: robot %s: dropped a %s frame that came out of turn", self.robot,
-                            last.TYPE if last is not None else "empty")
+                self.conversation.drops("a frame that came out of turn", keys.sequencer(self.robot, "*"),
+                                        last.TYPE if last is not None else "empty")
+
+    def admit(self, key: str, payload: bytes, attachment: bytes) -> tuple[str, Any] | None:
+        """Hellos go to the door; beats keep the lease; the rest as any frame."""
+        if key == self.door.hello_key:
+            hello = self.door.admit(key, payload, attachment)
+            return (HELLO, hello) if hello is not None else None
+        if key == self.beat_key:
+            self._beat(key, payload, attachment)
+            return None
+        event = super().admit(key, payload, attachment)
+        if event is not None:
+            self.established = True
+        return event
+
+    def _beat(self, key: str, payload: bytes, attachment: bytes) -> None:
+        """A beat of the sequencer's link: the lease starts again (if it holds and is newer)."""
+        if not self.authentic(key, payload, attachment):
+            self.conversation.drops("a beat that fails authentication", key)
+            return
+        frame = self.decode(key, payload)
+        if frame is not None and frame.session == self.session and frame.seq > self.last_beat:
+            self.last_beat = frame.seq
+            self.heard = time.monotonic()
 
     def _command(self, command: Enable | Disable) -> None:
         error = None
@@ -183,12 +320,12 @@ class HostSession(Peer):
                 rule = SimpleNamespace(name=message.rule, effects=message.effects)  # type: ignore[attr-defined]
                 self.rules.fired.append((rule, message.fact))  # type: ignore[attr-defined]
 
-    def _busy(self, hello: Frame) -> None:
+    def _busy(self, hello: tuple[Frame, bytes]) -> None:
         """Another sequencer says hello while this session lasts: tell it the host is busy."""
-        other = Peer(self.conversation, self.robot)
-        other.restart(hello.session)
-        other.send(keys.session(self.robot, "welcome"),
-                   [Welcome(self.robot, error="busy: it serves another sequencer's run; wait for that run to end")])
+        other = Peer(self.conversation, self.robot, self.secret)
+        other.outbound = TO_SEQUENCER
+        self.door.welcome(other, hello, Welcome(self.robot, error="busy: it serves another sequencer's run; wait "
+                                                                  "for that run to end"), self.position)
 
     # -- the robot's name on the bus ----------------------------------------------------------
 
@@ -207,17 +344,21 @@ def _renamed(term: Term, old: str, new: str) -> Term:
     return term
 
 
-def await_hello(conversation: Conversation, robot: str, stop: Callable[[], bool]) -> Frame | None:
-    """Wait for a sequencer to start a session (None when ``stop()`` says so)."""
-    waiting = Peer(conversation, robot)
-    waiting.restart("")
+def await_hello(door: HostDoor, stop: Callable[[], bool]) -> tuple[Frame, bytes] | None:
+    """Wait for a sequencer to start a session: its Hello and nonce (None when ``stop()`` says so).
+    Frames on other keys come from no session now and are dropped."""
     while not stop():
-        event = waiting.next_event(0.25)
-        if event is not None and event[0] == HELLO:
-            hello = event[1]
-            if type(hello.last) is Hello and hello.last.robot == robot:
+        item = door.conversation.receive(0.25)
+        if item is None or item[0] != FRAME:
+            continue
+        key, payload, attachment = item[1]
+        if key == door.hello_key:
+            hello = door.admit(key, payload, attachment)
+            if hello is not None:
                 return hello
+        else:
+            log.debug("skill bus: dropped a frame on %s: no session is open", key)
     return None
 
 
-__all__ = ["HostSession", "SessionEnded", "await_hello"]
+__all__ = ["LEASE", "HostDoor", "HostSession", "SessionEnded", "Superseded", "await_hello"]

@@ -31,12 +31,21 @@ sender, with the session it belongs to and, for a batch of changes, who made
 them. Anything that cannot be decoded raises :class:`DecodeError` (a
 :class:`VersionError` when it is from another version of the protocol);
 backends log such a message and drop it.
+
+**Hostile input.** Bytes on a bus may come from anyone, so :func:`decode`
+trusts nothing: a message over ``max_bytes`` (default :data:`MAX_MESSAGE`,
+1 MiB) or nested deeper than ``max_depth`` (:data:`MAX_DEPTH`) is refused
+before it is parsed, and every message is checked against its schema (each
+field's type and range, no unknown fields, finite numbers, names that are
+symbols), so whatever :func:`decode` returns can be used without another
+check. It raises :class:`DecodeError` and nothing else.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Iterable
 
@@ -45,6 +54,17 @@ from atlas_rap.logic import Compound, String, Term, Var
 
 VERSION = 1
 """The protocol version every message carries (``"v"``); another version is a :class:`VersionError`."""
+
+MAX_MESSAGE = 1 << 20
+"""The largest message :func:`decode` reads by default, in bytes (1 MiB): a whole world's prior map
+fits many times over; anything larger is refused before it is parsed."""
+
+MAX_DEPTH = 64
+"""The deepest nesting of JSON arrays and objects :func:`decode` reads: a frame of facts about
+nested terms is about 8 deep; deeper input is refused before it is parsed."""
+
+PHASES = 4
+"""Phases of a tick (``skillbus.protocol``: SKILLS, SEQUENCER, END, BEGIN): a phase is 0-3."""
 
 
 class DecodeError(AtlasError):
@@ -109,8 +129,70 @@ def _compound(value: Any, what: str) -> Compound:
 
 
 def _short(value: Any) -> str:
-    text = json.dumps(value) if not isinstance(value, (bytes, bytearray)) else repr(value)
+    try:
+        text = json.dumps(value) if not isinstance(value, (bytes, bytearray)) else repr(value)
+    except (TypeError, ValueError, RecursionError):
+        text = repr(type(value))
     return text if len(text) <= 60 else text[:57] + "..."
+
+
+# -- reading fields against a schema ---------------------------------------------------
+
+_SYMBOL = re.compile(r"^[^\s()\"';]+$")
+_SESSION = re.compile(r"^[0-9a-f]{0,32}$")
+_MISSING = object()
+
+
+class _Fields:
+    """The fields of one message, read against its schema: each read checks a field's type and
+    range; :meth:`end` refuses the fields that no read asked for."""
+
+    def __init__(self, data: dict[str, Any]) -> None:
+        self.data = data
+        self.read = {"v", "type"}
+
+    def get(self, name: str, kind: type | tuple[type, ...], default: Any = _MISSING) -> Any:
+        self.read.add(name)
+        if name not in self.data:
+            if default is _MISSING:
+                raise DecodeError(f"no field {name!r}")
+            return default
+        value = self.data[name]
+        kinds = kind if isinstance(kind, tuple) else (kind,)
+        if type(value) not in kinds:
+            names = " or ".join(k.__name__ for k in kinds)
+            raise DecodeError(f"field {name!r} must be a {names}, not {_short(value)}")
+        return value
+
+    def count(self, name: str, default: Any = _MISSING, below: int | None = None) -> int:
+        """A whole number >= 0 (and < ``below``)."""
+        value = self.get(name, int, default)
+        if value < 0 or (below is not None and value >= below):
+            raise DecodeError(f"field {name!r} must be a whole number from 0"
+                              f"{f' to {below - 1}' if below is not None else ''}, not {value}")
+        return value
+
+    def number(self, name: str) -> float:
+        """A finite number (int or float)."""
+        value = self.get(name, (int, float))
+        if not math.isfinite(value):
+            raise DecodeError(f"field {name!r} must be a finite number, not {value}")
+        return float(value)
+
+    def symbol(self, name: str, default: Any = _MISSING) -> str:
+        """A name that is one symbol (a robot, a world, a rule)."""
+        value = self.get(name, str, default)
+        if value and not _SYMBOL.match(value):
+            raise DecodeError(f"field {name!r} must be a symbol, not {_short(value)}")
+        return value
+
+    def compound(self, name: str) -> Compound:
+        return _compound(self.get(name, (list, str, dict, int, float)), name)
+
+    def end(self) -> None:
+        unknown = sorted(set(self.data) - self.read)
+        if unknown:
+            raise DecodeError(f"unknown field {unknown[0]!r}")
 
 
 # -- messages ---------------------------------------------------------------------
@@ -126,8 +208,8 @@ class Message:
         raise NotImplementedError
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> Message:
-        """The message from its JSON fields; raises :class:`DecodeError` on a bad field."""
+    def read(cls, data: _Fields) -> Message:
+        """The message from its JSON fields, each checked; raises :class:`DecodeError` on a bad one."""
         raise NotImplementedError
 
     def to_dict(self) -> dict[str, Any]:
@@ -154,8 +236,8 @@ class Enable(Message):
         return {"call": encode_term(self.call)}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> Enable:
-        return cls(_compound(_field(data, "call"), "call"))
+    def read(cls, data: _Fields) -> Enable:
+        return cls(data.compound("call"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,8 +251,8 @@ class Disable(Message):
         return {"call": encode_term(self.call)}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> Disable:
-        return cls(_compound(_field(data, "call"), "call"))
+    def read(cls, data: _Fields) -> Disable:
+        return cls(data.compound("call"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -185,11 +267,11 @@ class Done(Message):
         return {"call": encode_term(self.call), "outcome": self.outcome}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> Done:
-        outcome = _field(data, "outcome", str)
-        if not outcome.startswith(":"):
+    def read(cls, data: _Fields) -> Done:
+        outcome = data.symbol("outcome")
+        if not outcome.startswith(":") or len(outcome) < 2:
             raise DecodeError(f"outcome must be a keyword such as :succeed, not {outcome!r}")
-        return cls(_compound(_field(data, "call"), "call"), outcome)
+        return cls(data.compound("call"), outcome)
 
     def fact(self) -> Compound:
         return Compound("done", (self.call, self.outcome))
@@ -207,8 +289,8 @@ class Why(Message):
         return {"call": encode_term(self.call), "reason": self.reason}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> Why:
-        return cls(_compound(_field(data, "call"), "call"), _field(data, "reason", str))
+    def read(cls, data: _Fields) -> Why:
+        return cls(data.compound("call"), data.get("reason", str))
 
     def fact(self) -> Compound:
         return Compound("why", (self.call, String(self.reason)))
@@ -225,8 +307,8 @@ class FactAsserted(Message):
         return {"fact": encode_term(self.fact)}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> FactAsserted:
-        return cls(_compound(_field(data, "fact"), "fact"))
+    def read(cls, data: _Fields) -> FactAsserted:
+        return cls(data.compound("fact"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -240,14 +322,14 @@ class FactRetracted(Message):
         return {"fact": encode_term(self.fact)}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> FactRetracted:
-        return cls(_compound(_field(data, "fact"), "fact"))
+    def read(cls, data: _Fields) -> FactRetracted:
+        return cls(data.compound("fact"))
 
 
 @dataclass(frozen=True, slots=True)
 class Tick(Message):
     """The clock: "advance to t". ``tick`` counts physics steps, ``phase`` is where in that step
-    to stop (:data:`~atlas_rap.skillbus.remote.SKILLS` ... ``BEGIN``), ``t`` the time in seconds."""
+    to stop (:data:`~atlas_rap.skillbus.protocol.SKILLS` ... ``BEGIN``), ``t`` the time in seconds."""
 
     TYPE: ClassVar[str] = "tick"
     tick: int
@@ -258,8 +340,8 @@ class Tick(Message):
         return {"tick": self.tick, "phase": self.phase, "t": self.t}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> Tick:
-        return cls(_field(data, "tick", int), _field(data, "phase", int), _number(data, "t"))
+    def read(cls, data: _Fields) -> Tick:
+        return cls(data.count("tick"), data.count("phase", below=PHASES), data.number("t"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -277,11 +359,8 @@ class Ack(Message):
         return {"tick": self.tick, "phase": self.phase, **({"error": self.error} if self.error else {})}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> Ack:
-        error = data.get("error")
-        if error is not None and type(error) is not str:
-            raise DecodeError("error must be a string")
-        return cls(_field(data, "tick", int), _field(data, "phase", int), error)
+    def read(cls, data: _Fields) -> Ack:
+        return cls(data.count("tick"), data.count("phase", below=PHASES), data.get("error", str, None))
 
 
 @dataclass(frozen=True, slots=True)
@@ -296,15 +375,15 @@ class Hello(Message):
         return {"robot": self.robot, "tick": self.tick}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> Hello:
-        return cls(_field(data, "robot", str), _field(data, "tick", int))
+    def read(cls, data: _Fields) -> Hello:
+        return cls(data.symbol("robot"), data.count("tick"))
 
 
 @dataclass(frozen=True, slots=True)
 class Welcome(Message):
     """A host's answer to :class:`Hello`: its world, skills (name → arities), the predicates its
     events assert, the world's prior-map facts, its rates (physics, skills, sequencer Hz),
-    or an ``error`` (the host is busy with another sequencer)."""
+    or an ``error`` (the host is busy with another sequencer, or refuses this one)."""
 
     TYPE: ClassVar[str] = "welcome"
     robot: str
@@ -322,23 +401,20 @@ class Welcome(Message):
                 "rates": list(self.rates), **({"error": self.error} if self.error else {})}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> Welcome:
-        skills = _field(data, "skills", dict)
-        if not all(type(a) is list and all(type(n) is int for n in a) for a in skills.values()):
-            raise DecodeError("skills must map names to lists of arities")
-        produces = _field(data, "produces", list)
-        rates = _field(data, "rates", list)
-        if not all(type(p) is str for p in produces):
+    def read(cls, data: _Fields) -> Welcome:
+        skills = data.get("skills", dict)
+        if not all(_SYMBOL.match(name) and type(a) is list and all(type(n) is int and 0 <= n < 256 for n in a)
+                   for name, a in skills.items()):
+            raise DecodeError("skills must map skill names to lists of arities (whole numbers)")
+        produces = data.get("produces", list)
+        rates = data.get("rates", list)
+        if not all(type(p) is str and _SYMBOL.match(p) for p in produces):
             raise DecodeError("produces must be a list of predicate names")
-        if len(rates) != 3 or not all(type(r) in (int, float) and r > 0 for r in rates):
+        if len(rates) != 3 or not all(type(r) in (int, float) and math.isfinite(r) and r > 0 for r in rates):
             raise DecodeError("rates must be three positive numbers")
-        error = data.get("error")
-        if error is not None and type(error) is not str:
-            raise DecodeError("error must be a string")
-        return cls(_field(data, "robot", str), _field(data, "world", str),
-                   {name: tuple(a) for name, a in skills.items()}, tuple(produces),
-                   tuple(_compound(f, "a prior fact") for f in _field(data, "prior", list)),
-                   (float(rates[0]), float(rates[1]), float(rates[2])), error)
+        return cls(data.symbol("robot"), data.get("world", str), {name: tuple(a) for name, a in skills.items()},
+                   tuple(produces), tuple(_compound(f, "a prior fact") for f in data.get("prior", list)),
+                   (float(rates[0]), float(rates[1]), float(rates[2])), data.get("error", str, None))
 
 
 @dataclass(frozen=True, slots=True)
@@ -356,17 +432,20 @@ class RuleFired(Message):
                 "fact": encode_term(self.fact)}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> RuleFired:
-        effects = _field(data, "effects", list)
+    def read(cls, data: _Fields) -> RuleFired:
+        effects = data.get("effects", list)
         if not all(type(e) is list and len(e) == 2 and e[0] in ("assert", "retract") for e in effects):
             raise DecodeError("effects must be [kind, term] pairs")
-        return cls(_field(data, "rule", str), tuple((e[0], decode_term(e[1])) for e in effects),
-                   _compound(_field(data, "fact"), "fact"))
+        return cls(data.symbol("rule"), tuple((e[0], decode_term(e[1])) for e in effects), data.compound("fact"))
+
+
+_NOTE_FIELD = re.compile(r"^[a-z_][a-z0-9_]*$")
 
 
 @dataclass(frozen=True, slots=True)
 class Note(Message):
-    """A trace record made on the host (the layers' ``layer-switched``) at time ``t``."""
+    """A trace record made on the host (the layers' ``layer-switched``) at time ``t``: ``data`` are
+    its fields, named as Python names other than ``t`` and ``event``."""
 
     TYPE: ClassVar[str] = "note"
     t: float
@@ -377,8 +456,12 @@ class Note(Message):
         return {"t": self.t, "event": self.event, "data": self.data}
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> Note:
-        return cls(_number(data, "t"), _field(data, "event", str), _field(data, "data", dict))
+    def read(cls, data: _Fields) -> Note:
+        fields = data.get("data", dict)
+        bad = next((name for name in fields if not _NOTE_FIELD.match(name) or name in ("t", "event")), None)
+        if bad is not None:
+            raise DecodeError(f"a note's field is named as a Python name other than t and event, not {bad!r}")
+        return cls(data.number("t"), data.symbol("event"), fields)
 
 
 MESSAGES: dict[str, type[Message]] = {cls.TYPE: cls for cls in (
@@ -413,16 +496,16 @@ class Frame(Message):
         return data
 
     @classmethod
-    def from_fields(cls, data: dict[str, Any]) -> Frame:
-        messages = tuple(_message(m) for m in _field(data, "messages", list))
+    def read(cls, data: _Fields) -> Frame:
+        messages = tuple(_message(m) for m in data.get("messages", list))
         if any(type(m) is Frame for m in messages):
             raise DecodeError("a frame cannot hold a frame")
-        skill = data.get("skill")
-        source = data.get("source", "")
-        if type(source) is not str:
-            raise DecodeError("source must be a string")
-        return cls(_field(data, "session", str), _field(data, "seq", int), messages, _field(data, "tick", int),
-                   _field(data, "phase", int), source, None if skill is None else _compound(skill, "skill"))
+        session = data.get("session", str)
+        if not _SESSION.match(session):
+            raise DecodeError(f"a session is named by up to 32 hex digits, not {_short(session)}")
+        skill = data.get("skill", (list, str, dict, int, float), None)
+        return cls(session, data.count("seq"), messages, data.count("tick"), data.count("phase", below=PHASES),
+                   data.get("source", str, ""), None if skill is None else _compound(skill, "skill"))
 
     @property
     def last(self) -> Message | None:
@@ -432,53 +515,78 @@ class Frame(Message):
 MESSAGES[Frame.TYPE] = Frame
 
 
-def decode(data: bytes | bytearray | memoryview | str) -> Message:
-    """The message that ``data`` (UTF-8 JSON) holds.
+def decode(data: bytes | bytearray | memoryview | str, *, max_bytes: int = MAX_MESSAGE,
+           max_depth: int = MAX_DEPTH) -> Message:
+    """The message that ``data`` (UTF-8 JSON) holds, checked against its schema.
 
-    Raises :class:`VersionError` for another protocol version and
-    :class:`DecodeError` for anything else that is not a message.
+    Refuses, before parsing, more than ``max_bytes`` bytes or arrays and objects
+    nested deeper than ``max_depth``. Raises :class:`VersionError` for another
+    protocol version and :class:`DecodeError` for anything else that is not a
+    message; never another exception.
     """
     try:
-        text = data if isinstance(data, str) else bytes(data).decode()
-        obj = json.loads(text)
+        raw = data.encode() if isinstance(data, str) else bytes(data)
+    except UnicodeEncodeError:
+        raise DecodeError("not a skill-bus message (not UTF-8 text)") from None
+    if len(raw) > max_bytes:
+        raise DecodeError(f"a message of {len(raw)} bytes: more than the {max_bytes} the bus takes")
+    depth = nesting_depth(raw)
+    if depth > max_depth:
+        raise DecodeError(f"a message nested {depth} deep: deeper than the {max_depth} the bus takes")
+    try:
+        obj = json.loads(raw.decode())
     except (UnicodeDecodeError, ValueError) as exc:
         raise DecodeError(f"not a skill-bus message (not UTF-8 JSON: {exc})") from None
-    return _message(obj)
+    except RecursionError:  # a max_depth too deep for this interpreter's stack
+        raise DecodeError("a message nested too deep to read") from None
+    try:
+        return _message(obj)
+    except RecursionError:
+        raise DecodeError("a message nested too deep to read") from None
+
+
+_QUOTED = re.compile(rb'"(?:[^"\\]|\\.)*"', re.DOTALL)
+_NOT_BRACKETS = bytes(b for b in range(256) if b not in b"[]{}")
+
+
+def nesting_depth(data: bytes) -> int:
+    """How deep JSON arrays and objects nest in ``data`` (brackets inside strings do not count).
+
+    Cheap for what the bus carries: a message with few brackets is not scanned at all.
+    """
+    opened = data.count(b"[") + data.count(b"{")
+    if opened <= MAX_DEPTH:
+        return opened
+    brackets = _QUOTED.sub(b"", data).translate(None, _NOT_BRACKETS)
+    if not brackets:
+        return 0
+    import numpy as np
+
+    steps = np.frombuffer(brackets, dtype=np.uint8)
+    opens = (steps == ord("[")) | (steps == ord("{"))
+    return int(np.cumsum(np.where(opens, 1, -1), dtype=np.int64).max())
 
 
 def _message(obj: Any) -> Message:
     if type(obj) is not dict:
         raise DecodeError(f"a skill-bus message is a JSON object, not {_short(obj)}")
     version = obj.get("v")
-    if version != VERSION:
-        raise VersionError(f"skill-bus protocol version {version!r} where {VERSION} was expected: "
+    if version != VERSION or type(version) is not int:
+        raise VersionError(f"skill-bus protocol version {_short(version)} where {VERSION} was expected: "
                            f"run the same atlas-rap on the sequencer and the skill host")
     kind = obj.get("type")
     cls = MESSAGES.get(kind) if type(kind) is str else None
     if cls is None:
-        raise DecodeError(f"unknown skill-bus message type {kind!r}")
+        raise DecodeError(f"unknown skill-bus message type {_short(kind)}")
     try:
-        return cls.from_fields(obj)
+        fields = _Fields(obj)
+        message = cls.read(fields)
+        fields.end()
+        return message
     except DecodeError as exc:
         raise DecodeError(f"bad {kind} message: {exc}") from None
     except (TypeError, ValueError, KeyError) as exc:
         raise DecodeError(f"bad {kind} message: {exc}") from None
-
-
-def _field(data: dict[str, Any], name: str, kind: type | None = None) -> Any:
-    if name not in data:
-        raise DecodeError(f"no field {name!r}")
-    value = data[name]
-    if kind is not None and (type(value) is not kind):
-        raise DecodeError(f"field {name!r} must be a {kind.__name__}, not {_short(value)}")
-    return value
-
-
-def _number(data: dict[str, Any], name: str) -> float:
-    value = _field(data, name)
-    if type(value) not in (int, float):
-        raise DecodeError(f"field {name!r} must be a number, not {_short(value)}")
-    return float(value)
 
 
 def changes_to_messages(changes: Iterable[tuple[str, Compound]]) -> tuple[Message, ...]:
