@@ -177,7 +177,7 @@ def test_a_misspelt_deadline_form_suggests_deadline():
 # ============================================================================= printing back
 
 def test_plan_requests_and_deadlines_print_as_written_and_read_back_the_same():
-    text = ("(plan (a) (b ?x) :deadline 10 :max-failures 2)\n\n"
+    text = ("(plan (a) (b c) :deadline 10 :max-failures 2)\n\n"
             "(deadline (delivered mail office-b) 150)\n\n"
             "(deadline (a) 2.5)\n")
     source = parse_text(text, "p.rap")

@@ -190,7 +190,12 @@ class _Loader:
                 "include cycle: " + " -> ".join(cycle), form.loc, self.source_line(form.loc),
                 "remove one of these includes; each file needs to be included only once"))
             return
-        if not target.is_file():
+        if target.is_dir():
+            self.problems.append(Problem(
+                f"included path is a directory, not a file: {form.path} (looked for {target_name})", form.loc,
+                self.source_line(form.loc), "include one file, e.g. (include \"navigation.rap\")"))
+            return
+        if not target.exists():
             where = ("the working directory" if source.path.startswith("<")
                      else "the file that includes them")
             self.problems.append(Problem(

@@ -22,11 +22,18 @@ Choices where LANGUAGE.md is silent:
 - files larger than :data:`MAX_FILE_BYTES` are refused with advice to split
   them with ``include``; lists nested deeper than :data:`MAX_DEPTH` are
   refused (no legitimate RAP comes close, and it keeps every later pass safe
-  from Python's recursion limit).
+  from Python's recursion limit);
+- a number must be one a float can hold: ``1e400`` and an integer of 400
+  digits are errors with a caret (every time, priority and fact value
+  becomes a float somewhere, and there it would overflow), while ``nan``
+  and ``inf`` are symbols, as before; a number too small to tell from zero
+  (``1e-400``) reads as 0.0.
 """
 
 from __future__ import annotations
 
+import math
+import sys
 import threading
 from functools import lru_cache
 from importlib import resources
@@ -96,6 +103,7 @@ class _AtomReader:
         self.cache: dict[str, Term] = {}
         self.anonymous = 0
         self.bad_variables: list[Token] = []
+        self.bad_numbers: list[Token] = []
 
     def atom(self, tok: Token) -> Term:
         text = tok.value  # the plain str: Token's own __eq__ makes dict look-ups slow
@@ -113,6 +121,9 @@ class _AtomReader:
             value = Var(name)
         elif first in _NUMBER_START:
             value = _number(text)
+            if value is _TOO_LARGE:
+                self.bad_numbers.append(tok)
+                return 0  # never used: the read fails with the located error
             if value is None:
                 value = text.lower()
         else:
@@ -155,18 +166,28 @@ class _AtomReader:
         return items, locs, depth
 
 
-def _number(text: str) -> int | float | None:
+_TOO_LARGE = object()
+_LARGEST = sys.float_info.max
+
+
+def _number(text: str) -> int | float | None | object:
+    """The number an atom stands for; None for a symbol; ``_TOO_LARGE`` for a
+    number no float can hold (an integer past about 1.8e308, or ``1e400``)."""
     try:
-        return int(text)
+        value = int(text)
     except ValueError:
         pass
+    else:
+        return value if -_LARGEST <= value <= _LARGEST else _TOO_LARGE
     try:
         value = float(text)
     except ValueError:
         return None
-    if value != value or value in (float("inf"), float("-inf")):
+    if math.isfinite(value):
+        return value
+    if value != value or "inf" in text.lower():
         return None  # 'nan', 'inf' and friends stay symbols
-    return value
+    return _TOO_LARGE  # digits that overflow: 1e400, or an integer longer than int() reads
 
 
 class _Builder(Transformer):
@@ -218,6 +239,8 @@ def read_text(text: str, filename: str = "<input>") -> Forms:
             _BUILDER.atoms = None
 
     items, locs, depth = atoms.convert(children)
+    if atoms.bad_numbers:
+        raise SourceError([_too_large(tok, text, filename) for tok in atoms.bad_numbers])
     if atoms.bad_variables:
         tok = atoms.bad_variables[0]
         raise SourceError(Problem(
@@ -230,6 +253,14 @@ def read_text(text: str, filename: str = "<input>") -> Forms:
             f"lists nested more than {MAX_DEPTH} deep", SourceLocation(filename, line, column),
             _line(text, line), "flatten the form; no RAP or operator needs this depth"))
     return Forms(items, locs)
+
+
+def _too_large(tok: Token, text: str, filename: str) -> Problem:
+    digits = tok.value if len(tok.value) <= 24 else f"{tok.value[:12]}...{tok.value[-6:]} ({len(tok.value)} characters)"
+    return Problem(f"number too large: {digits}", SourceLocation(filename, tok.line, tok.column),
+                   _line(text, tok.line),
+                   f"numbers go up to about {_LARGEST:.1e}: write a smaller one (for no time limit, "
+                   f"leave the limit out)")
 
 
 def read_file(path: str | Path, display_name: str | None = None) -> tuple[Forms, str]:
@@ -253,11 +284,14 @@ def _read_bytes(path: Path, name: str) -> bytes:
     where = SourceLocation(name, 1, 1)
     try:
         size = path.stat().st_size
+        if size <= MAX_FILE_BYTES:  # a device such as /dev/zero says 0 and never ends: read no more than the limit
+            with path.open("rb") as stream:
+                data = stream.read(MAX_FILE_BYTES + 1)
+            size = max(size, len(data))
         if size > MAX_FILE_BYTES:
             raise SourceError(Problem(
                 f"file is too large ({size / 1e6:.1f} MB; the limit is {MAX_FILE_BYTES // (1024 * 1024)} MiB)",
                 where, None, "split it into smaller files joined with (include \"part.rap\")"))
-        data = path.read_bytes()
     except IsADirectoryError:
         raise SourceError(Problem("is a directory, not a file", where, None,
                                   "name the .rap or .ap files inside it")) from None

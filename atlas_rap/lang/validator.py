@@ -32,13 +32,13 @@ Choices where LANGUAGE.md is silent (also in the README's language notes):
 
 from __future__ import annotations
 
-import difflib
 from typing import Callable
 
 from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
 from atlas_rap.lang import ast
+from atlas_rap.lang.guesses import QUERY_OPERATORS, hint_for, nearest
 from atlas_rap.lang.reader import Datum, Forms, SList
-from atlas_rap.logic import Compound, MemoryRule, String, Term, Var, is_ground, term_to_str
+from atlas_rap.logic import Compound, MemoryRule, String, Term, Var, is_anonymous, is_ground, term_to_str, variables
 
 TOP_LEVEL_FORMS = (
     "define-rap", "define-memory-rule", "define-virtual-skill", "at-time", "include", "world",
@@ -56,17 +56,14 @@ SCRIPT_ACTIONS = ("assert", "retract", "finish")
 OPERATOR_PARTS = ("purpose", "agent", "arguments", "preconditions", "constraints", "plot", "effects",
                   "duration", "uncontrolled", "probability")
 PLOT_GROUPS = ("sequence", "parallel", "simultaneous")
+MAX_SECONDS = 1e9
+"""The longest time a file may give (a timeout, a delay, an at-time, a deadline, a duration): about 32
+years of simulated time. More is no limit in practice, and sums of such times would overflow."""
 QUERY_ARITY = {"not": 1, "<": 2, "<=": 2, ">": 2, ">=": 2, "=": 2, "/=": 2}
 
 
 class _Skip(Exception):
     """Raised after a problem is recorded, to abandon the current form or clause."""
-
-
-def nearest(word: str, choices: tuple[str, ...] | list[str]) -> str | None:
-    """The closest valid name to a misspelt ``word``, or None if none is close."""
-    found = difflib.get_close_matches(word, choices, n=1, cutoff=0.6)
-    return found[0] if found else None
 
 
 def to_term(datum: Datum) -> Term:
@@ -95,6 +92,29 @@ def _describe(datum: Datum) -> str:
     if datum.startswith(":"):
         return f"the keyword {datum}"
     return f"'{datum}'"
+
+
+def _free_variable(datum: Datum, where: tuple[int, int],
+                   bound: frozenset[Var] = frozenset()) -> tuple[Var, tuple[int, int]] | None:
+    """The first variable in ``datum`` that is not in ``bound``, with where it is written; None if none.
+    Lists under the planner's own quantifiers (``adl:forall``, ``adl:exists``) bind their variables
+    and are not looked into."""
+    if type(datum) is Var:
+        return None if datum in bound else (datum, where)
+    if type(datum) is not SList or datum.head in _QUANTIFIERS:
+        return None
+    for item, loc in zip(datum.items, datum.locs):
+        found = _free_variable(item, loc, bound)
+        if found is not None:
+            return found
+    return None
+
+
+_QUANTIFIERS = ("adl:forall", "adl:exists")
+
+
+def _shown(var: Var) -> str:
+    return "?" if is_anonymous(var) else f"?{var.name}"
 
 
 class Validator:
@@ -130,9 +150,7 @@ class Validator:
         return form.line, form.column
 
     def unknown(self, what: str, name: str, where: tuple[int, int], choices: tuple[str, ...]):
-        guess = nearest(name, choices)
-        hint = f"did you mean '{guess}'?" if guess else "expected one of: " + ", ".join(choices)
-        self.fail(f"unknown {what} '{name}'", where, hint)
+        self.fail(f"unknown {what} '{name}'", where, hint_for(what, name, choices))
 
     # ------------------------------------------------------------ shapes
 
@@ -161,17 +179,24 @@ class Validator:
         head = self.head_name(form, f"a name at the head of {what}")
         return Compound(head, tuple(to_term(x) for x in form.items[1:]))
 
-    def number(self, datum: Datum, where: tuple[int, int], what: str, *,
-               minimum: float | None = None, integer: bool = False, positive: bool = False) -> float:
-        """A number; ``minimum`` is the least allowed, ``positive`` asks for one > 0."""
+    def number(self, datum: Datum, where: tuple[int, int], what: str, *, minimum: float | None = None,
+               integer: bool = False, positive: bool = False, seconds: bool = False) -> float:
+        """A number; ``minimum`` is the least allowed, ``positive`` asks for one > 0; ``seconds``: a time,
+        at most :data:`MAX_SECONDS`."""
         ok = isinstance(datum, int) if integer else isinstance(datum, (int, float))
         if not ok or type(datum) is bool:
             kind = "a whole number" if integer else "a number"
-            self.fail(f"{what} must be {kind}, found {_describe(datum)}", where)
+            hint = None
+            if type(datum) is str and datum.lstrip("+-") in ("nan", "inf", "infinity"):
+                hint = f"{datum} is not a number here; for no limit, leave the limit out"
+            self.fail(f"{what} must be {kind}, found {_describe(datum)}", where, hint)
         if minimum is not None and datum < minimum:
             self.fail(f"{what} must be at least {minimum}, found {datum}", where)
         if positive and not datum > 0:
             self.fail(f"{what} must be greater than 0, found {datum}", where)
+        if seconds and datum > MAX_SECONDS:
+            self.fail(f"{what} must be at most {MAX_SECONDS:g} seconds (about 32 years), found {datum:g}", where,
+                      "times are in seconds" if what == "duration" else "for no time limit, leave the limit out")
         return datum
 
     def query(self, datum: Datum, where: tuple[int, int]) -> Term:
@@ -186,6 +211,9 @@ class Validator:
         if not form.items:
             self.fail("empty query ()", self.at(form), "write a fact pattern such as (at robot ?place)")
         head = form.items[0]
+        if type(head) is str and head in QUERY_OPERATORS:
+            self.fail(f"'{head}' is not a comparison or connective here", form.locs[0],
+                      f"write ({QUERY_OPERATORS[head]} ...); the comparisons are < <= > >= = /=")
         if head in ("and", "or", "not"):
             for item, loc in zip(form.items[1:], form.locs[1:]):
                 if type(item) is SList:
@@ -196,6 +224,14 @@ class Validator:
         if arity is not None and len(form.items) - 1 != arity:
             self.fail(f"'{head}' takes {arity} argument{'s' if arity > 1 else ''}, found {len(form.items) - 1}",
                       self.at(form), "wrap several queries in (and ...)" if head == "not" else None)
+
+    def no_free_variable(self, datum: Datum, where: tuple[int, int], what: str, hint: str,
+                         bound: frozenset[Var] = frozenset()) -> None:
+        """Fail at the first variable of ``datum`` outside ``bound``: ``what`` says where it is."""
+        found = _free_variable(datum, where, bound)
+        if found is not None:
+            var, loc = found
+            self.fail(f"{what} has the unbound variable {_shown(var)}: nothing gives it a value", loc, hint)
 
     def ground_fact(self, datum: Datum, where: tuple[int, int], what: str) -> Compound:
         fact = self.compound(datum, where, "a fact")
@@ -269,7 +305,7 @@ class Validator:
                 arg, arg_loc = self.one_arg(clause, "query" if name not in ("timeout", "priority", "retries")
                                             else "number")
                 if name == "timeout":
-                    fields["timeout"] = self.number(arg, arg_loc, "timeout", minimum=0)
+                    fields["timeout"] = self.number(arg, arg_loc, "timeout", minimum=0, seconds=True)
                 elif name == "priority":
                     fields["priority"] = self.number(arg, arg_loc, "priority")
                 elif name == "retries":
@@ -419,7 +455,7 @@ class Validator:
             if item == ":timeout":
                 if i + 1 >= len(items):
                     self.fail(":timeout needs a number of seconds", loc)
-                timeout = self.number(items[i + 1], locs[i + 1], ":timeout", minimum=0)
+                timeout = self.number(items[i + 1], locs[i + 1], ":timeout", minimum=0, seconds=True)
                 i += 2
                 continue
             if type(item) is str and item.startswith(":") and len(item) > 1:
@@ -472,6 +508,7 @@ class Validator:
         trigger = None
         condition = None
         effects = []
+        effect_clauses: list[SList] = []
         for clause, loc in zip(form.items[2:], form.locs[2:]):
             try:
                 clause = self.list_form(clause, loc, "(on ...), (when ...), (assert ...) or (retract ...)")
@@ -485,7 +522,9 @@ class Validator:
                         self.fail("rule has two 'when' clauses", clause.locs[0], "combine them with (and ...)")
                     condition = self.query(*self.one_arg(clause, "query"))
                 elif kind in ("assert", "retract"):
-                    effects.append((kind, self.memory_op(clause).fact))
+                    fact = self.memory_op(clause).fact
+                    effects.append((kind, fact))
+                    effect_clauses.append(clause)
                 else:
                     self.unknown("rule clause", kind, clause.locs[0], ("on", "when", "assert", "retract"))
             except _Skip:
@@ -493,6 +532,11 @@ class Validator:
         if trigger is None:
             self.fail("memory rule has no (on FACT) clause", self.at(form),
                       "say which assertion triggers it, e.g. (on (at ?thing ?place))")
+        bound = frozenset(variables(trigger)) | frozenset(variables(condition) if condition is not None else ())
+        for clause in effect_clauses:
+            self.no_free_variable(clause.items[1], clause.locs[1], f"this {clause.head}",
+                                  "an effect may use the variables of (on ...) and (when ...); "
+                                  "write a value in this one's place", bound)
         here = self.loc(self.at(form))
         rule = MemoryRule(name=name, trigger=trigger, condition=condition, effects=tuple(effects), loc=here)
         return ast.MemoryRuleDef(rule=rule, loc=here)
@@ -502,6 +546,7 @@ class Validator:
             self.fail("define-virtual-skill needs a head such as (approach-site ?site)", self.at(form))
         head = self.compound(form.items[1], form.locs[1], "a skill head")
         lines = self.each(form, 2, self.script_line)
+        self._script_variables(form, frozenset(variables(head)), term_to_str(head))
         return ast.VirtualSkillDef(head=head, lines=lines, loc=self.loc(self.at(form)))
 
     def script_line(self, datum: Datum, where: tuple[int, int]) -> ast.ScriptLine:
@@ -510,7 +555,7 @@ class Validator:
         if kind == "after":
             if len(form.items) < 2:
                 self.fail("after needs a number of seconds", self.at(form))
-            delay = self.number(form.items[1], form.locs[1], "the delay of after", minimum=0)
+            delay = self.number(form.items[1], form.locs[1], "the delay of after", minimum=0, seconds=True)
             actions = self.each(form, 2, self.script_action)
             return ast.After(delay=delay, actions=actions, loc=self.loc(self.at(form)))
         if kind == "when":
@@ -522,6 +567,25 @@ class Validator:
                 self.fail("when inside when: combine the queries with (and ...)", self.at(form))
             return ast.When(condition=condition, lines=lines, loc=self.loc(self.at(form)))
         self.unknown("script line", kind, form.locs[0], SCRIPT_LINES)
+
+    def _script_variables(self, form: SList, bound: frozenset[Var], head: str) -> None:
+        """Report the variables of a script's asserts and retracts that are not the head's (nothing binds them)."""
+        todo = [line for line in form.items[2:] if type(line) is SList]
+        while todo:
+            line = todo.pop(0)
+            start = 2 if line.head in ("after", "when") else 1
+            for item in line.items[start:]:
+                if type(item) is not SList:
+                    continue
+                if item.head in ("after", "when"):
+                    todo.append(item)
+                elif item.head in ("assert", "retract") and len(item.items) == 2:
+                    try:
+                        self.no_free_variable(item.items[1], item.locs[1], f"this {item.head}",
+                                              f"a script may use the variables of its skill's head {head}; "
+                                              f"write a value in this one's place", bound)
+                    except _Skip:
+                        pass
 
     def script_action(self, datum: Datum, where: tuple[int, int]) -> ast.ScriptAction:
         form = self.list_form(datum, where, "(assert ...), (retract ...) or (finish OUTCOME)")
@@ -545,8 +609,15 @@ class Validator:
     def at_time(self, form: SList) -> ast.AtTime:
         if len(form.items) < 3:
             self.fail("at-time needs a time and at least one (assert ...) or (retract ...)", self.at(form))
-        time = self.number(form.items[1], form.locs[1], "the time of at-time", minimum=0)
-        return ast.AtTime(time=time, actions=self.each(form, 2, self.memory_action), loc=self.loc(self.at(form)))
+        time = self.number(form.items[1], form.locs[1], "the time of at-time", minimum=0, seconds=True)
+        return ast.AtTime(time=time, actions=self.each(form, 2, self.at_time_action), loc=self.loc(self.at(form)))
+
+    def at_time_action(self, datum: Datum, where: tuple[int, int]) -> ast.MemoryOp:
+        op = self.memory_action(datum, where)
+        self.no_free_variable(datum.items[1], datum.locs[1], f"this {op.kind}",
+                              "at-time changes memory with facts written out, "
+                              "e.g. (at-time 30 (assert (door-closed office-door)))")
+        return op
 
     # ------------------------------------------------------------ mission forms
 
@@ -571,14 +642,17 @@ class Validator:
         if len(form.items) < 2:
             self.fail("post needs a task such as (deliver box-1 office)", self.at(form))
         task = self.compound(form.items[1], form.locs[1], "a task call")
-        options = self.keyword_options(form, 2, {":priority": {}, ":deadline": {"minimum": 0}})
+        self.no_free_variable(form.items[1], form.locs[1], "the posted task",
+                              "a posted task needs a value for each argument, e.g. (post (go-to office)); "
+                              "variables get their values inside a RAP, from its head and memory")
+        options = self.keyword_options(form, 2, {":priority": {}, ":deadline": {"minimum": 0, "seconds": True}})
         return ast.Post(task=task, priority=options.get(":priority"), deadline=options.get(":deadline"),
                         loc=self.loc(self.at(form)))
 
     def keyword_options(self, form: SList, start: int, allowed: dict[str, dict]) -> dict[str, float]:
         """``:key NUMBER`` pairs from ``items[start:]``, each key at most once;
         ``allowed`` maps each key to the keyword arguments of :meth:`number`
-        that its value must meet (``minimum``, ``integer``, ``positive``)."""
+        that its value must meet (``minimum``, ``integer``, ``positive``, ``seconds``)."""
         options: dict[str, float] = {}
         items, locs = form.items, form.locs
         i = start
@@ -607,10 +681,19 @@ class Validator:
             self.fail("plan needs at least one goal", self.at(form) if end == len(items) else form.locs[end],
                       "write the goals first, then the options, e.g. (plan (delivered mail office-b) :deadline 150)")
         goals = self.each(_Items(items[:end], form.locs[:end]), 1, self.query)
-        options = self.keyword_options(form, end, {":deadline": {"positive": True},
+        options = self.keyword_options(form, end, {":deadline": {"positive": True, "seconds": True},
                                                    ":max-failures": {"minimum": 1, "integer": True}})
         return ast.PlanRequest(goals=goals, deadline=options.get(":deadline"),
                                max_failures=options.get(":max-failures"), loc=self.loc(self.at(form)))
+
+    def top_plan(self, form: SList) -> ast.PlanRequest:
+        """A top-level ``(plan GOAL ...)``: as in a net, but nothing can give its goals' variables values."""
+        request = self.plan(form)
+        for goal, loc in zip(form.items[1:1 + len(request.goals)], form.locs[1:]):
+            self.no_free_variable(goal, loc, "a goal of a top-level plan",
+                                  "write the goal with values, e.g. (plan (at robot office)); a (plan ...) "
+                                  "in a RAP's task-net may use the RAP's variables")
+        return request
 
     # ------------------------------------------------------------ AP: operators
 
@@ -672,7 +755,7 @@ class Validator:
             if key == "plot":
                 return self.plot(value, loc)
             if key == "duration":
-                return self.number(value, loc, "duration", minimum=0)
+                return self.number(value, loc, "duration", minimum=0, seconds=True)
             if key == "uncontrolled":
                 if value not in ("t", "nil"):
                     self.fail(f"uncontrolled takes t or nil, found {_describe(value)}", loc)
@@ -741,8 +824,16 @@ class Validator:
     def goals(self, form: SList) -> ast.Goals:
         if len(form.items) < 2:
             self.fail("goals needs at least one goal", self.at(form))
-        return ast.Goals(goals=self.each(form, 1, self.query), loc=self.loc(self.at(form)),
+        return ast.Goals(goals=self.each(form, 1, self.goal), loc=self.loc(self.at(form)),
                          goal_locs=tuple(self.loc(where) for where in form.locs[1:]))
+
+    def goal(self, datum: Datum, where: tuple[int, int]) -> Term:
+        """A goal of ``goals``: a query without free variables."""
+        query = self.query(datum, where)
+        self.no_free_variable(datum, where, "a goal",
+                              "the planner plans for facts with values: write one in the variable's place, "
+                              "e.g. (goals (delivered mail office-b))")
+        return query
 
     def deadline(self, form: SList) -> ast.Deadline:
         """``(deadline GOAL SECONDS)``: GOAL achieved within SECONDS of the plan's start."""
@@ -750,8 +841,8 @@ class Validator:
             self.fail(f"deadline takes a goal and a number of seconds, found {len(form.items) - 1} "
                       f"item{'' if len(form.items) == 2 else 's'}", self.at(form),
                       "e.g. (deadline (delivered mail office-b) 150)")
-        goal = self.query(form.items[1], form.locs[1])
-        seconds = self.number(form.items[2], form.locs[2], "the seconds of deadline", positive=True)
+        goal = self.query(form.items[1], form.locs[1])  # a pattern: (at ?who c) applies to every goal it matches
+        seconds = self.number(form.items[2], form.locs[2], "the seconds of deadline", positive=True, seconds=True)
         return ast.Deadline(goal=goal, seconds=seconds, loc=self.loc(self.at(form)),
                             goal_loc=self.loc(form.locs[1]))
 
@@ -785,7 +876,7 @@ _TOP_LEVEL: dict[str, Callable[[Validator, SList], ast.TopLevel]] = {
     "world": Validator.world,
     "initial-memory": Validator.initial_memory,
     "post": Validator.post,
-    "plan": Validator.plan,
+    "plan": Validator.top_plan,
     "operator": Validator.operator,
     "agents": Validator.agents,
     "define-relation": Validator.define_relation,

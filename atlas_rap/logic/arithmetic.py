@@ -18,6 +18,7 @@ left to right; ``/`` of two integers is an integer when it divides exactly
 
 from __future__ import annotations
 
+import sys
 from typing import Sequence
 
 from atlas_rap.logic.errors import FactError
@@ -37,8 +38,23 @@ def combine(functor: str, numbers: Sequence[int | float]) -> int | float:
     """The value of ``(functor n ...)`` for one of :data:`ARITHMETIC` and its numbers.
 
     The arithmetic shared by queries and facts; raises
-    :class:`ArithmeticUndefined` when the value does not exist.
+    :class:`ArithmeticUndefined` when the value does not exist, and when it
+    is too large for a float (past about 1.8e308, as the reader's numbers
+    are): ``(* 1e300 1e300)`` has no value rather than ``inf``.
     """
+    try:
+        value = _combine(functor, numbers)
+    except OverflowError:
+        raise ArithmeticUndefined("the result is too large") from None
+    if not -_LARGEST <= value <= _LARGEST:  # inf, or an int past the largest float; nan fails too
+        raise ArithmeticUndefined("the result is too large")
+    return value
+
+
+_LARGEST = sys.float_info.max
+
+
+def _combine(functor: str, numbers: Sequence[int | float]) -> int | float:
     if functor == "+":
         return sum(numbers)
     if functor == "*":

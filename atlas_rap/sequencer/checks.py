@@ -37,7 +37,7 @@ from typing import Iterable, Iterator
 from atlas_rap.errors import AtlasError, Problem, SourceLocation
 from atlas_rap.lang import ast
 from atlas_rap.lang.reader import SList, read_text
-from atlas_rap.lang.validator import nearest
+from atlas_rap.lang.guesses import net_hint, nearest
 from atlas_rap.logic import COMPARISONS, Compound, FactError, Term, evaluated_fact, is_ground, rule_cycles, term_to_str
 
 
@@ -119,14 +119,14 @@ class _Checker:
         for node in _walk(body):
             if isinstance(node, ast.Step):
                 if node.plan is None:
-                    self.call(node.task, node.loc)
+                    self.call(node.task, node.loc, node.label)
                 for wait in node.waits:
                     self.wait_for(wait, node.loc)
             elif isinstance(node, ast.WaitFor):
                 self.wait_for(node)
         self.orderings(body)
 
-    def call(self, task: Compound, loc: SourceLocation) -> None:
+    def call(self, task: Compound, loc: SourceLocation, label: str | None = None) -> None:
         name, arity = task.functor, len(task.args)
         if arity in self.raps.get(name, ()) or arity in self.skills.get(name, ()):
             return
@@ -136,8 +136,10 @@ class _Checker:
                         f"call it as ({name}{' ?x' * min(known)})")
             return
         guess = nearest(name, sorted(set(self.raps) | set(self.skills)))
-        hint = (f"did you mean '{guess}'?" if guess else
-                "define it with define-rap, or as a skill (define-virtual-skill for runs without a world)")
+        # (wait-until (ready)) reads as the step labelled wait-until: its label is the wrong guess
+        hint = net_hint(name) or (net_hint(label) if label else None)
+        hint = hint or (f"did you mean '{guess}'?" if guess else
+                        "define it with define-rap, or as a skill (define-virtual-skill for runs without a world)")
         self.report(f"'{name}' is neither a RAP nor a skill", loc, hint)
 
     def skill(self, skill: Compound, loc: SourceLocation, verb: str) -> None:
@@ -198,7 +200,8 @@ class _Checker:
         except FactError as exc:
             self.report(str(exc), _item_location(self.program, form_loc, path),
                         "arithmetic in a fact is evaluated when the fact is asserted: "
-                        "every argument of + - * / must be a number, and no division by zero")
+                        "every argument of + - * / must be a number, with no division by zero and no "
+                        "result past about 1.8e308")
 
     def memory_rules(self) -> None:
         """Warn about memory rules that can trigger each other in a cycle."""
