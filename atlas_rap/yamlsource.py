@@ -11,6 +11,7 @@ so every problem of a file is reported at once (:meth:`YamlSource.check`).
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,10 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
 
 MAX_YAML_BYTES = 4 * 1024 * 1024
+
+MAX_COORDINATE = 100_000.0
+"""The largest coordinate (metres) of a point, wall or pose read by :meth:`YamlSource.numbers`: a world
+is far smaller, and past it a simulated robot's metres lose their millimetres."""
 
 # --------------------------------------------------------------------------
 # YAML with locations
@@ -62,9 +67,10 @@ class YamlSource:
         name = shown_as or str(path)
         where = SourceLocation(name, 1, 1)
         try:
-            if path.stat().st_size > MAX_YAML_BYTES:
+            with path.open("rb") as stream:  # at most the limit: a device such as /dev/zero never ends
+                data = stream.read(MAX_YAML_BYTES + 1)
+            if len(data) > MAX_YAML_BYTES:
                 raise SourceError(Problem(f"file is too large for a {what}", where))
-            data = path.read_bytes()
         except IsADirectoryError:
             raise SourceError(Problem("is a directory, not a file", where, None,
                                       f"name the {what} inside it")) from None
@@ -106,6 +112,10 @@ class YamlSource:
             source.check()
         except yaml.YAMLError as exc:
             source.error(None, f"YAML syntax: {exc}")
+            source.check()
+        except RecursionError:  # PyYAML composes nested lists and mappings recursively
+            source.error(_deepest(text), "lists or mappings nested too deeply",
+                         f"a {what} needs a few levels: flatten this")
             source.check()
         if source.root is not None:
             source._check_tags(source.root)
@@ -220,13 +230,14 @@ class YamlSource:
         wanted = "a whole number" if integer else "a number"
         tags = ("tag:yaml.org,2002:int",) if integer else ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
         if not isinstance(node, ScalarNode) or node.tag not in tags:
-            self.error(node, f"{path} must be {wanted}, not {_kind(node)}")
+            self.error(node, f"{path} must be {wanted}, not {_kind(node)}", _exponent_hint(node))
             return None
         value = self.value(node)
         if value is None:
             return None
-        if not math.isfinite(value):
-            self.error(node, f"{path} must be a finite number")
+        if not -_LARGEST <= value <= _LARGEST:  # nan, inf, or an integer no float can hold
+            self.error(node, f"{path} must be a finite number, not {_shown(node.value)}",
+                       f"numbers go up to about {_LARGEST:.1e}" if value == value else None)
             return None
         if minimum is not None and value < minimum:
             self.error(node, f"{path} must be at least {minimum:g}, not {value:g}")
@@ -248,7 +259,8 @@ class YamlSource:
             self.error(node, f"{path} must be {shape}: {_count_words(counts)} numbers, not {len(items)}",
                        f"write it as {shape}")
             return None
-        values = [self.number(item, f"{path}[{i}]") for i, item in enumerate(items)]
+        values = [self.number(item, f"{path}[{i}]", minimum=-MAX_COORDINATE, maximum=MAX_COORDINATE)
+                  for i, item in enumerate(items)]
         return None if any(v is None for v in values) else values  # type: ignore[return-value]
 
     def point(self, node: Node, path: str) -> tuple[float, float] | None:
@@ -301,6 +313,53 @@ def _kind(node: Node) -> str:
         return f"'{node.value}' (true/false)"
     shown = node.value if len(node.value) <= 40 else node.value[:37] + "..."
     return f"'{shown}'"
+
+
+_LARGEST = sys.float_info.max
+
+
+def _shown(text: str) -> str:
+    return text if len(text) <= 24 else f"{text[:12]}...{text[-6:]} ({len(text)} characters)"
+
+
+def _exponent_hint(node: Node) -> str | None:
+    """For ``1e7``, which YAML 1.1 (PyYAML) reads as text: how to write it as a number."""
+    if not (isinstance(node, ScalarNode) and node.tag == "tag:yaml.org,2002:str" and node.style is None):
+        return None
+    try:
+        value = float(node.value)
+    except ValueError:
+        return None
+    if not math.isfinite(value) or node.value.strip().lower() in ("nan", "inf", "-inf", "+inf", "infinity"):
+        return None
+    mantissa, _, exponent = node.value.lower().partition("e")
+    if not exponent:
+        return None
+    dotted = mantissa if "." in mantissa else mantissa + ".0"
+    sign = exponent if exponent[:1] in "+-" else "+" + exponent
+    return f"YAML reads {node.value} as text: write it {dotted}e{sign} (a dot, and a sign after the e)"
+
+
+def _deepest(text: str) -> yaml.Mark:
+    """Where a file too deeply nested to compose is deepest, as a mark: the deepest flow-style
+    bracket, or else the most indented line."""
+    depth = best = line = column = best_line = best_column = 0
+    for char in text:
+        if char in "[{":
+            depth += 1
+            if depth > best:
+                best, best_line, best_column = depth, line, column
+        elif char in "]}":
+            depth -= 1
+        if char == "\n":
+            line, column = line + 1, 0
+        else:
+            column += 1
+    if not best:  # block style: the most indented line
+        indents = [len(row) - len(row.lstrip(" ")) for row in text.split("\n")]
+        best_line = max(range(len(indents)), key=indents.__getitem__)
+        best_column = indents[best_line]
+    return yaml.Mark("", 0, best_line, best_column, None, None)
 
 
 def _char(character: object) -> str:

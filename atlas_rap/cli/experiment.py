@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from atlas_rap.cli.options import OutputFolder
+from atlas_rap.cli.options import SEED, OutputFolder
 
 
 @click.group("experiment")
@@ -15,7 +15,7 @@ def experiment_group() -> None:
 @experiment_group.command("skill-acquisition")
 @click.option("--runs", type=click.IntRange(1, 50), default=7, show_default=True,
               help="Errands from the lab to the office and back, the map carried from run to run.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of every run.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of every run.")
 @click.option("--world", "world", default="lab-corridor-office", show_default=True, metavar="W",
               help="The world of the runs: a shipped world's name or a world file, with places named lab and "
                    "office.")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from atlas_rap.cli.options import POSITIVE, OutputFile, OutputFolder
+from atlas_rap.cli.options import POSITIVE, SEED, OutputFile, OutputFolder
 
 
 @click.group("map")
@@ -39,7 +39,7 @@ def _room_settings(door_width, min_room_area, wall_thickness):
 @click.option("--mission", "mission_file", type=click.Path(dir_okay=False), metavar="MISSION.rap",
               help="What the robot does while mapping; default: visit every place of the world in turn.")
 @click.option("--out", "out_dir", required=True, type=OutputFolder(), help="Folder for the maps.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the run.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the run.")
 @click.option("--until", type=POSITIVE, default=1800.0, show_default=True, metavar="SECONDS",
               help="Simulated time limit.")
 @room_options
@@ -161,19 +161,12 @@ def abstract_command(map_yaml: str, out_dir: str, robot_radius: float, world: st
 @click.option("--out", "out_png", required=True, type=OutputFile(), help="The PNG to write.")
 def render_command(map_file: str, out_png: str) -> None:
     """Draw a map: a ROS map_server YAML, or a grid.npz written by `atlas map build`/`abstract`."""
-    import numpy as np
-
-    from atlas_rap.errors import AtlasError
-    from atlas_rap.maps.frame import GridFrame
+    from atlas_rap.maps.grid import load_grid_arrays
     from atlas_rap.maps.render import render_grid
     from atlas_rap.maps.rosmap import load_ros_map
 
     if map_file.endswith(".npz"):
-        try:
-            with np.load(map_file) as data:
-                p_occ, frame = data["p_occ"], GridFrame.from_array(data["frame"])
-        except (OSError, KeyError, ValueError) as exc:
-            raise AtlasError(f"{map_file}: not a grid written by atlas map ({exc})") from None
+        p_occ, frame = load_grid_arrays(map_file)
     else:
         rosmap = load_ros_map(map_file)
         p_occ, frame = rosmap.occupancy, rosmap.frame

@@ -4,20 +4,40 @@
   write; its missing parent folders are made as the option is read, and a
   path that cannot be made is a one-line error (``atlas_rap.outputs``).
 - :data:`POSITIVE` / :data:`NON_NEGATIVE`: click ranges for seconds, speeds
-  and sizes, so ``--until -5`` is refused with a usage error.
+  and sizes, so ``--until -5`` is refused with a usage error; so are
+  ``nan``, ``inf`` and numbers too large for a float (``1e400``).
+- :data:`SEED`: a seed for the run's random numbers, a whole number from 0
+  to 2**63 - 1 (numpy takes no negative seed).
 - :func:`world_help`: the ``--world`` help text, naming the worlds read
   from the shipped ``worlds/`` folder (never a hand-kept list).
 """
 
 from __future__ import annotations
 
+import math
 import click
 
-POSITIVE = click.FloatRange(min=0, min_open=True)
-"""A number greater than zero (seconds, speeds, radii)."""
 
-NON_NEGATIVE = click.FloatRange(min=0)
-"""A number at least zero."""
+class FiniteRange(click.FloatRange):
+    """A click float range that refuses ``nan`` and infinities (``inf``, ``1e400``), which
+    ``click.FloatRange`` lets through (``nan`` compares false with every bound)."""
+
+    def convert(self, value, param, ctx):
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            what = "not a number" if number != number else "not a finite number"
+            self.fail(f"{value!r} is {what}; give an amount such as 10 or 2.5", param, ctx)
+        return number
+
+
+POSITIVE = FiniteRange(min=0, min_open=True)
+"""A finite number greater than zero (seconds, speeds, radii)."""
+
+NON_NEGATIVE = FiniteRange(min=0)
+"""A finite number at least zero."""
+
+SEED = click.IntRange(0, 2 ** 63 - 1)
+"""A seed: a whole number from 0 to 2**63 - 1."""
 
 
 class OutputFile(click.ParamType):

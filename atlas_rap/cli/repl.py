@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Iterable, Iterator, TextIO
 import click
 
 from atlas_rap.cli.bus_options import bus_options, check_bus_options
-from atlas_rap.cli.options import POSITIVE, OutputFile, layer_engine_options, layer_options, world_help
+from atlas_rap.cli.options import POSITIVE, SEED, OutputFile, layer_engine_options, layer_options, world_help
 
 if TYPE_CHECKING:
     from atlas_rap.skillbus.remote import BusSettings
@@ -32,7 +32,7 @@ if TYPE_CHECKING:
 @click.argument("files", nargs=-1, metavar="[FILE...]", type=click.Path(dir_okay=False))
 @click.option("--world", metavar="W",
               help=world_help("Default: the first file's (world ...) form, else none (virtual skills only)."))
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed for the world's randomness.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed for the world's randomness.")
 @click.option("--trace", "trace_file", type=OutputFile(), metavar="FILE",
               help="Write the trace as JSON lines; written when the session ends, however it ends.")
 @click.option("--verbose", "-v", is_flag=True, help="Also show task selections and skill disables.")

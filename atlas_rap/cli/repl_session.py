@@ -43,6 +43,7 @@ Choices where the issue is silent:
 
 from __future__ import annotations
 
+import math
 import shlex
 import threading
 from typing import Callable
@@ -411,10 +412,13 @@ class Session:
 
 
 def _number(text: str, usage: str, kind: Callable = float):
+    """A command's number: at least 0, and finite (``:run nan``, ``:run inf`` and ``:run 1e400`` are errors)."""
     try:
         value = kind(text)
     except ValueError:
         raise AtlasError(f"expected a number: {usage}") from None
+    if type(value) is float and not math.isfinite(value):
+        raise AtlasError(f"expected a finite number, not {text.strip()}: {usage}")
     if value < 0:
         raise AtlasError(f"expected a number at least 0: {usage}")
     return value

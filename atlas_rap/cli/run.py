@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import click
 
 from atlas_rap.cli.bus_options import bus_options, check_bus_options
-from atlas_rap.cli.options import LIVE_PORT, POSITIVE, OutputFile, layer_engine_options, layer_options, world_help
+from atlas_rap.cli.options import LIVE_PORT, POSITIVE, SEED, OutputFile, layer_engine_options, layer_options, world_help
 
 if TYPE_CHECKING:
     from atlas_rap.skillbus.remote import BusSettings
@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 @click.argument("mission_file", metavar="MISSION.rap", type=click.Path(dir_okay=False))
 @click.option("--world", "world", metavar="W",
               help=world_help("Default: the mission's (world ...) form, else lab-corridor-office."))
-@click.option("--seed", type=int, default=0, show_default=True,
+@click.option("--seed", type=SEED, default=0, show_default=True,
               help="Seed for every random choice of the run (same files and seed, same trace).")
 @click.option("--trace", "trace_file", type=OutputFile(), metavar="FILE",
               help="Write the trace as JSON lines (LANGUAGE.md §2.8), even if the run fails or is interrupted.")

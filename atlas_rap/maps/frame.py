@@ -15,6 +15,13 @@ from typing import Any
 
 import numpy as np
 
+from atlas_rap.errors import AtlasError
+
+MAX_CELLS = 16_000_000
+"""The most cells of a grid made to cover a world (:meth:`GridFrame.covering`): 64 MB a float32 layer, a
+world of 200 m x 200 m at 5 cm (the shipped ones have at most 0.25 million); a world asking for more has
+a coordinate wrong, and would take gigabytes."""
+
 
 @dataclass(frozen=True, slots=True)
 class GridFrame:
@@ -31,6 +38,10 @@ class GridFrame:
         xmin, ymin, xmax, ymax = bounds
         width = max(1, math.ceil((xmax - xmin) / resolution))
         height = max(1, math.ceil((ymax - ymin) / resolution))
+        if width * height > MAX_CELLS:
+            raise AtlasError(f"a grid over this world ({xmax - xmin:g} m x {ymax - ymin:g} m at {resolution:g} m a "
+                             f"cell) would have {width * height:,} cells; the most is {MAX_CELLS:,}: "
+                             f"is a coordinate in the world file far off?")
         return cls(height, width, resolution, (xmin, ymin, 0.0))
 
     def to_array(self) -> np.ndarray:
@@ -39,8 +50,18 @@ class GridFrame:
 
     @classmethod
     def from_array(cls, values: Any) -> GridFrame:
-        """The frame stored by :meth:`to_array`."""
-        height, width, resolution, ox, oy, yaw = (float(v) for v in values)
+        """The frame stored by :meth:`to_array`; ``ValueError`` saying what is wrong with anything else
+        (not six numbers, a size that is not a whole number from 1, a resolution not above 0)."""
+        try:
+            numbers = [float(v) for v in np.ravel(np.asarray(values, dtype=object))]
+        except (OverflowError, TypeError):
+            numbers = []
+        if len(numbers) != 6 or not all(map(math.isfinite, numbers)):
+            raise ValueError("frame must be six finite numbers: height, width, resolution, origin x, y, yaw")
+        height, width, resolution, ox, oy, yaw = numbers
+        if not (height.is_integer() and width.is_integer() and 1 <= height <= 1e7 and 1 <= width <= 1e7
+                and resolution > 0):
+            raise ValueError(f"frame {height:g} x {width:g} cells of {resolution:g} m is not a grid's")
         return cls(int(height), int(width), resolution, (ox, oy, yaw))
 
     @property

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import json
 import math
+import zipfile
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -42,11 +43,12 @@ from typing import Any
 
 import numpy as np
 
+from atlas_rap.errors import AtlasError
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, RosMap, write_ros_map
 from atlas_rap.model import SonarConfig
 
-__all__ = ["OccupancyGrid", "SonarModel", "binary_entropy"]
+__all__ = ["OccupancyGrid", "SonarModel", "binary_entropy", "load_grid_arrays"]
 
 ANGLE_BINS = 720  # beam directions per turn for the cone templates (0.5 degree)
 PHI_BINS = 8  # bins of |angle off the beam axis| in the increment table
@@ -187,6 +189,36 @@ class SonarModel:
     def reach(self, max_range: float) -> float:
         """Farthest distance from the transducer a reading can touch."""
         return max(max_range + self.arc_sigmas * self.sigma(max_range), self.max_range_fraction * max_range)
+
+
+def load_grid_arrays(path: str | Path) -> tuple[np.ndarray, GridFrame]:
+    """The occupancy probabilities and frame of a grid file: the levels' ``grid.npz`` or a run's
+    ``occupancy.npz``. Anything else (empty, not an archive, arrays missing, of the wrong shape or
+    not numbers) raises :class:`~atlas_rap.errors.AtlasError` naming the file."""
+    try:
+        with _open_npz(path) as data:
+            frame = GridFrame.from_array(data["frame"])
+            p_occ = np.asarray(data["p_occ"], dtype=np.float32)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise AtlasError(f"{path}: not a grid written by atlas map or atlas run --map-out "
+                         f"({str(exc).strip(chr(39))})") from None
+    if p_occ.shape != frame.shape:
+        raise AtlasError(f"{path}: not a grid written by atlas map or atlas run --map-out (p_occ has shape "
+                         f"{p_occ.shape}, not the frame's {frame.shape})")
+    return p_occ, frame
+
+
+def _open_npz(path: str | Path):
+    """``np.load`` of an ``.npz`` archive; every way a file can fail to be one is a ``ValueError``."""
+    try:
+        data = np.load(Path(path), allow_pickle=False)
+    except (EOFError, zipfile.BadZipFile, ValueError):  # ValueError: what numpy would read as a pickle
+        raise ValueError("the file is empty or not an .npz archive") from None
+    except OSError as exc:
+        raise ValueError(f"cannot read it: {exc.strerror or exc}") from None
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise ValueError("it holds one array (.npy), not an .npz archive of a grid")
+    return data
 
 
 def binary_entropy(p: np.ndarray) -> np.ndarray:
@@ -558,16 +590,28 @@ class OccupancyGrid:
 
     @classmethod
     def load_npz(cls, path: str | Path) -> OccupancyGrid:
-        """A grid saved by :meth:`save_npz`; also any ``.npz`` with ``frame`` and ``p_occ`` (NaN: the prior)."""
-        with np.load(Path(path), allow_pickle=False) as data:
-            frame = GridFrame.from_array(data["frame"])
-            model = SonarModel(**json.loads(str(data["model"]))) if "model" in data else None
-            grid = cls(frame, model)
-            if "log_odds" in data:
-                grid.log_odds = data["log_odds"]
-                grid.updated[...] = data["updated"]
-            else:
-                grid._set_probabilities(data["p_occ"])
+        """A grid saved by :meth:`save_npz`; also any ``.npz`` with ``frame`` and ``p_occ`` (NaN: the prior).
+
+        A file that is not such a grid (empty, not an archive, arrays missing or of
+        the wrong shape) raises ``ValueError`` saying what is wrong, before any
+        array of the frame's size is made.
+        """
+        with _open_npz(path) as data:
+            try:
+                frame = GridFrame.from_array(data["frame"])
+                arrays = ("log_odds", "updated") if "log_odds" in data else ("p_occ",)
+                for name in arrays:
+                    if data[name].shape != frame.shape:
+                        raise ValueError(f"{name} has shape {data[name].shape}, not the frame's {frame.shape}")
+                model = SonarModel(**json.loads(str(data["model"]))) if "model" in data else None
+                grid = cls(frame, model)
+                if "log_odds" in data:
+                    grid.log_odds = data["log_odds"]
+                    grid.updated[...] = data["updated"]
+                else:
+                    grid._set_probabilities(data["p_occ"])
+            except (KeyError, TypeError) as exc:
+                raise ValueError(str(exc).strip("'\"")) from None
         return grid
 
     def to_ros_map(self, path_yaml: str | Path, occupied: float = 0.65, free: float = 0.35,

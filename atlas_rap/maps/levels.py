@@ -60,6 +60,8 @@ def abstract_map(p_occ: np.ndarray, frame: GridFrame, robot_radius: float = 0.2,
     if not free.any():
         raise AtlasError(f"{source} has no free space (no cell with an occupancy below 0.5): "
                          f"is it a map, and is its negate setting right?")
+    if robot_radius > max(free.shape) * frame.resolution:  # wider than the map: not even its disc fits
+        raise AtlasError(f"{source} has no free space wide enough for a robot of radius {robot_radius:g} m")
     result = abstract(p_occ, frame, robot_radius, geometry=geometry, rooms=rooms, reachable=reachable)
     if places:
         result.topology.name_places(places)

@@ -189,7 +189,8 @@ def doorways(points: np.ndarray, nearest: np.ndarray, walls: np.ndarray, resolut
     ok = straight & (gap >= lo) & (gap <= hi)
     u = (a - b) / np.maximum(span, 1e-9)[:, None]
     steps = max(2, int(round(settings.jamb_length / resolution)))
-    thick = max(1, int(round(settings.wall_thickness / resolution)))
+    # a wall thicker than the grid is as thick as the grid: the bound keeps the samples' arrays small
+    thick = max(1, min(int(round(min(settings.wall_thickness / resolution, 1e9))), max(height, width)))
     jamb_a = _jambs(a, u, walls, steps, thick, settings.jamb_fill)
     jamb_b = _jambs(b, -u, walls, steps, thick, settings.jamb_fill)
     ok &= ((jamb_a == _WALL) & (jamb_b != _NONE)) | ((jamb_b == _WALL) & (jamb_a != _NONE))

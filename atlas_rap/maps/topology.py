@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -692,20 +693,26 @@ class Topology:
         if data.get("format") != FORMAT:
             raise ValueError(f"not an atlas-rap topology (format {data.get('format')!r})")
         fr = data["frame"]
-        frame = GridFrame(int(fr["height"]), int(fr["width"]), float(fr["resolution"]), tuple(fr["origin"]))
+        frame = GridFrame.from_array([fr["height"], fr["width"], fr["resolution"], *fr["origin"]])
         graph = nx.Graph()
         for node in data["nodes"]:
             attrs = dict(node)
             n = attrs.pop("id")
-            attrs["cell"] = tuple(attrs["cell"])
-            attrs["xy"] = tuple(attrs["xy"])
+            attrs["cell"] = _cell(attrs["cell"], frame, f"node {n}")
+            attrs["xy"] = _numbers(attrs["xy"], 2, f"node {n}'s xy")
+            _numbers([attrs["clearance"]], 1, f"node {n}'s clearance", low=0.0)
             graph.add_node(n, **attrs)
         for edge in data["edges"]:
             attrs = dict(edge)
             u, v = attrs.pop("u"), attrs.pop("v")
-            attrs["cells"] = tuple(map(tuple, attrs["cells"]))
+            if u not in graph or v not in graph:
+                raise ValueError(f"edge {u}-{v} joins a node that is not in the map")
+            what = f"edge {u}-{v}"
+            attrs["cells"] = tuple(_cell(cell, frame, what) for cell in attrs["cells"])
             attrs["places"] = tuple(attrs["places"])
-            attrs["support"] = tuple(attrs["support"])
+            attrs["support"] = _numbers(attrs["support"], len(attrs["support"]), f"{what}'s support", 0.0, 1.0)
+            _numbers([attrs["length"], attrs["cost"]], 2, f"{what}'s length and cost", low=0.0)
+            _numbers([attrs["probability"]], 1, f"{what}'s probability", 0.0, 1.0)
             graph.add_edge(u, v, **attrs)
         names = {int(k): v for k, v in data.get("place_names", {}).items()}
         return cls(graph, frame, robot_radius=float(data.get("robot_radius", 0.2)), place_names=names)
@@ -714,8 +721,17 @@ class Topology:
     def from_json(cls, path: str | Path) -> Topology:
         """Read a topology written by :meth:`to_json`; anything else is an :class:`AtlasError` saying so."""
         try:
-            return cls.from_dict(json.loads(Path(path).read_text(encoding="utf-8")))
-        except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as exc:
+            with open(path, "rb") as stream:  # at most the limit: a device such as /dev/zero never ends
+                text = stream.read(MAX_JSON_BYTES + 1)
+            if len(text) > MAX_JSON_BYTES:
+                raise ValueError(f"larger than {MAX_JSON_BYTES // 2**20} MiB")
+            data = json.loads(text.decode("utf-8"))
+            if not isinstance(data, dict):
+                raise ValueError(f"it holds {type(data).__name__}, not an object")
+            return cls.from_dict(data)
+        except RecursionError:
+            raise AtlasError(f"{path}: not a topological map written by atlas map (nested too deeply)") from None
+        except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError) as exc:
             raise AtlasError(f"{path}: not a topological map written by atlas map ({exc}); make one with "
                              f"atlas map build --out DIR, then use DIR/topology.json") from None
 
@@ -738,6 +754,31 @@ class Topology:
             flat.add_edge(u, v, **attrs)
         flat.graph.update(frame=json.dumps(self._frame_data()), robot_radius=self.robot_radius)
         return _write_graphml(flat, Path(path))
+
+
+MAX_JSON_BYTES = 64 * 2**20
+"""The largest topology file :meth:`Topology.from_json` reads."""
+
+
+def _numbers(values: Any, count: int, what: str, low: float = -math.inf, high: float = math.inf) -> tuple:
+    """``values`` checked: ``count`` finite numbers from ``low`` to ``high`` (a file's map is read, not trusted)."""
+    values = tuple(values)
+    if len(values) != count or not all(type(v) in (int, float) and -_LARGEST <= v <= _LARGEST and low <= v <= high
+                                       for v in values):
+        raise ValueError(f"{what} must be {count} finite number{'s' if count != 1 else ''}"
+                         + (f" from {low:g} to {high:g}" if math.isfinite(low) or math.isfinite(high) else ""))
+    return values
+
+
+_LARGEST = sys.float_info.max
+
+
+def _cell(values: Any, frame: GridFrame, what: str) -> tuple[int, int]:
+    """A (row, col) cell of ``frame``."""
+    cell = tuple(values)
+    if len(cell) != 2 or not all(type(v) is int for v in cell) or not frame.contains_cell(*cell):
+        raise ValueError(f"{what} has a cell {list(cell)} outside the map's {frame.height} x {frame.width} cells")
+    return cell
 
 
 def _write_graphml(graph: nx.Graph, out: Path) -> Path:

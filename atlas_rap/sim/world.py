@@ -110,6 +110,10 @@ ROBOT_KEYS = ("start", "radius", "max_speed", "max_turn_rate_deg", "odometry_dri
 SONAR_KEYS = ("count", "beam_width_deg", "max_range", "min_range", "range_noise", "range_noise_per_m",
               "specular_angle_deg", "specular_dropout", "rays_per_beam", "rate")
 DISTURBANCE_KINDS = ("person", "box")
+MAX_TRANSDUCERS = 360
+"""The most sonar transducers a world may give its robot (``sonar.count``): one a degree."""
+MAX_RAYS_PER_BEAM = 64
+"""The most rays a beam is sampled with (``sonar.rays_per_beam``): each costs a ray cast per reading."""
 OBJECT_KEYS = ("colour", "kind", "at", "size", "moves")
 MOVE_KEYS = ("at", "near", "to")
 WALL_CLEARANCE_MARGIN = 0.15  # a place point must be this much more than the robot's radius from walls
@@ -636,7 +640,7 @@ class _WorldReader:
     def sonar(self, node: Node) -> SonarConfig:
         src, d = self.src, SonarConfig()
         fields = src.keys(node, "sonar", SONAR_KEYS) or {}
-        count = self._number(fields, "sonar", "count", d.count, minimum=1, integer=True)
+        count = self._number(fields, "sonar", "count", d.count, minimum=1, maximum=MAX_TRANSDUCERS, integer=True)
         beam = self._number(fields, "sonar", "beam_width_deg", math.degrees(d.beam_width), above=0.0, maximum=180.0)
         max_range = self._number(fields, "sonar", "max_range", d.max_range, above=0.0)
         min_range = self._number(fields, "sonar", "min_range", d.min_range, minimum=0.0)
@@ -649,7 +653,8 @@ class _WorldReader:
         specular = self._number(fields, "sonar", "specular_angle_deg", math.degrees(d.specular_angle),
                                 minimum=0.0, maximum=90.0)
         dropout = self._number(fields, "sonar", "specular_dropout", d.specular_dropout, minimum=0.0, maximum=1.0)
-        rays = self._number(fields, "sonar", "rays_per_beam", d.rays_per_beam, minimum=1, integer=True)
+        rays = self._number(fields, "sonar", "rays_per_beam", d.rays_per_beam, minimum=1, maximum=MAX_RAYS_PER_BEAM,
+                            integer=True)
         rate = self._number(fields, "sonar", "rate", d.rate, above=0.0)
         return SonarConfig(int(count), math.radians(beam), max_range, min_range, noise, noise_per_m,
                            math.radians(specular), dropout, int(rays), rate)
