@@ -9,6 +9,8 @@ import pytest
 
 from cli_process import REPO, assert_no_traceback, atlas
 
+from atlas_rap.lang import parse_text
+
 
 def test_the_files_that_ship_are_clean():
     shipped = sorted(str(p.relative_to(REPO)) for folder in ("rap_library", "operators")
@@ -153,3 +155,30 @@ def test_initial_memory_arithmetic_without_a_value_fails_the_check_with_a_caret(
                         "division by zero in (/ 1 0)")
     assert lines[1:3] == ["      (level (/ 1 0)))", "      ^"]
     assert lines[-1] == "m.rap: 1 problem"
+
+
+def test_format_writes_only_the_program_to_stdout_so_a_redirect_gives_a_file_that_reads_the_same(tmp_path):
+    (tmp_path / "missions").mkdir()
+    for name in ("missions/deliver.rap", "navigation.rap"):  # a mission with an include, a world, a post ...
+        (tmp_path / name).write_text((REPO / "rap_library" / name).read_text(encoding="utf-8"), encoding="utf-8")
+    done = atlas("check", "--format", "missions/deliver.rap", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "ok:" not in done.stdout
+    assert done.stderr.startswith("ok: missions/deliver.rap")  # the status goes with the problems
+    (tmp_path / "missions" / "formatted.rap").write_text(done.stdout, encoding="utf-8")  # as `> formatted.rap`
+    again = atlas("check", "--format", "missions/formatted.rap", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    original = (tmp_path / "missions" / "deliver.rap").read_text(encoding="utf-8")
+    assert parse_text(done.stdout, "a.rap") == parse_text(original, "a.rap")
+    assert again.stdout.split("\n", 1)[1] == done.stdout.split("\n", 1)[1]  # formatted again: the same text
+
+
+def test_format_prints_the_file_named_and_not_the_files_it_includes(tmp_path):
+    (tmp_path / "lib.rap").write_text("(define-virtual-skill (beep) (after 1 (finish :succeed)))\n", encoding="utf-8")
+    (tmp_path / "main.rap").write_text('(include "lib.rap")\n(define-rap (go) (method (task-net (beep))))\n',
+                                       encoding="utf-8")
+    done = atlas("check", "--format", "main.rap", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "define-virtual-skill" not in done.stdout and '(include "lib.rap")' in done.stdout
+    (tmp_path / "out.rap").write_text(done.stdout, encoding="utf-8")
+    assert atlas("check", "out.rap", cwd=tmp_path).returncode == 0  # no definition twice

@@ -14,7 +14,9 @@ from atlas_rap.cli.console import console, secho, styles_on
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--tree", is_flag=True, help="Print the AST of each file as a tree.")
 @click.option("--format", "format_", is_flag=True,
-              help="Print each file as atlas reads it, pretty-printed (includes not expanded).")
+              help="Print each FILE as atlas reads it, pretty-printed, and nothing else: the status goes to "
+                   "stderr, so `atlas check --format a.rap > b.rap` writes a file that reads as a.rap does "
+                   "(includes not expanded; comments are not kept).")
 @click.option("--robot", "robots", multiple=True, metavar="NAME",
               help="Check for a run with these robots on the skill bus (atlas run --connect --robot ...): "
                    "with two or more, every stock skill takes the robot's name first.")
@@ -24,6 +26,8 @@ def check(files: tuple[str, ...], tree: bool, format_: bool, robots: tuple[str, 
     Prints every problem with file:line:column and a caret under it, and
     exits 0 when all files are clean, 1 otherwise.
     """
+    # With --format, stdout is the program alone (it is redirected to a file); the status goes with the problems.
+    status_to_stderr = format_
     from atlas_rap.errors import SourceError
     from atlas_rap.lang import format_file, load
     from atlas_rap.shipped import resolve_user_path
@@ -49,13 +53,14 @@ def check(files: tuple[str, ...], tree: bool, format_: bool, robots: tuple[str, 
         summary = ", ".join(_plural(n, _KINDS.get(kind, kind)) for kind, n in sorted(counts.items()))
         includes = len(program.files) - 1
         extra = f" (+{_plural(includes, 'included file')})" if includes else ""
-        secho(f"ok: {path}{extra}: {summary or 'no definitions'}", fg="green")
-        for source in program.files:
-            if tree:
+        secho(f"ok: {path}{extra}: {summary or 'no definitions'}", fg="green", err=status_to_stderr)
+        if tree:
+            for source in program.files:
                 _print_tree(source)
-            if format_:
-                click.echo(f";; {source.path}")
-                click.echo(format_file(source))
+        if format_:  # the file named, not those it includes: its (include ...) forms stay
+            root = program.files[0]
+            click.echo(f";; {root.path}")
+            click.echo(format_file(root))
     if failed:
         sys.exit(1)
 
