@@ -221,8 +221,9 @@ def test_mutual_tls_as_the_readme_sets_it_up(processes, tmp_path, clean_trace):
     (["--token-file", "bad.json5"], "--token-file needs --connect"),
     (["--connect", "tcp/127.0.0.1:1", "--token-file", "bad.json5"], "not a token file"),
     (["--connect", "tcp/127.0.0.1:1", "--max-message", "12"], "--max-message"),
+    (["--host-grace", "5"], "--host-grace needs --connect"),
 ], ids=["tls without certificates", "missing config", "bad config", "config alone", "token alone",
-        "not a token file", "tiny cap"])
+        "not a token file", "tiny cap", "grace alone"])
 def test_bad_bus_security_options_are_clear_errors(tmp_path, args, message):
     (tmp_path / "bad.json5").write_text("{ this is not: json5 ::: }")
     done = atlas("run", DELIVER, *args, cwd=tmp_path)
@@ -236,6 +237,22 @@ def test_a_host_listening_beyond_this_machine_without_tls_warns(processes, tmp_p
     assert "without TLS: anyone on that network can read every frame" in exposed.output
     local = host(processes, tmp_path, free_port(), robot="quiet")
     assert "without TLS" not in local.output
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--listen", "garbage"], "'garbage' is not a Zenoh endpoint"),
+    (["--listen", "tls/127.0.0.1:1"], "listening on TLS needs the host's certificate and key"),
+    (["--token-file", "/proc/x.token"], "token file /proc/x.token: cannot write it"),
+    (["--token-file", "afile/x.token"], "afile is a file"),
+    (["--lease", "0"], "--lease"),
+], ids=["bad endpoint", "tls without certificates", "token in /proc", "token under a file", "no lease"])
+def test_bad_host_options_are_clear_errors(tmp_path, args, message):
+    (tmp_path / "afile").write_text("in the way")
+    done = atlas("skills", "serve", *args, cwd=tmp_path)
+    assert_no_traceback(done)
+    assert done.returncode in (1, 2)
+    assert message in done.stderr
+    assert "warning" not in done.stderr
 
 
 def test_a_host_refuses_a_token_file_others_can_read(tmp_path):

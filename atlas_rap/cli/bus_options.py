@@ -45,8 +45,11 @@ def bus_options(command: Callable[..., Any]) -> Callable[..., Any]:
             bus = BusSettings(tuple(connect), tuple(robots) or ("robot",), tuple(token_files), zenoh_config,
                               host_grace, max_message)
         else:
+            ctx = click.get_current_context()
             given = [flag for flag, value in (("--robot", robots), ("--token-file", token_files),
                                               ("--zenoh-config", zenoh_config)) if value]
+            given += [flag for flag, name in (("--host-grace", "host_grace"), ("--max-message", "max_message"))
+                      if ctx.get_parameter_source(name) is click.core.ParameterSource.COMMANDLINE]
             if given:
                 raise click.UsageError(f"{', '.join(given)} needs --connect (the robot's skill host on the bus)")
         return command(*args, bus=bus, **kwargs)

@@ -69,8 +69,8 @@ def serve(world: str, listen: tuple[str, ...], connect: tuple[str, ...], robot: 
         raise click.BadParameter(str(exc), param_hint="--robot") from None
     has_listen = bool(listen) or bool(zenoh_config and _configured_listen(zenoh_config))
     endpoints = listen or (() if connect or has_listen else ("tcp/127.0.0.1:7447",))
+    warning = exposure_warning(endpoints, zenoh_config)  # (the endpoints and the configuration checked)
     secret = host_secret(robot, token_file)
-    warning = exposure_warning(endpoints, zenoh_config)
     if warning:
         click.echo(warning, err=True)
     recorder = None

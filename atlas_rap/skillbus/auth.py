@@ -56,6 +56,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from atlas_rap.errors import AtlasError
+from atlas_rap.outputs import output_file
 
 TOKEN_ENV = "ATLAS_BUS_TOKEN"
 """The environment variable that holds the bus's secret in place of a token file."""
@@ -181,9 +182,16 @@ def _check_private(path: Path) -> None:
 
 
 def _write_private(path: Path, text: str) -> None:
-    """Write ``path`` readable only by this user, whole or not at all (a temporary file renamed)."""
+    """Write ``path`` readable only by this user, whole or not at all (a temporary file renamed).
+    The folder is made as every output's is (:func:`atlas_rap.outputs.output_file`), only for
+    this user when it is the runtime folder."""
+    if path.parent == runtime_dir():
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+        except OSError:
+            pass  # output_file says why
+    output_file(path, "token file")
     try:
-        path.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
         handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     except OSError as exc:
         raise TokenError(f"token file {path}: cannot write it ({exc.strerror or exc})") from None

@@ -79,12 +79,7 @@ def open_session(listen: Sequence[str] = (), connect: Sequence[str] = (), *,
     """A Zenoh peer session listening on / connecting to the given endpoints (``tcp/127.0.0.1:7447``),
     with Zenoh's configuration from ``config_file`` if given (module docstring)."""
     zenoh = _zenoh()
-    config = load_config(config_file)
-    listen = _endpoints(config, "listen", listen)
-    connect = _endpoints(config, "connect", connect)
-    for endpoint in (*listen, *connect):
-        check_endpoint(endpoint)
-    _check_tls(config, listen, connect, config_file)
+    config, listen, connect = checked_config(listen, connect, config_file)
     default = zenoh.Config()
     for key, value in (("mode", '"peer"'), ("scouting/multicast/enabled", "false"),
                        ("transport/link/tx/lease", str(LEASE_MS)),
@@ -102,6 +97,19 @@ def open_session(listen: Sequence[str] = (), connect: Sequence[str] = (), *,
         raise BusError(f"cannot open the Zenoh session on {where}: {_first_line(exc)}") from None
     _open_sessions.add(session)
     return session
+
+
+def checked_config(listen: Sequence[str], connect: Sequence[str],
+                   config_file: str | Path | None) -> tuple[Any, list[str], list[str]]:
+    """Zenoh's configuration and the endpoints to listen on and connect to (the file's, then the
+    command's), each checked: a :class:`BusError` says what is wrong before anything is opened."""
+    config = load_config(config_file)
+    listen = _endpoints(config, "listen", listen)
+    connect = _endpoints(config, "connect", connect)
+    for endpoint in (*listen, *connect):
+        check_endpoint(endpoint)
+    _check_tls(config, listen, connect, config_file)
+    return config, listen, connect
 
 
 def load_config(config_file: str | Path | None) -> Any:
@@ -159,10 +167,10 @@ def _check_tls(config: Any, listen: Sequence[str], connect: Sequence[str], confi
 
 
 def exposure_warning(listen: Sequence[str], config_file: str | Path | None = None) -> str | None:
-    """A warning when the host listens beyond this machine without TLS (None when it does not)."""
-    config = load_config(config_file)
-    exposed = [e for e in _endpoints(config, "listen", listen)
-               if e.partition("/")[0] not in SECURE and e.partition("/")[0] != "unixsock-stream"
+    """A warning when the host listens beyond this machine without TLS (None when it does not);
+    :class:`BusError` when the endpoints or the configuration are wrong (:func:`checked_config`)."""
+    _, listen, _ = checked_config(listen, (), config_file)
+    exposed = [e for e in listen if e.partition("/")[0] not in SECURE and e.partition("/")[0] != "unixsock-stream"
                and not _loopback(e.partition("/")[2].rpartition(":")[0])]
     if not exposed:
         return None
