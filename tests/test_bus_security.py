@@ -39,6 +39,17 @@ def deliver(processes, tmp_path: Path, port: int, trace: str, *args: str, env: d
     return running
 
 
+def host_and_stranger(processes, tmp_path: Path, mode: str, *args: str) -> tuple[Running, Running, int, list[str]]:
+    """A host, and a stranger on the bus beside it (connected to the host, listening for the
+    sequencer): the host, the stranger, the host's port, and the options that connect a
+    sequencer to both."""
+    port, mine = free_port(), free_port()
+    served = host(processes, tmp_path, port)
+    stranger = attacker(processes, tmp_path, mode, *args, "--connect", f"tcp/127.0.0.1:{port}",
+                        "--listen", f"tcp/127.0.0.1:{mine}")
+    return served, stranger, port, ["--connect", f"tcp/127.0.0.1:{mine}"]
+
+
 @pytest.fixture(scope="module")
 def clean_trace(tmp_path_factory) -> bytes:
     """deliver.rap's trace in one process: what every run over the bus must give, byte for byte."""
@@ -100,12 +111,9 @@ def test_a_token_file_given_by_hand_lets_a_sequencer_in(processes, tmp_path, cle
 
 
 def test_a_stranger_cannot_take_an_idle_host_nor_replay_an_earlier_run(processes, tmp_path, clean_trace):
-    port, mine = free_port(), free_port()
-    served = host(processes, tmp_path, port)
-    stranger = attacker(processes, tmp_path, "squat", "--connect", f"tcp/127.0.0.1:{port}",
-                        "--listen", f"tcp/127.0.0.1:{mine}")
+    served, stranger, port, beside = host_and_stranger(processes, tmp_path, "squat")
     served.wait_for("a Hello that fails authentication")  # its forged Hello, refused
-    first = deliver(processes, tmp_path, port, "first.jsonl", "--connect", f"tcp/127.0.0.1:{mine}")
+    first = deliver(processes, tmp_path, port, "first.jsonl", *beside)
     assert first.finish() == 0, first.output  # the squatter held nothing
     served.wait_for("session 1 the sequencer went away")
     stranger.say("replay")  # the whole first run again, as it was on the wire, tags and all
@@ -123,11 +131,8 @@ def test_a_stranger_cannot_take_an_idle_host_nor_replay_an_earlier_run(processes
 
 
 def test_a_replayed_hello_cannot_hold_a_host_that_has_restarted(processes, tmp_path, clean_trace):
-    port, mine = free_port(), free_port()
-    served = host(processes, tmp_path, port)
-    watcher = attacker(processes, tmp_path, "squat", "--save", "wire.jsonl", "--connect", f"tcp/127.0.0.1:{port}",
-                       "--listen", f"tcp/127.0.0.1:{mine}")
-    first = deliver(processes, tmp_path, port, "first.jsonl", "--connect", f"tcp/127.0.0.1:{mine}")
+    served, watcher, port, beside = host_and_stranger(processes, tmp_path, "squat", "--save", "wire.jsonl")
+    first = deliver(processes, tmp_path, port, "first.jsonl", *beside)
     assert first.finish() == 0, first.output
     watcher.close_input()
     assert watcher.finish() == 0
@@ -144,11 +149,8 @@ def test_a_replayed_hello_cannot_hold_a_host_that_has_restarted(processes, tmp_p
 
 
 def test_garbage_replays_and_forgeries_during_a_run_change_nothing(processes, tmp_path, clean_trace):
-    port, mine = free_port(), free_port()
-    served = host(processes, tmp_path, port)
-    stranger = attacker(processes, tmp_path, "flood", "--count", "1000", "--connect", f"tcp/127.0.0.1:{port}",
-                        "--listen", f"tcp/127.0.0.1:{mine}")
-    run = deliver(processes, tmp_path, port, "attacked.jsonl", "--connect", f"tcp/127.0.0.1:{mine}")
+    served, stranger, port, beside = host_and_stranger(processes, tmp_path, "flood", "--count", "1000")
+    run = deliver(processes, tmp_path, port, "attacked.jsonl", *beside)
     assert run.finish(timeout=120) == 0, run.output
     stranger.close_input()
     assert stranger.finish(timeout=120) == 0
