@@ -6,6 +6,8 @@ only place that prints. The REPL uses the same views.
 
 from __future__ import annotations
 
+import re
+
 from rich.console import Console
 from rich.table import Table
 from rich.text import Text
@@ -23,6 +25,16 @@ QUIET_FACTS = ("(layer-setting ", "(map-quality ", "(primary-layer ", "(mapping 
 every 2 s, and the primary layer (shown as its own ``⇄`` line)."""
 
 
+DEEPEST_INDENT = 16
+"""Task depth up to which the live trace indents; deeper tasks (a runaway recursion) show their depth."""
+
+
+def _indent(depth: int) -> str:
+    if depth <= DEEPEST_INDENT:
+        return "  " * depth
+    return "  " * DEEPEST_INDENT + f"[depth {depth}] "
+
+
 class LiveTrace:
     """A trace sink that prints each record as one readable line, indented by task depth.
 
@@ -35,6 +47,7 @@ class LiveTrace:
         self.console = console
         self.verbose = verbose
         self._depth: dict[int, int] = {}
+        self._because: str | None = None  # the cause of the last failure shown, not repeated up a chain
 
     def __call__(self, record: dict) -> None:
         line = self.format(record)
@@ -48,7 +61,7 @@ class LiveTrace:
         if event == "task-posted":
             parent = record.get("parent")
             self._depth[task_id] = self._depth.get(parent, -1) + 1 if parent is not None else 0
-        indent = "  " * self._depth.get(task_id, 0) if task_id is not None else ""
+        indent = _indent(self._depth.get(task_id, 0)) if task_id is not None else ""
         who = f"[{task_id}] {record.get('task', '')}"
         text = Text(f"{record['t']:9.2f}  ", style="dim")
         if event == "task-posted":
@@ -64,7 +77,12 @@ class LiveTrace:
         if event == "task-succeeded":
             return text.append(f"{indent}✓ {who} succeeded", style="green")
         if event == "task-failed":
-            because = f" (because {record['because']})" if "because" in record else ""
+            because = record.get("because")
+            if because is not None and because == self._because:  # a parent failing for its child's cause
+                because = " (the same cause)"
+            else:
+                self._because = because
+                because = f" (because {because})" if because is not None else ""
             return text.append(f"{indent}✗ {who} failed: {record['reason']}{because}", style="bold red")
         if event == "task-halted":
             return text.append(f"{indent}⊘ {who} halted: {record['reason']}", style="yellow")
@@ -187,30 +205,70 @@ def summary(result, mission_name: str, wall_seconds: float) -> list[Text]:
 FOLD_AFTER = 2
 """Repeats of a stretch of a failure chain shown before the rest of the run is folded."""
 
+LONGEST_CHAIN = 24
+"""Levels of a failure chain shown in full; a longer one that does not repeat is cut in the middle."""
+
 
 def failure_lines(failure: Failure) -> list[str]:
     """A failure chain as indented lines, outermost first, for people.
 
-    A chain that repeats itself (a RAP that calls itself without end) is
-    folded: its root cause comes first, then the first repeats, then one
-    line such as ``… 60 more levels of (loop) …``, then the innermost levels.
+    A chain that repeats itself (a RAP that calls itself without end, with
+    the same arguments or new ones at each level) is folded: its root cause
+    comes first, then the first repeats, then one line such as
+    ``… 60 more levels of (loop) …`` (or ``… 57 more levels of (count …),
+    (count 3) to (count 59) …``), then the innermost levels. A long chain
+    that does not repeat keeps its ends and says how many levels are left out.
     """
     first, *causes = failure.chain()
     levels = [(0, first.reason)] + [(depth, f"{f.what}: {f.reason}") for depth, f in enumerate(causes, 1)]
-    period, start, repeats = _repetition([(f.what, f.reason) for f in causes])
-    if repeats <= FOLD_AFTER + 1:
-        return ["  " * depth + text for depth, text in levels]
+    period, start, repeats = _repetition([(_shape(f.what), _shape(f.reason)) for f in causes])
     root = failure.root()
-    head = levels[:1 + start + period * FOLD_AFTER]
-    folded = repeats - FOLD_AFTER - 1
+    if repeats <= FOLD_AFTER + 1:
+        if len(levels) <= LONGEST_CHAIN:
+            return ["  " * depth + text for depth, text in levels]
+        keep = LONGEST_CHAIN // 2
+        cut = len(levels) - 2 * keep
+        return ([f"cause: {root.what}: {root.reason}"] + ["  " * d + text for d, text in levels[:keep]]
+                + ["  " * keep + f"… {cut} more levels …"]
+                + ["  " * (keep + 1 + i) + text for i, (_, text) in enumerate(levels[-keep:])])
+    shown = max(1, min(FOLD_AFTER, 6 // period))  # a cycle through several RAPs is shown once
+    head = levels[:1 + start + period * shown]
+    folded = repeats - shown - 1
     tail = levels[1 + start + period * (repeats - 1):]
     depth = head[-1][0]
-    what = causes[start].what if causes[start].what.startswith("(") else first.what
     lines = [f"cause: {root.what}: {root.reason}"]
     lines += ["  " * d + text for d, text in head]
-    lines.append("  " * (depth + 1) + f"… {folded} more level{'s' if folded != 1 else ''} of {what} …")
+    what = _folded_what(causes[start + period * shown:start + period * (repeats - 1)], first.what)
+    plural = "s" if folded != 1 else ""
+    more = f"{folded} more time{plural} round" if " > " in what else f"{folded} more level{plural} of"
+    lines.append("  " * (depth + 1) + f"… {more} {what} …")  # a cycle through several RAPs counts rounds
     lines += ["  " * (depth + 1 + i) + text for i, (_, text) in enumerate(tail, 1)]
     return lines
+
+
+def _folded_what(folded: list[Failure], default: str) -> str:
+    """What repeats in the folded levels: ``(loop)``, ``(pong 1) > (ping 1)`` for RAPs that call each other,
+    or ``(count …), (count 3) to (count 59)`` when the arguments change from level to level."""
+    tasks = [f.what for f in folded if f.what.startswith("(")]
+    if not tasks:
+        return default
+    cycle = list(dict.fromkeys(tasks))
+    shapes = list(dict.fromkeys(_shape(task) for task in tasks))
+    if len(cycle) == len(shapes):
+        return " > ".join(cycle)
+    return " > ".join(shape.replace(")", " …)", 1) for shape in shapes) + f", {tasks[0]} to {tasks[-1]}"
+
+
+def _shape(text: str) -> str:
+    """``text`` with every parenthesised task or fact cut to its name: ``step (count 3): ...`` and
+    ``step (count 4): ...`` have one shape, so a recursion whose arguments change still folds."""
+    shaped = _ARGS.sub(r"(\1)", text)
+    while shaped != text:
+        text, shaped = shaped, _ARGS.sub(r"(\1)", shaped)
+    return shaped
+
+
+_ARGS = re.compile(r"\(([^()\s]+)\s[^()]*\)")
 
 
 def _repetition(items: list[tuple[str, str]]) -> tuple[int, int, int]:
