@@ -36,16 +36,27 @@ Choices where the issue is silent:
 - Results go to standard output, errors to standard error.
 - Ending the session (Ctrl-D, end of input) halts the live tasks, so their
   skills are disabled in the trace, before the trace is written.
-- ``:save FILE`` writes memory as ``initial-memory`` and the live top-level
-  tasks as ``post`` forms, with the RAPs, rules and virtual skills defined in
-  the session, so ``atlas repl FILE`` (or ``include``) brings them back.
+- ``:save FILE`` writes the session as a file that ``atlas repl FILE`` loads
+  back (:meth:`Session.saved_text`): the world as ``(world ...)``, the RAPs,
+  memory rules, relations and virtual skills defined in the session (not the
+  layers' switching rules, which come with the world), the operators, agents,
+  goals and deadlines typed or included for the planner, memory as
+  ``initial-memory``, the ``at-time`` events still to come and the live
+  top-level tasks as ``post`` (``(plan ...)`` for a plan being carried out),
+  with their priority and what is left of their deadline. A world cannot be
+  saved mid-run: it starts again from its start, so memory leaves out what
+  the world itself asserted (its map, what its skills and layers sensed):
+  the world asserts it again. Times (``at-time``, deadlines) count from the
+  moment of saving, as the loading session's clock starts at 0.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import shlex
 import threading
+from pathlib import Path
 from typing import Callable
 
 from rich.console import Console
@@ -101,6 +112,8 @@ class Session:
         self.picture = RunPicture(self.engine)
         self.lock = threading.RLock()
         self.lines: dict[str, list[str]] = {}
+        self.events: list[ast.AtTime] = []  # every at-time loaded, for :save
+        self._sources: tuple[int, dict[str, str]] | None = None  # who asserted each fact, from the trace
         self.submissions = 0
         self.paused = False
         self.interrupted = threading.Event()
@@ -164,6 +177,7 @@ class Session:
             program = load_text(text, name, Forms(items, locs))
             self.lines.update(program.lines)
             loaded = self.engine.load(program)
+            self.events += program.of_type(ast.AtTime)
             for warning in loaded.warnings:
                 self.err.print(warning.render(), style="yellow", markup=False)
             self._describe(program, loaded)
@@ -377,8 +391,8 @@ class Session:
             path.write_text(self.saved_text(), encoding="utf-8")
         except OSError as exc:
             raise AtlasError(f"cannot write {path}: {exc.strerror}") from None
-        self.note(f"saved memory, {len(self.sequencer.live_roots())} live task(s) and "
-                  f"{len(self.engine.definitions)} definition(s) to {path}")
+        self.note(f"saved the session (world {self.engine.world_name}, memory, definitions and "
+                  f"{len(self.sequencer.live_roots())} live task(s)) to {path}")
 
     def _help(self, rest: str) -> None:
         self.out.print("Type a form (define-rap, post, assert, retract, include, plan, ...), "
@@ -387,16 +401,54 @@ class Session:
             self.out.print(f"  {name:<8} {text}", markup=False)
 
     def saved_text(self) -> str:
-        """Memory, live top-level tasks and session definitions as a file that loads back."""
-        seq = self.sequencer
-        lines = [f";; saved by atlas repl at {seq.now():g} s simulated", ""]
-        lines += [format_node(form) for form in self.engine.definitions.values()]
-        facts = [term_to_str(f) for f in seq.memory]
+        """The session as a file that ``atlas repl FILE`` loads back (the module docstring says what is in it)."""
+        engine, seq = self.engine, self.sequencer
+        now = seq.now()
+        lines = [f";; saved by atlas repl at {now:g} s simulated; `atlas repl FILE` loads it back.",
+                 ";; The world starts again from its start; at-time and deadlines count from the saving."]
+        if engine.seed:
+            lines.append(f";; The session ran with --seed {engine.seed}.")
+        lines += ["", format_node(ast.WorldDecl(_saved_world(engine)))]
+        plans = {}  # a plan being carried out is saved as its (plan ...) form, not as the RAP made for it
+        for form in engine.definitions.values():
+            request = _plan_request(form)
+            if request is not None:
+                plans[form.name] = request
+            elif not _is_layer_rule(form, engine):
+                lines.append(format_node(form))
+        lines += [format_node(form) for form in engine.planning
+                  if isinstance(form, (ast.Operator, ast.Agents, ast.Goals, ast.Deadline))]
+        facts = [term_to_str(fact) for fact in seq.memory if not self._from_world(fact)]
         if facts:
             lines.append("(initial-memory\n  " + "\n  ".join(facts) + ")")
+        lines += [format_node(dataclasses.replace(event, time=event.time - now))
+                  for event in self.events if event.time > now]
         for task in seq.live_roots():
-            lines.append(f"(post {term_to_str(task.call)})")
+            if task.call.functor in plans and not task.call.args:
+                lines.append(format_node(plans[task.call.functor]))
+                continue
+            rap = seq.library.get((task.call.functor, len(task.call.args)))
+            usual = rap.priority if rap is not None and rap.priority is not None else 0
+            priority = None if task.priority == usual else task.priority
+            deadline = None if task.deadline is None else max(task.deadline - now, 0.0)
+            lines.append(format_node(ast.Post(task.call, priority, deadline)))
         return "\n".join(lines) + "\n"
+
+    def _from_world(self, fact: Compound) -> bool:
+        """Whether the fact was last asserted by the world (its prior map, its sensing skills and
+        layers): the world asserts it again when it starts. Virtual skills are not the world."""
+        if self._sources is None or self._sources[0] != len(self.trace.records):
+            sources: dict[str, str] = {}
+            for record in self.trace.records:
+                if record.get("event") == "fact-asserted":
+                    sources[record["fact"]] = str(record.get("by", ""))
+            self._sources = (len(self.trace.records), sources)
+        by = self._sources[1].get(term_to_str(fact), "")
+        if by in ("world", "skills") or by.startswith("layer "):
+            return True
+        if by.startswith("skill ("):
+            return by[len("skill ("):].split(" ")[0].rstrip(")") not in self.engine.virtual.skills()
+        return False
 
     def close(self) -> None:
         """End the session: halt the live tasks (their skills disabled), then write the trace file."""
@@ -429,6 +481,43 @@ _COMMAND_HANDLERS: dict[str, Callable[[Session, str], None]] = {
     ":run": Session._run, ":pause": Session._pause, ":reload": Session._reload, ":skills": Session._skills,
     ":map": Session._map, ":layers": Session._layers, ":plan": Session._plan, ":save": Session._save, ":help": Session._help,
 }
+
+
+def _saved_world(engine) -> str:
+    """The world to name in a saved session: ``none``, a shipped world's name, or its file's full path."""
+    if engine.world is None:
+        return "none"
+    if engine.remote is not None or engine.world_file is None:
+        return engine.world.name
+    from atlas_rap.sim.world import world_path
+
+    try:
+        if world_path(engine.world.name).resolve() == engine.world_file:
+            return engine.world.name
+    except AtlasError:
+        pass
+    return str(engine.world_file)
+
+
+def _plan_request(form) -> ast.PlanRequest | None:
+    """The ``(plan ...)`` of a RAP the engine made to carry out a top-level plan, or None."""
+    from atlas_rap.layers.engine import PLAN_TASK
+
+    made = PLAN_TASK.split("{")[0]
+    if not (isinstance(form, ast.RapDef) and form.name.startswith(made) and len(form.methods) == 1):
+        return None
+    body = form.methods[0].body
+    if isinstance(body, ast.TaskNet) and len(body.nets) == 1 and isinstance(body.nets[0], ast.PlanRequest):
+        return body.nets[0]
+    return None
+
+
+def _is_layer_rule(form, engine) -> bool:
+    """A definition read from the layers' switching rules (``--layer-rules``), which come with the world."""
+    try:
+        return Path(form.loc.file).resolve() == Path(engine.layer_rules).resolve()
+    except (OSError, ValueError):
+        return False
 
 
 def _escape(path: str) -> str:
