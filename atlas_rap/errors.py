@@ -109,3 +109,19 @@ class SourceError(AtlasError):
     def location(self) -> SourceLocation:
         """Where the first problem is."""
         return self.problems[0].location
+
+
+def decode_source(data: bytes, name: str, hint: str = "save the file as UTF-8") -> str:
+    """Decode a source file's bytes as UTF-8 (a BOM is allowed); bytes that are not UTF-8 are a
+    :class:`SourceError` at their line and column, with the line up to them."""
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        good = data[: exc.start]
+        line = good.count(b"\n") + 1
+        column = exc.start - (good.rfind(b"\n") + 1) + 1
+        shown = good[good.rfind(b"\n") + 1:].decode("utf-8", "replace")
+        raise SourceError(Problem(
+            f"file is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})",
+            SourceLocation(name, line, column), shown + "\N{REPLACEMENT CHARACTER}", hint)) from None
+    return text.removeprefix("\ufeff")

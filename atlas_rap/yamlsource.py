@@ -20,7 +20,7 @@ import yaml
 from yaml.constructor import SafeConstructor
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.errors import Problem, SourceError, SourceLocation, decode_source, line_of, source_lines
 
 MAX_YAML_BYTES = 4 * 1024 * 1024
 
@@ -78,11 +78,7 @@ class YamlSource:
             raise SourceError(Problem("no such file", where, None, "check the path")) from None
         except OSError as exc:
             raise SourceError(Problem(f"cannot read file: {exc.strerror}", where)) from None
-        try:
-            text = data.decode("utf-8-sig")
-        except UnicodeDecodeError as exc:
-            raise SourceError(Problem(f"not UTF-8 text (byte {exc.start})", where, None,
-                                      f"a {what} is YAML text; is this a binary file?")) from None
+        text = decode_source(data, name, f"a {what} is YAML text, saved as UTF-8; is this a binary file?")
         return cls.parse(text, name, what)
 
     @classmethod

@@ -66,7 +66,7 @@ from atlas_rap.cli.options import POSITIVE, OutputFile
               help="Draw the partial order as a graph, left to right from init to goal: steps coloured by "
                    "agent, causal links labelled with their facts, pure orderings dashed, counterplan steps "
                    "outlined orange with their threat. Needs no Graphviz.")
-@click.option("--check-raps", type=click.Path(file_okay=False), metavar="DIR",
+@click.option("--check-raps", type=click.Path(file_okay=False, exists=True), metavar="DIR",
               help="Report the plan steps that no RAP in DIR (its .rap files) can execute; exit 1 if any.")
 @click.option("--timeout", type=POSITIVE, default=60.0, show_default=True, metavar="SECONDS",
               help="CPU time for the whole planner (grounding, search, shortening, counterplanning). Past it: "

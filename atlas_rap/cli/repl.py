@@ -72,6 +72,10 @@ def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str |
         if interactive:
             _interactive(session, speed)
         else:
+            # bytes that are not UTF-8 reach the reader as surrogates, which it reports with a caret
+            # (a strict decoder would end the session with a UnicodeDecodeError on such a line)
+            if hasattr(sys.stdin, "reconfigure"):
+                sys.stdin.reconfigure(errors="surrogateescape")
             for text in submissions(sys.stdin):
                 with _interruptible(session):
                     session.submit(text)

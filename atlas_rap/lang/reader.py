@@ -33,6 +33,7 @@ Choices where LANGUAGE.md is silent:
 from __future__ import annotations
 
 import math
+import re
 import sys
 import threading
 from functools import lru_cache
@@ -43,7 +44,7 @@ from typing import Union
 from lark import Lark, Token, Transformer
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.errors import Problem, SourceError, SourceLocation, decode_source, line_of, source_lines
 from atlas_rap.logic.terms import String, Term, Var
 
 MAX_FILE_BYTES = 8 * 1024 * 1024
@@ -93,6 +94,7 @@ class Forms(list):
 
 
 _ESCAPES = {"n": "\n", "t": "\t"}
+_UNDECODED = re.compile("[\udc80-\udcff]")
 _NUMBER_START = frozenset("0123456789+-.")
 
 
@@ -227,6 +229,14 @@ def read_text(text: str, filename: str = "<input>") -> Forms:
     unbalanced parentheses, an unterminated string or block comment, a bad
     variable name, or nesting deeper than :data:`MAX_DEPTH`.
     """
+    undecoded = _UNDECODED.search(text)
+    if undecoded is not None:  # bytes that were not UTF-8, kept as surrogates (the REPL's stdin)
+        start = undecoded.start()
+        line = text.count("\n", 0, start) + 1
+        column = start - (text.rfind("\n", 0, start) + 1) + 1
+        raise SourceError(Problem(
+            f"not UTF-8 text (byte 0x{ord(undecoded.group()) - 0xDC00:02x})", SourceLocation(filename, line, column),
+            _line(text, line).encode("utf-8", "replace").decode("utf-8"), "type or save the text as UTF-8"))
     atoms = _AtomReader()
 
     with _READ_LOCK:
@@ -305,22 +315,6 @@ def _read_bytes(path: Path, name: str) -> bytes:
         raise SourceError(Problem("file is empty", where, None,
                                   "write at least one form, e.g. (define-rap (my-task) ...)"))
     return data
-
-
-def decode_source(data: bytes, name: str) -> str:
-    """Decode UTF-8 (a BOM is allowed); an error names the line and column."""
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        good = data[: exc.start]
-        line = good.count(b"\n") + 1
-        column = exc.start - (good.rfind(b"\n") + 1) + 1
-        shown = good[good.rfind(b"\n") + 1:].decode("utf-8", "replace")
-        raise SourceError(Problem(
-            f"file is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})",
-            SourceLocation(name, line, column), shown + "\N{REPLACEMENT CHARACTER}",
-            "save the file as UTF-8")) from None
-    return text.removeprefix("\ufeff")
 
 
 def _line(text: str, line: int) -> str | None:

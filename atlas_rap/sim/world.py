@@ -130,6 +130,9 @@ def world_path(name_or_path: str | Path) -> Path:
     """
     text = str(name_or_path)
     given = Path(text)
+    if given.is_dir():
+        raise AtlasError(f"{text}: is a directory, not a world file; give a world's .yaml file or a shipped "
+                         f"world's name")
     if given.suffix or len(given.parts) != 1:
         return resolve_user_path(given)
     root = shipped_root("worlds")
