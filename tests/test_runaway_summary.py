@@ -1,10 +1,10 @@
 """A runaway recursion is summed up in a few lines, its cause first and its repeats folded.
 
-The README promises it (section "The sequencer's choices"): "The summary
-puts the cause of such a runaway first and folds the repeated chain
-(`… 61 more levels of (loop) …`)". These tests run the missions a user
-would write (a RAP that posts itself, with the same arguments or new ones,
-and two RAPs that call each other) and read what `atlas run` prints.
+The README promises it (under `atlas run`): "The summary puts the cause of
+such a runaway first and folds the repeated chain (`… 61 more levels of
+(loop) …`)". These tests run the missions a user would write (a RAP that
+posts itself, with the same arguments or new ones, two RAPs that call each
+other, a huge `retries`) and read what `atlas run` prints.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ def summary(tmp_path, mission: str, *options: str):
 
 def test_the_readme_shows_what_the_summary_of_a_rap_that_posts_itself_says(tmp_path):
     readme = (REPO / "README.md").read_text(encoding="utf-8")
-    promise = re.search(r"The summary puts the cause of such a runaway first\s+and folds the repeated chain "
+    promise = re.search(r"The summary puts the\s+cause of such a runaway first\s+and folds the repeated chain\s+"
                         r"\(`(… \d+ more levels of \(loop\) …)`\)", readme)
     assert promise, "the README's promise about the runaway summary moved or changed"
     lines = summary(tmp_path, RUNAWAYS["itself"], "--quiet").stdout.splitlines()
@@ -73,3 +73,11 @@ def test_the_live_trace_of_a_runaway_stops_indenting_and_does_not_repeat_the_cau
     assert max(len(line) - len(line.lstrip()) for line in lines) < 60  # 16 levels of indentation at most
     assert out.count("does count call itself without end?") <= 5  # where it happens, then "the same cause"
     assert len(out) < 40_000  # 88 kB before
+
+
+def test_a_huge_retries_of_a_method_that_fails_at_once_ends_as_a_runaway_not_a_hang(tmp_path):
+    mission = ("(define-rap (go) (retries 1000000000) (method (task-net (wait-for (x) :fail))))\n"
+               "(initial-memory (x))\n(post (go))\n")
+    lines = summary(tmp_path, mission, "--quiet").stdout.splitlines()
+    assert lines[2].strip() == "tried 1000 methods without simulated time passing"
+    assert len(lines) < 25

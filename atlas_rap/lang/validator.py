@@ -3,7 +3,8 @@
 Use :func:`validate` on the reader's forms of one file. It does not stop at
 the first problem: it skips the bad clause or form, goes on, and raises one
 :class:`~atlas_rap.errors.SourceError` with all of them at the end. A
-misspelt clause or form name gets the nearest valid name as a hint.
+misspelt clause or form name gets the nearest valid name as a hint, and a
+name from another language the name atlas uses (``lang/guesses.py``).
 
 Choices where LANGUAGE.md is silent (also in the README's language notes):
 
@@ -18,7 +19,14 @@ Choices where LANGUAGE.md is silent (also in the README's language notes):
 - Clause-style operator parts list their items directly
   (``(preconditions F1 F2)``); a single wrapping list (``(preconditions (F1 F2))``)
   and a single bare fact (``:preconditions (top ?x clear)``) are accepted too.
-- Facts in ``initial-memory`` and ``initial`` must be ground.
+- Facts in ``initial-memory`` and ``initial`` must be ground; so must what
+  nothing can bind: a posted task, the goals of ``goals`` and of a top-level
+  ``plan``, ``at-time`` facts, a virtual skill's facts beyond its head's
+  variables, a memory rule's effects beyond its ``on`` and ``when`` (the
+  caret goes under the variable). A ``deadline``'s goal is a pattern and may
+  have variables; a ``plan`` in a task net takes the RAP's bindings.
+- A time (timeout, delay, at-time, deadline, duration) is at most
+  :data:`MAX_SECONDS`; ``nan`` and ``inf`` are symbols, never numbers.
 - ``(succeed Q)``-like clauses take exactly one query; write ``(and ...)``
   for several. ``define-relation`` bodies of several queries are their ``and``.
 - ``(plan GOAL ... [:deadline S] [:max-failures N])`` is a top-level form and a

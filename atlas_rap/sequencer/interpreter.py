@@ -29,6 +29,9 @@ user would expect:
 - ``repeat-while`` / ``repeat-until`` repeat only a task that ran a method
   (a task whose ``succeed`` test was already true is done); each repeat
   starts with a fresh count of attempts.
+- A task that tries :data:`MAX_REPEATS_AT_ONCE` methods at one instant (a
+  huge ``retries`` of a method that fails at once) fails as a runaway, as
+  one that repeats that often does.
 - Failures that retrying cannot fix (a task nested deeper than
   ``max_depth``, a RAP removed by a reload) are *fatal*: the tasks above
   fail at once instead of retrying.
@@ -93,7 +96,8 @@ DEFAULT_MAX_DEPTH = 64
 """How deeply tasks may nest before the innermost fails (a RAP calling itself without end)."""
 
 MAX_REPEATS_AT_ONCE = 1000
-"""Repeats of one task at one instant of simulated time before it fails as a runaway loop."""
+"""Repeats of one task, or method attempts, at one instant of simulated time before it fails as a
+runaway loop."""
 
 _ANY = Var("%any")
 
@@ -296,6 +300,13 @@ class Sequencer:
             retries = rap.retries if rap.retries is not None else DEFAULT_RETRIES
             if task.attempts >= retries:
                 self._fail(task, f"gave up after {_plural(task.attempts, 'attempt')}", task.last_failure)
+                return
+            now = self.timers.now
+            task.attempts_now = task.attempts_now + 1 if task.attempt_time == now else 1
+            task.attempt_time = now
+            if task.attempts_now > MAX_REPEATS_AT_ONCE:  # (retries 1000000000) of a method that fails at once
+                self._fail(task, f"tried {MAX_REPEATS_AT_ONCE} methods without simulated time passing",
+                           task.last_failure, fatal=True)
                 return
             self._choose_method(task, rap, bindings)
         except QueryError as exc:

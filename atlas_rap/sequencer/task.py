@@ -79,7 +79,7 @@ class Task:
     __slots__ = (
         "id", "call", "text", "parent", "step", "depth", "priority", "deadline", "status",
         "attempts", "tries", "run", "children", "failure", "last_failure", "timers",
-        "queued", "method_ended_ok", "repeats", "repeat_time", "repeats_now",
+        "queued", "method_ended_ok", "repeats", "repeat_time", "repeats_now", "attempt_time", "attempts_now",
         "started", "ended", "bindings", "last_method",
     )
 
@@ -106,6 +106,8 @@ class Task:
         self.repeats = 0
         self.repeat_time = -1.0
         self.repeats_now = 0
+        self.attempt_time = -1.0  # the instant of the last method attempt, and how many were made in it
+        self.attempts_now = 0
         self.started: float | None = None
         self.ended: float | None = None
         self.bindings: dict = {}
