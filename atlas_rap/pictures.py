@@ -4,7 +4,9 @@ Pictures of runs (``sim.render``) and of maps (``maps.render``) draw a map
 in metres with equal aspect; :func:`map_layout` decides how big it is and
 which range of metres it shows, so all pictures look alike.
 :func:`write_png` writes an RGB image as a PNG quickly (see there why not
-through PIL).
+through PIL); :func:`save_figure_png` writes a matplotlib figure as
+matplotlib lays it out. Both write a file whole or not at all
+(``atlas_rap.outputs``).
 """
 
 from __future__ import annotations
@@ -14,6 +16,8 @@ import zlib
 from pathlib import Path
 
 import numpy as np
+
+from atlas_rap.outputs import atomic_write, write_bytes
 
 DPI = 110
 PAD_INCHES = 0.15  # white margin round what a picture shows
@@ -80,6 +84,14 @@ def write_png(pixels: np.ndarray, path: str | Path, *, dpi: float = DPI,
         chunk(b"IDAT", zlib.compress(rows, level)),
         chunk(b"IEND", b""),
     ])
-    out = Path(path)
-    out.write_bytes(png)
-    return out
+    return write_bytes(path, png)
+
+
+def save_figure_png(fig, path: str | Path, **options) -> Path:
+    """``fig.savefig`` as a PNG on a white page, with no software name (the same figure gives the
+    same bytes), written whole or not at all; ``options`` go to ``savefig`` (``dpi``,
+    ``bbox_inches``, ...). The path."""
+    options = {"dpi": DPI, "facecolor": "white", **options}
+    with atomic_write(path) as stream:
+        fig.savefig(stream, format="png", metadata={"Software": None}, **options)
+    return Path(path)

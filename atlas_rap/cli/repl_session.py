@@ -382,13 +382,13 @@ class Session:
         self.out.print(plan.to_text(), markup=False)
 
     def _save(self, rest: str) -> None:
-        from atlas_rap.outputs import output_file
+        from atlas_rap.outputs import output_file, write_text
 
         if not rest:
             raise AtlasError(":save takes a file name")
         path = output_file(shlex.split(rest)[0], ":save")
         try:
-            path.write_text(self.saved_text(), encoding="utf-8")
+            write_text(path, self.saved_text(), ":save")
         except OSError as exc:
             raise AtlasError(f"cannot write {path}: {exc.strerror}") from None
         self.note(f"saved the session (world {self.engine.world_name}, memory, definitions and "

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from atlas_rap.layers.mcap_reader import Recording, read_recording
-from atlas_rap.pictures import DPI, map_layout
+from atlas_rap.pictures import DPI, map_layout, save_figure_png
 
 _LINE_LIST = 2
 _LOOKS = {  # how the scene's entities' lines are drawn
@@ -181,7 +181,6 @@ def render_recording(mcap: str | Path, out_png: str | Path, title: str | None = 
         ax.plot([x, x + 0.3 * math.cos(yaw)], [y, y + 0.3 * math.sin(yaw)], color="black", lw=1.2, zorder=8)
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, frameon=False)
     out = Path(out_png)
-    fig.savefig(out, format="png", dpi=DPI, bbox_inches="tight", pad_inches=0.15, facecolor="white",
-                metadata={"Software": None})
+    save_figure_png(fig, out, dpi=DPI, bbox_inches="tight", pad_inches=0.15)
     fig.clear()
     return out

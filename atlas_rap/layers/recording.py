@@ -6,7 +6,8 @@ sink (every trace record becomes a log line), and its :meth:`RunRecorder.pace`
 is the engine's ``pace`` hook, called at every sequencer tick (10 Hz of
 simulated time), where it samples the world. Make it before the mission is
 loaded, pass ``pace`` to the run, and close it in a ``finally``, so that a
-failed or interrupted run still leaves a whole file::
+failed or interrupted run still leaves a whole file (written beside its
+path and renamed into place at close: an old file stays until then)::
 
     recorder = RunRecorder(engine, path="run.mcap")
     try:
@@ -71,6 +72,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from atlas_rap.errors import AtlasError
+from atlas_rap.outputs import AtomicFile, OutputError, write_all
 from atlas_rap.skills.beliefs import GRID, ROUTE, SONAR, TOPOLOGY
 
 POSE_RATE = 10.0
@@ -146,6 +148,7 @@ class _Output:
             self.forget()
         self.pending: set[str] = set()  # topics a viewer subscribed to since the last sample
         self.writer: Any = None
+        self.file: AtomicFile | None = None  # the writer's file, renamed into place at close
         self.server: Any = None
 
     def forget(self) -> None:
@@ -166,13 +169,26 @@ class _Output:
             for message in self.latched.get(topic, {}).values():
                 self.channels[topic].log(message, log_time=ns)
 
-    def close(self) -> None:
-        if self.writer is not None:
-            self.writer.close()
-            self.writer = None
-        if self.server is not None:
-            self.server.stop()
-            self.server = None
+    def close(self, keep: bool = True) -> None:
+        """Finish the MCAP file and rename it into place (an :class:`OutputError` when it cannot be
+        finished: the old file stays; ``keep=False``: drop it), and stop the live server."""
+        try:
+            if self.writer is not None:
+                writer, file, self.writer = self.writer, self.file, None
+                try:
+                    writer.close()
+                except Exception as exc:  # the SDK's own error: the disk is full
+                    file.discard()  # type: ignore[union-attr]
+                    if keep:
+                        raise OutputError(f"{file.what} {file.path}: cannot write it ({exc})") from None
+                if keep:
+                    file.commit()  # type: ignore[union-attr]
+                else:
+                    file.discard()  # type: ignore[union-attr]
+        finally:
+            if self.server is not None:
+                self.server.stop()
+                self.server = None
 
 
 def _subscriptions(fox: Any, output: _Output) -> Any:
@@ -187,12 +203,18 @@ def _subscriptions(fox: Any, output: _Output) -> Any:
 
 
 def _open_file(fox: Any, path: str | Path, topics: Iterable[str], flag: str = "--record") -> _Output:
-    """An MCAP file's output (:class:`AtlasError` when it cannot be written)."""
+    """An MCAP file's output, written beside ``path`` and renamed into place when closed
+    (``atlas_rap.outputs``; an :class:`AtlasError` when it cannot be written)."""
     output = _Output(fox, live=False, topics=topics)
+    file = AtomicFile(path, flag, stream=None)
     try:
-        output.writer = fox.open_mcap(path, allow_overwrite=True, context=output.context)
-    except Exception as exc:  # the SDK's own errors: a folder, no permission
+        output.writer = fox.open_mcap(file.writing, allow_overwrite=True, context=output.context)
+    except BaseException as exc:  # the SDK's own errors: a folder, no permission
+        file.discard()
+        if not isinstance(exc, Exception):
+            raise
         raise AtlasError(f"{flag} {path}: cannot write it ({exc})") from None
+    output.file = file
     return output
 
 
@@ -394,7 +416,7 @@ class RunRecorder:
             try:
                 self.live = _open_live(fox, host, port, TOPICS)
             except AtlasError:
-                self._close_outputs()
+                self._close_outputs(keep=False)
                 raise
             self.outputs.append(self.live)
         self.world = WorldSampler(engine, self.outputs, live=self.live, pose_rate=pose_rate,
@@ -431,7 +453,7 @@ class RunRecorder:
     def close(self) -> None:
         """Finish the recording (safe to call twice, and after a failed or interrupted run): a last
         pose sample if the run ended after the last one, the last path and grid, then the MCAP
-        file is closed and the live server stopped."""
+        file is closed (renamed into place) and the live server stopped."""
         if self.closed:
             return
         try:
@@ -440,9 +462,19 @@ class RunRecorder:
             self.closed = True
             self._close_outputs()
 
-    def _close_outputs(self) -> None:
-        for output in self.outputs:
-            output.close()
+    def discard(self) -> None:
+        """Stop without a recording (a run that never started): the file at ``path``, if any, stays
+        as it was; the live server stops."""
+        if not self.closed:
+            self.closed = True
+            self._close_outputs(keep=False)
+
+    def _close_outputs(self, keep: bool = True) -> None:
+        """Close every output, also when one fails; then raise the first failure."""
+        errors = write_all({f"output {i}": lambda output=output: output.close(keep)
+                            for i, output in enumerate(self.outputs)})
+        if errors:
+            raise next(iter(errors.values()))
 
 
 class HostRecorder:

@@ -47,6 +47,7 @@ from atlas_rap.errors import AtlasError
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, RosMap, write_ros_map
 from atlas_rap.model import SonarConfig
+from atlas_rap.outputs import atomic_write
 
 __all__ = ["OccupancyGrid", "SonarModel", "binary_entropy", "load_grid_arrays"]
 
@@ -573,20 +574,25 @@ class OccupancyGrid:
     # -- files -------------------------------------------------------------------
 
     def save_npz(self, path: str | Path) -> Path:
-        """Save the grid to a compressed ``.npz``; return its path (``.npz`` added when missing).
+        """Save the grid to a compressed ``.npz``; return its path (``.npz`` added to a file name
+        without it; a device such as ``/dev/null`` is written as it is named).
 
         Arrays: ``log_odds`` (float32, exact), ``updated`` (bool), ``p_occ``
         (float32 probabilities, for readers that want only those), ``frame``
         = [height, width, resolution, origin x, origin y, origin yaw] (the
         layout of the abstraction levels' ``grid.npz``, so ``atlas map
         render`` draws either) and ``model`` (the :class:`SonarModel` as JSON).
+        Written whole or not at all (``atlas_rap.outputs``).
         """
         path = Path(path)
-        np.savez_compressed(path, log_odds=np.ascontiguousarray(self._log_odds),
-                            updated=np.ascontiguousarray(self._updated), p_occ=self.probabilities(),
-                            frame=self.frame.to_array(),
-                            model=np.array(json.dumps(asdict(self.model))))
-        return path if path.suffix == ".npz" else path.with_name(path.name + ".npz")
+        if path.suffix != ".npz" and (path.is_file() or not path.exists()):
+            path = path.with_name(path.name + ".npz")
+        with atomic_write(path) as stream:
+            np.savez_compressed(stream, log_odds=np.ascontiguousarray(self._log_odds),
+                                updated=np.ascontiguousarray(self._updated), p_occ=self.probabilities(),
+                                frame=self.frame.to_array(),
+                                model=np.array(json.dumps(asdict(self.model))))
+        return path
 
     @classmethod
     def load_npz(cls, path: str | Path) -> OccupancyGrid:
@@ -648,16 +654,8 @@ class OccupancyGrid:
             at = np.clip(np.searchsorted(allowed, wanted), 0, allowed.size - 1)
             below, above = allowed[np.maximum(at - 1, 0)], allowed[at]
             level[cells] = np.where(np.abs(below - wanted) < np.abs(above - wanted), below, above)
-        image = write_ros_map(path_yaml, level / 255.0, self.frame.resolution, self.frame.origin, image_format)
-        path = Path(path_yaml)
-        lines = path.read_text(encoding="utf-8").splitlines()
-        for i, text in enumerate(lines):
-            if text.startswith("occupied_thresh:"):
-                lines[i] = f"occupied_thresh: {float(occupied)!r}"
-            elif text.startswith("free_thresh:"):
-                lines[i] = f"free_thresh: {float(free)!r}"
-        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-        return image
+        return write_ros_map(path_yaml, level / 255.0, self.frame.resolution, self.frame.origin, image_format,
+                             occupied_thresh=occupied, free_thresh=free)
 
     def __repr__(self) -> str:
         f = self.frame

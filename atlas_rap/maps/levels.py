@@ -39,6 +39,11 @@ from atlas_rap.errors import AtlasError
 from atlas_rap.maps.abstraction import Abstraction, abstract
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.rooms import RoomSettings
+from atlas_rap.outputs import atomic_write
+
+LEVEL_FILES = ("grid.npz", "grid.png", "edges.png", "polygons.png", "distance-transform.png", "places.png",
+               "stochastic-sdt.png", "topology.json", "topology.graphml", "topology.png", "route.png")
+"""The files :func:`write_levels` may write in its folder."""
 
 NPZ_COMPRESS_LEVEL = 1
 """zlib level of the arrays in ``grid.npz``. Level 1 is about as small as numpy's default (6) on maps and
@@ -130,7 +135,7 @@ def save_npz(path: str | Path, **arrays: np.ndarray) -> Path:
     carry a fixed date, so the same arrays give the same bytes.
     """
     out = Path(path)
-    with zipfile.ZipFile(out, "w", allowZip64=True) as archive:
+    with atomic_write(out) as stream, zipfile.ZipFile(stream, "w", allowZip64=True) as archive:
         for name, value in arrays.items():
             buffer = io.BytesIO()
             np.lib.format.write_array(buffer, np.asanyarray(value), allow_pickle=False)

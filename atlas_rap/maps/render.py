@@ -70,7 +70,7 @@ import numpy as np
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.pictures import DPI as _DPI
 from atlas_rap.pictures import PAD_INCHES as _PAD_INCHES
-from atlas_rap.pictures import map_layout, write_png
+from atlas_rap.pictures import map_layout, save_figure_png, write_png
 
 if TYPE_CHECKING:
     from typing import Self
@@ -748,8 +748,7 @@ class _Picture:
         # Something reaches past the sheet (a very long title?): let matplotlib lay the page out.
         if blit:
             self._raster_image(raster)
-        sheet.fig.savefig(out, format="png", dpi=_DPI, bbox_inches="tight", pad_inches=_PAD_INCHES,
-                          facecolor="white", metadata={"Software": None})
+        save_figure_png(sheet.fig, out, dpi=_DPI, bbox_inches="tight", pad_inches=_PAD_INCHES)
         sheet._page = None  # savefig resized the canvas for a while: render the sheet afresh next time
         return out
 

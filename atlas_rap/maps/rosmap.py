@@ -47,6 +47,7 @@ from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.geometry import outlines
 from atlas_rap.yamlsource import YamlSource, _kind, _nearest
 from atlas_rap.model import Point, Segment
+from atlas_rap.outputs import atomic_write, write_bytes, write_text
 
 # --------------------------------------------------------------------------
 # ROS maps
@@ -394,8 +395,9 @@ def _read_pnm(data: bytes) -> np.ndarray:
 # -- writing ------------------------------------------------------------------
 
 def write_ros_map(path_yaml: str | Path, labels_or_probabilities: np.ndarray, resolution: float,
-                  origin: tuple[float, float] | tuple[float, float, float], image_format: str = "pgm") -> Path:
-    """Write a map_server map (trinary, thresholds 0.65 / 0.196) and return the image's path.
+                  origin: tuple[float, float] | tuple[float, float, float], image_format: str = "pgm", *,
+                  occupied_thresh: float = 0.65, free_thresh: float = 0.196) -> Path:
+    """Write a map_server map (trinary, thresholds 0.65 / 0.196 unless given) and return the image's path.
 
     ``labels_or_probabilities`` has row 0 at the TOP (as :class:`RosMap`):
     either labels (integers 0 free, 100 occupied, -1 unknown; or booleans,
@@ -404,7 +406,8 @@ def write_ros_map(path_yaml: str | Path, labels_or_probabilities: np.ndarray, re
     unknown), written as ``round(255 (1 - p))`` and read back to within
     1/510, except that probabilities between the thresholds read back as
     unknown (NaN), as any trinary reader sees them. The image is
-    ``<yaml stem>.pgm`` (binary P5) or ``.png`` beside the YAML.
+    ``<yaml stem>.pgm`` (binary P5) or ``.png`` beside the YAML. Each file is
+    written whole or not at all (``atlas_rap.outputs``), the image first.
     """
     grid = np.asarray(labels_or_probabilities)
     if grid.ndim != 2 or grid.size == 0:
@@ -431,21 +434,22 @@ def write_ros_map(path_yaml: str | Path, labels_or_probabilities: np.ndarray, re
     image = path.with_suffix("." + image_format)
     if image_format == "pgm":
         height, width = pixels.shape
-        image.write_bytes(b"P5\n# written by atlas-rap\n%d %d\n255\n" % (width, height) + pixels.tobytes())
+        write_bytes(image, b"P5\n# written by atlas-rap\n%d %d\n255\n" % (width, height) + pixels.tobytes())
     else:
         import imageio.v3 as iio
 
-        iio.imwrite(image, pixels)
+        with atomic_write(image) as stream:
+            iio.imwrite(stream, pixels, extension=".png")
     ox, oy = float(origin[0]), float(origin[1])
     yaw = float(origin[2]) if len(origin) > 2 else 0.0
-    path.write_text(
-        f"image: {image.name}\n"
-        f"resolution: {float(resolution)!r}\n"
-        f"origin: [{ox!r}, {oy!r}, {yaw!r}]\n"
-        "negate: 0\n"
-        "occupied_thresh: 0.65\n"
-        "free_thresh: 0.196\n"
-        "mode: trinary\n", encoding="utf-8")
+    write_text(path,
+               f"image: {image.name}\n"
+               f"resolution: {float(resolution)!r}\n"
+               f"origin: [{ox!r}, {oy!r}, {yaw!r}]\n"
+               "negate: 0\n"
+               f"occupied_thresh: {float(occupied_thresh)!r}\n"
+               f"free_thresh: {float(free_thresh)!r}\n"
+               "mode: trinary\n")
     return image
 
 

@@ -53,6 +53,7 @@ import numpy as np
 
 from atlas_rap.errors import AtlasError
 from atlas_rap.maps.frame import GridFrame
+from atlas_rap.outputs import write_text
 from atlas_rap.maps.rooms import RoomSettings, segment_rooms
 from atlas_rap.maps.sdt import (
     SkeletonSegment,
@@ -684,9 +685,7 @@ class Topology:
 
     def to_json(self, path: str | Path) -> Path:
         """Write the graph (nodes, edges with their cells, the frame) as JSON; return the path."""
-        out = Path(path)
-        out.write_text(json.dumps(self._data(plain=False), separators=(",", ":")), encoding="utf-8")
-        return out
+        return write_text(path, json.dumps(self._data(plain=False), separators=(",", ":")))
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Topology:
@@ -829,8 +828,7 @@ def _write_graphml(graph: nx.Graph, out: Path) -> Path:
             'http://graphml.graphdrawing.org/xmlns/1.0/graphml.xsd">')
     lines = ["<?xml version='1.0' encoding='utf-8'?>", root, *key_lines, f'  <graph edgedefault="{edge_default}">',
              *body, *graph_data, "  </graph>", "</graphml>"]
-    out.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return out
+    return write_text(out, "\n".join(lines) + "\n")
 
 
 def _is_polygon(where: Any) -> bool:

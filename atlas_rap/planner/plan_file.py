@@ -43,6 +43,7 @@ from typing import Iterable, Sequence
 
 from atlas_rap.errors import Problem, SourceError, SourceLocation
 from atlas_rap.lang import ast
+from atlas_rap.outputs import write_text
 from atlas_rap.logic.terms import Compound, Term, substitute, term_to_str
 from atlas_rap.planner.ground import variable_order
 from atlas_rap.planner.pddl import (ADL_AND, ADL_EXISTS, ADL_FORALL, ADL_OR, TYPE_PREFIX, formula_text,
@@ -69,10 +70,10 @@ def format_action(action: Compound) -> str:
 
 
 def write_plan_file(path: str | Path, actions: Iterable[Compound]) -> None:
-    """Write a plan, one action a line, and a final ``; cost = N (unit cost)`` line."""
+    """Write a plan, one action a line, and a final ``; cost = N (unit cost)`` line (whole or not at all)."""
     lines = [format_action(action) for action in actions]
     lines.append(f"; cost = {len(lines)} (unit cost)")
-    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    write_text(path, "\n".join(lines) + "\n")
 
 
 def read_plan_file(path: str | Path) -> list[Compound]:

@@ -60,21 +60,44 @@ class Trace:
 
 
 class JsonlSink:
-    """Writes each record as one JSON line to a file; :meth:`close` flushes it.
+    """Writes each record as one JSON line to a file, which appears whole at :meth:`close`.
 
-    The file is opened at once, so a trace that was asked for exists even
-    when the run fails before its first event; the CLI closes it in a
-    ``finally`` so that a failed or interrupted run keeps what it traced.
+    The lines go to a temporary file beside ``path`` (``atlas_rap.outputs``),
+    renamed over ``path`` when the sink is closed, so an existing file stays
+    as it was until then and is never left half-written. The CLI closes the
+    sink in a ``finally``, so that a failed or interrupted run keeps what it
+    traced; :meth:`discard` drops the lines instead (a run that never
+    started). A write that fails (a full disk) stops the writing, and
+    :meth:`close` raises it as an :class:`~atlas_rap.outputs.OutputError`
+    (``what`` names the file in it: the CLI's option by default), leaving
+    the old file.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, what: str = "--trace") -> None:
+        from atlas_rap.outputs import AtomicFile
+
         self.path = Path(path)
-        self._file: IO[str] = self.path.open("w", encoding="utf-8")
+        self._file = AtomicFile(path, what, stream="t")
+        self._stream: IO[str] = self._file.stream  # type: ignore[assignment]
+        self._error: OSError | None = None
 
     def __call__(self, record: Record) -> None:
-        self._file.write(json.dumps(record, separators=(",", ":")) + "\n")
+        if self._error is not None:
+            return
+        try:
+            self._stream.write(json.dumps(record, separators=(",", ":")) + "\n")
+        except OSError as exc:
+            self._error = exc
 
     def close(self) -> None:
-        """Flush and close the file (safe to call twice)."""
-        if not self._file.closed:
-            self._file.close()
+        """Finish the file: rename it into place (safe to call twice); an :class:`OutputError`
+        when a write failed or the file cannot be finished."""
+        if self._error is not None:
+            self._file.discard()
+            error, self._error = self._error, None
+            raise self._file.error(error)
+        self._file.commit()
+
+    def discard(self) -> None:
+        """Drop what was written; the file at ``path``, if any, stays as it was."""
+        self._file.discard()

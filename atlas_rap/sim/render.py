@@ -44,7 +44,7 @@ from typing import Any
 
 from atlas_rap.model import World
 from atlas_rap.pictures import DPI as _DPI
-from atlas_rap.pictures import map_layout
+from atlas_rap.pictures import map_layout, save_figure_png
 
 __all__ = ["PLAN_EVENTS", "TASK_MARK_KINDS", "PlanNote", "PlanStepMark", "TaskMark", "plan_legend_rows",
            "plan_marks", "render_run"]
@@ -220,15 +220,7 @@ def render_run(
                 handlelength=1.8,
                 labelspacing=0.45,
             )
-        fig.savefig(
-            out,
-            format="png",
-            dpi=_DPI,
-            bbox_inches="tight",
-            pad_inches=0.15,
-            facecolor="white",
-            metadata={"Software": None},
-        )
+        save_figure_png(fig, out, dpi=_DPI, bbox_inches="tight", pad_inches=0.15)
     finally:
         fig.clear()
     return out
