@@ -2,7 +2,9 @@
 
 Commands import what they need inside their own bodies, so ``atlas --help``
 and ``atlas check`` start without loading numpy, scipy, scikit-image or
-pymunk (the check command's cold start is a benchmarked figure).
+pymunk (the check command's cold start is a benchmarked figure). Every
+command's output paths are checked against its input files before it starts
+(``cli.options.outputs_checked``).
 """
 
 from __future__ import annotations
@@ -15,11 +17,13 @@ from atlas_rap import __version__
 from atlas_rap.cli.check import check
 from atlas_rap.cli.experiment import experiment_group
 from atlas_rap.cli.map import map_group
+from atlas_rap.cli.options import outputs_checked
 from atlas_rap.cli.plan import plan
 from atlas_rap.cli.record import record_group
 from atlas_rap.cli.repl import repl
 from atlas_rap.cli.run import run
 from atlas_rap.cli.skills import skills_group
+from atlas_rap.errors import AtlasError
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -46,12 +50,11 @@ cli.add_command(repl)
 cli.add_command(experiment_group)
 cli.add_command(record_group)
 cli.add_command(skills_group)
+outputs_checked(cli)  # no command writes over its own input files
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Run the CLI; bad input exits 1 with a located message, never a traceback."""
-    from atlas_rap.errors import AtlasError
-
+    """Run the CLI; bad input exits 1 with a located message, never a traceback; Ctrl-C exits 130."""
     try:
         cli.main(args=argv, prog_name="atlas", standalone_mode=False)
     except click.exceptions.Exit as exc:
@@ -59,13 +62,30 @@ def main(argv: list[str] | None = None) -> None:
     except click.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)
-    except click.exceptions.Abort:
-        click.echo("interrupted", err=True)
-        sys.exit(130)
+    except (click.exceptions.Abort, KeyboardInterrupt):
+        _interrupted()
     except AtlasError as exc:
         click.echo(str(exc), err=True)
         sys.exit(exc.exit_code)
-    except KeyboardInterrupt:
-        click.echo("interrupted", err=True)
-        sys.exit(130)
+    except Exception as exc:
+        if not _by_ctrl_c(exc):
+            raise
+        _interrupted()
     sys.exit(0)
+
+
+def _interrupted() -> None:
+    click.echo("interrupted", err=True)
+    sys.exit(130)
+
+
+def _by_ctrl_c(exc: BaseException) -> bool:
+    """An error that Ctrl-C caused: a library that turned the KeyboardInterrupt into its own error
+    (a compiled module whose import was interrupted: "ImportError: initialization failed")."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from atlas_rap.cli.options import POSITIVE, SEED, OutputFile, OutputFolder
+from atlas_rap.cli.options import POSITIVE, SEED, OutputFile, OutputFolder, check_outputs, engine_inputs
 
 
 @click.group("map")
@@ -38,7 +38,8 @@ def _room_settings(door_width, min_room_area, wall_thickness):
               help="The world to map (a shipped world's name or a world file).")
 @click.option("--mission", "mission_file", type=click.Path(dir_okay=False), metavar="MISSION.rap",
               help="What the robot does while mapping; default: visit every place of the world in turn.")
-@click.option("--out", "out_dir", required=True, type=OutputFolder(), help="Folder for the maps.")
+@click.option("--out", "out_dir", required=True, type=OutputFolder(writes=lambda: _built_files()),
+              help="Folder for the maps.")
 @click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the run.")
 @click.option("--until", type=POSITIVE, default=1800.0, show_default=True, metavar="SECONDS",
               help="Simulated time limit.")
@@ -63,6 +64,7 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
     from atlas_rap.layers import MissionEngine
     from atlas_rap.maps.inference import InferenceGrid
     from atlas_rap.maps.levels import abstract_map, write_levels
+    from atlas_rap.outputs import naming, write_all
     from atlas_rap.shipped import resolve_user_path
     from atlas_rap.skills.beliefs import POSES
 
@@ -72,6 +74,7 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
     engine = MissionEngine(world, seed=seed, mapping=True)
     path = resolve_user_path(mission_file) if mission_file else _tour_mission(world, out)
     engine.load_file(path)
+    check_outputs(click.get_current_context(), engine_inputs(engine))
     ended = "interrupted"
     try:
         click.echo(f"driving in {engine.world.name} with {click.format_filename(str(path))} "
@@ -81,15 +84,16 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
             ended = engine.run_mission(until, pace=lambda t: progress.update(bar, completed=t)).ended_by
     except KeyboardInterrupt:  # in the instant before or after the run itself
         engine.halt_live("the run was interrupted")
-    finally:
+    finally:  # the map is written also when the run fails or is interrupted
         grid = engine.grid
         poses = engine.manager.context.beliefs[POSES]
-        grid.save_npz(out / "occupancy.npz")
-        grid.to_ros_map(out / "occupancy.yaml")
+        failed = write_all({"--out": lambda: _save_grid(grid, out)})
     sim, radius = engine.simulation, engine.world.robot.radius
     inference = InferenceGrid(grid, sim.pose[:2], radius, engine.world.sonar.max_range, poses)
     quality = inference.quality()
     click.echo(f"mission {ended} at {sim.time:.1f} s simulated; map quality {quality:.3f}")
+    if failed:  # after the line that says how the run went
+        raise failed["--out"]
     p_occ = grid.probabilities()
     p_occ[~grid.updated] = float("nan")
     path_xy = [(x, y) for _, x, y, _ in sim.path]
@@ -106,29 +110,37 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
         sys.exit(130)
     places = [place.point for place in engine.world.places.values()]
     ends = (places[0], places[-1]) if len(places) > 1 else None
-    _report(result, grid_files + write_levels(p_occ, result, out, path_xy=path_xy, title=engine.world.name,
-                                              route_ends=ends))
+    with naming("--out"):
+        levels = write_levels(p_occ, result, out, path_xy=path_xy, title=engine.world.name, route_ends=ends)
+    _report(result, grid_files + levels)
     if ended == "interrupted":
         sys.exit(130)
 
 
+def _save_grid(grid, out) -> None:
+    grid.save_npz(out / "occupancy.npz")
+    grid.to_ros_map(out / "occupancy.yaml")
+
+
 def _tour_mission(world: str, out) -> str:
     """A mission that visits every place of ``world`` in file order, with the shipped navigation RAPs."""
+    from atlas_rap.outputs import write_text
     from atlas_rap.shipped import shipped_root
     from atlas_rap.sim.world import load_world
 
     places = list(load_world(world).places)
     navigation = shipped_root("rap_library") / "navigation.rap"
     steps = " ".join(f"(t{i} (go-to {place}))" for i, place in enumerate(places + places[:1], 1))
-    path = out / "tour.rap"
-    path.write_text(f'(include "{navigation}")\n(define-rap (tour) (method (task-net (sequence {steps}))))\n'
-                    f"(post (tour))\n", encoding="utf-8")
+    path = write_text(out / "tour.rap", f'(include "{navigation}")\n'
+                                        f"(define-rap (tour) (method (task-net (sequence {steps}))))\n"
+                                        f"(post (tour))\n", "--out")
     return str(path)
 
 
 @map_group.command("abstract")
 @click.argument("map_yaml", metavar="MAP.yaml", type=click.Path(dir_okay=False))
-@click.option("--out", "out_dir", required=True, type=OutputFolder(), help="Folder for the levels.")
+@click.option("--out", "out_dir", required=True, type=OutputFolder(writes=lambda: _level_files()),
+              help="Folder for the levels.")
 @click.option("--robot-radius", type=POSITIVE, default=0.2, show_default=True,
               help="Metres; the clearance routes keep.")
 @click.option("--world", metavar="W", help="A world whose named places name the map's places "
@@ -144,6 +156,7 @@ def abstract_command(map_yaml: str, out_dir: str, robot_radius: float, world: st
     """
     from atlas_rap.maps.levels import abstract_map, write_levels
     from atlas_rap.maps.rosmap import load_ros_map
+    from atlas_rap.outputs import naming
 
     rooms = _room_settings(door_width, min_room_area, wall_thickness)
     places = None
@@ -152,8 +165,11 @@ def abstract_command(map_yaml: str, out_dir: str, robot_radius: float, world: st
 
         places = load_world(world).place_shapes()
     rosmap = load_ros_map(map_yaml)
+    check_outputs(click.get_current_context(), {"the map's image": [rosmap.image]})
     result = abstract_map(rosmap.occupancy, rosmap.frame, robot_radius, source=map_yaml, rooms=rooms, places=places)
-    _report(result, write_levels(rosmap.occupancy, result, out_dir, title=click.format_filename(map_yaml)))
+    with naming("--out"):
+        written = write_levels(rosmap.occupancy, result, out_dir, title=click.format_filename(map_yaml))
+    _report(result, written)
 
 
 @map_group.command("render")
@@ -164,13 +180,29 @@ def render_command(map_file: str, out_png: str) -> None:
     from atlas_rap.maps.grid import load_grid_arrays
     from atlas_rap.maps.render import render_grid
     from atlas_rap.maps.rosmap import load_ros_map
+    from atlas_rap.outputs import naming
 
     if map_file.endswith(".npz"):
         p_occ, frame = load_grid_arrays(map_file)
     else:
         rosmap = load_ros_map(map_file)
+        check_outputs(click.get_current_context(), {"the map's image": [rosmap.image]})
         p_occ, frame = rosmap.occupancy, rosmap.frame
-    click.echo(f"wrote {render_grid(p_occ, frame, out_png, title=click.format_filename(map_file))}")
+    with naming("--out"):
+        written = render_grid(p_occ, frame, out_png, title=click.format_filename(map_file))
+    click.echo(f"wrote {written}")
+
+
+def _built_files() -> tuple[str, ...]:
+    from atlas_rap.maps.levels import LEVEL_FILES
+
+    return ("occupancy.npz", "occupancy.yaml", "occupancy.pgm", *LEVEL_FILES)
+
+
+def _level_files() -> tuple[str, ...]:
+    from atlas_rap.maps.levels import LEVEL_FILES
+
+    return LEVEL_FILES
 
 
 def _report(result, written) -> None:

@@ -1,8 +1,12 @@
 """Option types shared by the commands: output paths, positive numbers, the world option.
 
 - :class:`OutputFile` / :class:`OutputFolder`: a path the command will
-  write; its missing parent folders are made as the option is read, and a
-  path that cannot be made is a one-line error (``atlas_rap.outputs``).
+  write; its missing parent folders are made and the path tried as the
+  option is read, and a path that cannot be written is a one-line error
+  (``atlas_rap.outputs``). :func:`check_outputs` then refuses an output
+  that is one of the command's input files or another output; the CLI
+  calls it for every command before the command starts
+  (:func:`outputs_checked`, applied in ``cli/main.py``).
 - :data:`POSITIVE` / :data:`NON_NEGATIVE`: click ranges for seconds, speeds
   and sizes, so ``--until -5`` is refused with a usage error; so are
   ``nan``, ``inf`` and numbers too large for a float (``1e400``).
@@ -15,6 +19,8 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable
+
 import click
 
 
@@ -41,25 +47,105 @@ SEED = click.IntRange(0, 2 ** 63 - 1)
 
 
 class OutputFile(click.ParamType):
-    """A file the command writes; its parent folder is created if missing."""
+    """A file the command writes; its parent folder is created if missing.
+
+    ``suffix``: the ending the writer gives a file name without it (``.npz``: ``--map-out m``
+    writes ``m.npz``), added here so that the path checked is the path written; a device
+    (``/dev/null``) is written as it is named.
+    """
 
     name = "file"
 
+    def __init__(self, suffix: str = "") -> None:
+        self.suffix = suffix
+
     def convert(self, value, param, ctx):
+        import os
+
         from atlas_rap.outputs import output_file
 
+        if self.suffix and not str(value).endswith(self.suffix) and (os.path.isfile(value) or
+                                                                     not os.path.exists(value)):
+            value = f"{value}{self.suffix}"
         return str(output_file(value, _option(param)))
 
 
 class OutputFolder(click.ParamType):
-    """A folder the command writes into; created (with its parents) if missing."""
+    """A folder the command writes into; created (with its parents) if missing.
+
+    ``writes``: a function giving the names (glob patterns) of the files the
+    command writes in it, so that :func:`check_outputs` can refuse a folder
+    where one of them is an input of the command (a function: the names live
+    in modules the CLI imports only when a command runs).
+    """
 
     name = "folder"
+
+    def __init__(self, writes: Callable[[], Iterable[str]] = tuple) -> None:
+        self.writes = writes
 
     def convert(self, value, param, ctx):
         from atlas_rap.outputs import output_folder
 
         return str(output_folder(value, _option(param)))
+
+
+INPUT_NAMES = ("world", "obstacles")
+"""Options that take a shipped world's name or a file: an input when they name a file."""
+
+
+def check_outputs(ctx: click.Context, more: dict | None = None) -> None:
+    """Refuse (exit 2) an output option of the command that is one of its input files (a
+    ``click.Path`` parameter, a world file) or another of its outputs (``atlas_rap.outputs.check_apart``).
+
+    ``more``: inputs the command found while loading (what is read -> paths), checked
+    by the command itself once it knows them (the files a mission includes).
+    """
+    outputs, folders, inputs = {}, {}, {}
+    for param in ctx.command.params:
+        value = ctx.params.get(param.name)
+        if value is None or value == ():
+            continue
+        label = _option(param) if isinstance(param, click.Option) else (param.metavar or param.name.upper())
+        simple = label.replace(".", "").replace("-", "").isalnum()  # MISSION.rap, --map-in; not [FILE...]
+        named = f"the input {label}" if simple else "an input"
+        if isinstance(param.type, (OutputFile, OutputFolder)):
+            outputs[label] = value
+            if isinstance(param.type, OutputFolder):
+                folders[label] = tuple(param.type.writes())
+        elif isinstance(param.type, click.Path) or param.name in INPUT_NAMES:
+            inputs[f"{named} of this command"] = value if isinstance(value, tuple) else (value,)
+    if outputs:  # (atlas check writes nothing: its cold start stays as it was)
+        from atlas_rap.outputs import check_apart
+
+        check_apart(outputs, {**inputs, **(more or {})}, folders=folders)
+
+
+def engine_inputs(engine) -> dict[str, list]:
+    """What a loaded mission engine read besides the command's own arguments (the files its
+    programs include, the layer rules, the world file), as :func:`check_outputs` takes them."""
+    return {"a file the mission reads": sorted(engine.files), "the world file": [engine.world_file]}
+
+
+def outputs_checked(command: click.Command) -> None:
+    """Make ``command`` (and every command of a group) call :func:`check_outputs` before it starts."""
+    import functools
+
+    if isinstance(command, click.Group):
+        for sub in command.commands.values():
+            outputs_checked(sub)
+        return
+    callback = command.callback
+    if callback is None or getattr(callback, "outputs_checked", False):
+        return
+
+    @functools.wraps(callback)
+    def checked(*args, **kwargs):
+        check_outputs(click.get_current_context())
+        return callback(*args, **kwargs)
+
+    checked.outputs_checked = True  # type: ignore[attr-defined]
+    command.callback = checked
 
 
 LIVE_PORT = click.option("--live-port", type=click.IntRange(0, 65535), default=8765, show_default=True,
@@ -88,7 +174,7 @@ def layer_options(command):
                      help="The robot knows only the names and points of the places: Layer IV maps while it drives."),
         click.option("--map-in", "map_in", type=click.Path(dir_okay=False, exists=True), metavar="GRID.npz",
                      help="Start from this occupancy grid (a --map-out of an earlier run, or atlas map build's)."),
-        click.option("--map-out", "map_out", type=OutputFile(), metavar="GRID.npz",
+        click.option("--map-out", "map_out", type=OutputFile(suffix=".npz"), metavar="GRID.npz",
                      help="Write the occupancy grid built while driving, even if the run fails or is interrupted."),
         click.option("--layers", "layers", default="I,II,III,IV", show_default=True, metavar="I,II,...",
                      callback=lambda ctx, param, value: parse_layers(value),

@@ -18,6 +18,8 @@ stderr are the same as without ``--json``.
 - ``"status": "error"`` (exit 1): the input is bad: a syntax error, a
   check that fails, a missing file, a file with no goals. ``reason`` and
   ``problems`` as above, the caret report on stderr.
+- ``"status": "interrupted"`` (exit 130): Ctrl-C stopped the planner
+  before it gave a plan; ``reason`` says so, ``limits`` as below.
 - a plan for goals with a ``(deadline GOAL SECONDS)`` has ``deadline`` (the
   smallest that applies) and ``meets_deadline``. A solved plan whose makespan
   breaks it is not a usable plan: still ``"status": "solved"`` with its steps,
@@ -32,8 +34,11 @@ stderr are the same as without ``--json``.
 
 Every result has the same keys (``steps`` and the others empty when there
 is no plan). Mistakes in the options themselves print no JSON: bad usage
-(exit 2), or an output path that cannot be created (exit 1), is reported
-on stderr before any input is read.
+(exit 2: an output path that is one of the input files, or another
+output), or an output path that cannot be written (exit 1), is reported
+on stderr before any planning. The outputs (``--plan-file``, ``--render``,
+``--render-order``) are written after the plan is printed, each whole or
+not at all; one that fails then is a line on stderr and exit 1.
 """
 
 from __future__ import annotations
@@ -42,7 +47,7 @@ import sys
 
 import click
 
-from atlas_rap.cli.options import POSITIVE, OutputFile
+from atlas_rap.cli.options import POSITIVE, OutputFile, check_outputs
 
 
 @click.command()
@@ -53,7 +58,8 @@ from atlas_rap.cli.options import POSITIVE, OutputFile
 @click.option("--json", "as_json", is_flag=True,
               help="Print the result as JSON (LANGUAGE.md §3.3), whatever it is: the plan with its risk and "
                    "the threats it is made of; status 'unsolvable' or 'timeout' with the reason; status 'error' "
-                   "for bad input (a syntax error, no goals). Without a plan it has a 'reason' and the located "
+                   "for bad input (a syntax error, no goals); status 'interrupted' on Ctrl-C (exit 130). "
+                   "Without a plan it has a 'reason' and the located "
                    "'problems' (file, line, column, message, hint); the report still goes to stderr, and the "
                    "exit code is the same.")
 @click.option("--dot", "as_dot", is_flag=True, help="Print the partial order as Graphviz DOT.")
@@ -91,25 +97,34 @@ def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_f
     Exits 0 when solved, 1 when unsolvable, out of time or memory, when the plan
     breaks a (deadline GOAL SECONDS) of the file, or the input is bad (a file
     with no goals, a syntax error: reported with a caret on stderr), 2 on bad
-    usage. With --json the result is always JSON on stdout, also
-    without a plan: status 'unsolvable', 'timeout', 'memory' or (bad input)
-    'error', with the reason and its located problems.
+    usage, 130 when interrupted. With --json the result is always JSON on stdout, also
+    without a plan: status 'unsolvable', 'timeout', 'memory', 'interrupted' or
+    (bad input) 'error', with the reason and its located problems.
     """
     from atlas_rap.errors import AtlasError
-    from atlas_rap.planner.plan import plan_of_error
-    from atlas_rap.planner.solve import solve
+    from atlas_rap.outputs import OutputUsageError, write_all
+    from atlas_rap.planner.limits import Limits
+    from atlas_rap.planner.plan import Plan, plan_of_error
 
     if as_json and as_dot:
         raise click.UsageError("choose one of --json and --dot")
-    from atlas_rap.planner.limits import Limits
-
     limits = Limits(timeout, memory, whole_process=True)  # start-up and reading the files count too
     try:
-        problem, warnings = _read_problem(files, pddl)
+        from atlas_rap.planner.solve import solve
+
+        problem, warnings, read = _read_problem(files, pddl)
+        check_outputs(click.get_current_context(), {"a file the goals file includes": read})
         result = solve(problem, protect=not no_counterplan, limits=limits)
+    except OutputUsageError:
+        raise  # the command line is wrong: no JSON, as for other usage errors
     except AtlasError as exc:
         if as_json:
             click.echo(plan_of_error(exc).to_json(timing))
+        raise
+    except KeyboardInterrupt:
+        if as_json:
+            click.echo(Plan(status="interrupted", reason="interrupted (Ctrl-C) before a plan was found",
+                            limits=limits.to_dict()).to_json(timing))
         raise
     for found in warnings:
         click.echo(found.render(), err=True)
@@ -128,32 +143,28 @@ def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_f
         click.echo(found.render(), err=True)
     if result.status != "solved" or late:
         sys.exit(1)
+    writers = {}
     if plan_file:
         from atlas_rap.planner.plan_file import write_plan_file
 
-        _write("--plan-file", plan_file, lambda: write_plan_file(plan_file, result.sequence))
+        writers["--plan-file"] = lambda: write_plan_file(plan_file, result.sequence)
     if render:
         from atlas_rap.planner.render import render_plan
 
-        _write("--render", render, lambda: render_plan(result, render))
-        click.echo(f"wrote {render}", err=True)
+        writers["--render"] = lambda: render_plan(result, render)
     if render_order:
         from atlas_rap.planner.order_picture import render_order as draw_order
 
-        _write("--render-order", render_order, lambda: draw_order(result, render_order))
-        click.echo(f"wrote {render_order}", err=True)
-    if check_raps and not _raps_cover(result, check_raps):
+        writers["--render-order"] = lambda: draw_order(result, render_order)
+    failed = write_all(writers)
+    for option, path in (("--render", render), ("--render-order", render_order)):
+        if path and option not in failed:
+            click.echo(f"wrote {path}", err=True)
+    covered = not check_raps or _raps_cover(result, check_raps)
+    for error in failed.values():  # after the plan: what was found is not lost
+        click.echo(str(error), err=True)
+    if failed or not covered:
         sys.exit(1)
-
-
-def _write(option: str, path: str, write) -> None:
-    """Run ``write``; an OS error writing ``path`` is a one-line error naming ``option``."""
-    from atlas_rap.outputs import OutputError
-
-    try:
-        write()
-    except OSError as exc:
-        raise OutputError(f"{option} {path}: cannot write it ({exc.strerror or exc})") from None
 
 
 def _broken_deadline(problem, result):
@@ -173,7 +184,7 @@ def _broken_deadline(problem, result):
 
 
 def _read_problem(files: tuple[str, ...], pddl: bool):
-    """The problem of ``files`` and the warnings of its load-time checks."""
+    """The problem of ``files``, the warnings of its load-time checks, and the files read."""
     from atlas_rap.lang import load
     from atlas_rap.planner.checks import raise_problems
     from atlas_rap.planner.problem import problem_from_program
@@ -184,13 +195,14 @@ def _read_problem(files: tuple[str, ...], pddl: bool):
             raise click.UsageError("--pddl takes two files: DOMAIN.pddl PROBLEM.pddl")
         from atlas_rap.planner.pddl import load_pddl
 
-        return _with_goals(load_pddl(files[0], files[1]), files[1], "add (:goal ...) to the problem"), []
+        return _with_goals(load_pddl(files[0], files[1]), files[1], "add (:goal ...) to the problem"), [], files
     if len(files) != 1:
         raise click.UsageError("give one goals file (GOALS.ap), or --pddl DOMAIN.pddl PROBLEM.pddl")
     path = resolve_user_path(files[0])
-    problem = _with_goals(problem_from_program(load(path), name=str(files[0])), files[0],
+    program = load(path)
+    problem = _with_goals(problem_from_program(program, name=str(files[0])), files[0],
                           "add (goals FACT ...), or plan a goals file that includes this one")
-    return problem, raise_problems(problem)
+    return problem, raise_problems(problem), [source.path for source in program.files]
 
 
 def _with_goals(problem, file: str, hint: str):

@@ -41,7 +41,9 @@ def show_command(recording: str, out: str | None, as_json: bool) -> None:
                           markup=False)
     if out:
         from atlas_rap.layers.mcap_picture import render_recording
+        from atlas_rap.outputs import naming
 
-        render_recording(recording, out, click.format_filename(recording))
+        with naming("--out"):
+            render_recording(recording, out, click.format_filename(recording))
         if not as_json:
             printer.print(f"picture written to {out}", style="dim")

@@ -9,7 +9,8 @@ from typing import TYPE_CHECKING
 import click
 
 from atlas_rap.cli.bus_options import bus_options, check_bus_options
-from atlas_rap.cli.options import LIVE_PORT, POSITIVE, SEED, OutputFile, layer_engine_options, layer_options, world_help
+from atlas_rap.cli.options import (LIVE_PORT, POSITIVE, SEED, OutputFile, check_outputs, engine_inputs,
+                                   layer_engine_options, layer_options, world_help)
 
 if TYPE_CHECKING:
     from atlas_rap.skillbus.remote import BusSettings
@@ -61,6 +62,7 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     from atlas_rap.cli.console import console
     from atlas_rap.cli.views import LiveTrace, memory_table, summary, task_tree
     from atlas_rap.layers import MissionEngine, RunPicture
+    from atlas_rap.outputs import write_all
     from atlas_rap.sequencer import JsonlSink, agenda_tree
     from atlas_rap.shipped import resolve_user_path
 
@@ -88,27 +90,26 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         engine.trace.add_sink(LiveTrace(out, verbose=verbose))
     try:
         loaded = engine.load_file(resolve_user_path(mission_file), require_post=True)
-    except BaseException:
+        check_outputs(click.get_current_context(), engine_inputs(engine))
+    except BaseException:  # the run never started: every output stays as it was
         if sink is not None:
-            sink.close()
+            sink.discard()
         if recorder is not None:
-            recorder.close()
+            recorder.discard()
         raise
     for warning in loaded.warnings:
         err.print(warning.render(), style="yellow", markup=False)
+    name = click.format_filename(mission_file)
     started = time.perf_counter()
     try:
         result = engine.run_mission(until, pace=recorder.pace if recorder is not None else None)
-    finally:
-        if sink is not None:
-            sink.close()
-        if recorder is not None:
-            recorder.close()
-        if map_out and engine.grid is not None:
-            engine.save_map(map_out)
-        if picture is not None:
-            picture.render(render, click.format_filename(mission_file))
-    name = click.format_filename(mission_file)
+    finally:  # what was asked for is written also when the run fails or is interrupted
+        failed = write_all({
+            "--trace": sink.close if sink is not None else None,
+            "--record": recorder.close if recorder is not None else None,
+            "--map-out": (lambda: engine.save_map(map_out)) if map_out and engine.grid is not None else None,
+            "--render": (lambda: picture.render(render, name)) if picture is not None else None,
+        })
     if show_agenda:
         out.print(task_tree(agenda_tree(engine.sequencer)))
     if show_memory:
@@ -117,15 +118,14 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         out.print(line)
     if engine.stack is not None and engine.stack.timeline:
         out.print("  primary layer: " + engine.stack.primary_summary(result.time), style="dim")
-    if map_out and engine.grid is not None:
-        out.print(f"map written to {map_out}", style="dim")
-    if trace_file:
-        out.print(f"trace written to {trace_file}", style="dim")
-    if render:
-        out.print(f"picture written to {render}", style="dim")
-    if record_file:
-        out.print(f"recording written to {record_file}", style="dim")
+    for option, path, what in (("--map-out", map_out if engine.grid is not None else None, "map"),
+                               ("--trace", trace_file, "trace"), ("--render", render, "picture"),
+                               ("--record", record_file, "recording")):
+        if path and option not in failed:
+            out.print(f"{what} written to {path}", style="dim")
+    for error in failed.values():  # after the summary: the run's outcome is not lost
+        err.print(str(error), markup=False)
     if result.ended_by == "interrupted":
         sys.exit(130)
-    sys.exit(0 if result.ok else 1)
+    sys.exit(1 if failed or not result.ok else 0)
 
