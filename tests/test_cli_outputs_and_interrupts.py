@@ -3,9 +3,11 @@ nothing is styled where it should not be (NO_COLOR, output that is not a termina
 
 from __future__ import annotations
 
+import json
 import os
 import pty
 import select
+import shutil
 import signal
 import subprocess
 from pathlib import Path
@@ -53,19 +55,40 @@ def test_the_repl_saves_into_a_missing_folder(tmp_path):
     assert "(at robot lab)" in (tmp_path / "saved" / "today" / "s.rap").read_text(encoding="utf-8")
 
 
-def test_ctrl_c_while_map_build_drives_exits_130_and_still_writes_the_map(tmp_path):
-    process = subprocess.Popen(atlas_command("map", "build", "--world", "lab-corridor-office", "--out", "built"),
-                               cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               env={**ENV, "PYTHONUNBUFFERED": "1"})
+def _started(args: list[str], cwd: Path) -> subprocess.Popen:
+    return subprocess.Popen(atlas_command(*args), cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, env={**ENV, "PYTHONUNBUFFERED": "1"})
+
+
+def _interrupted(args: list[str], cwd: Path, ready) -> tuple[int, str, str]:
+    """Start ``atlas ARGS``, wait for ``ready(process)``, then Ctrl-C: (exit code, stdout after the wait,
+    stderr); never a traceback."""
+    process = _started(args, cwd)
     try:
-        first = process.stdout.readline()  # printed just before the robot starts to drive
-        assert first.startswith("driving in lab-corridor-office"), first
+        ready(process)
         process.send_signal(signal.SIGINT)
         out, err = process.communicate(timeout=120)
     finally:
         process.kill()
     assert "Traceback" not in out + err, err
-    assert process.returncode == 130, out + err
+    return process.returncode, out, err
+
+
+def _a_line_with(text: str):
+    """Ready once the command printed a line holding ``text``."""
+    def ready(process: subprocess.Popen) -> None:
+        for line in process.stdout:
+            if text in line:
+                return
+        raise AssertionError(f"no line with {text!r}: {process.stderr.read()}")
+
+    return ready
+
+
+def test_ctrl_c_while_map_build_drives_exits_130_and_still_writes_the_map(tmp_path):
+    code, out, err = _interrupted(["map", "build", "--world", "lab-corridor-office", "--out", "built"], tmp_path,
+                                  _a_line_with("driving in lab-corridor-office"))  # just before it drives
+    assert code == 130, out + err
     assert "mission interrupted at" in out
     assert (tmp_path / "built" / "occupancy.yaml").is_file() and (tmp_path / "built" / "occupancy.npz").is_file()
 
@@ -116,3 +139,88 @@ def test_nothing_is_styled_when_the_output_is_not_a_terminal(tmp_path):
     done = atlas("run", GRIPPER_BROKEN, cwd=tmp_path)
     assert done.returncode == 1
     assert "\x1b[" not in done.stdout + done.stderr
+
+
+DELIVER = str(REPO / "rap_library" / "missions" / "deliver.rap")
+
+
+def _temporary_files(folder: Path) -> list[Path]:
+    return [path for path in folder.rglob("*") if path.name.endswith(".part")]
+
+
+def test_ctrl_c_during_a_run_leaves_the_old_trace_until_a_whole_new_one_replaces_it(tmp_path):
+    old = b'{"t":0.0,"event":"an older run"}\n'
+    (tmp_path / "t.jsonl").write_bytes(old)
+    started = _a_line_with("⚙ enable")  # loaded; the run has started when the first skill is enabled
+
+    def ready(process: subprocess.Popen) -> None:
+        started(process)
+        assert (tmp_path / "t.jsonl").read_bytes() == old  # nothing half-written at the path meanwhile
+
+    code, out, err = _interrupted(["run", DELIVER, "--realtime", "--until", "600", "--trace", "t.jsonl"], tmp_path,
+                                  ready)
+    assert code == 130, out + err
+    text = (tmp_path / "t.jsonl").read_text(encoding="utf-8")
+    assert text.endswith("\n")
+    records = [json.loads(line) for line in text.splitlines()]
+    assert records[0]["event"] != "an older run"
+    assert any(r["event"] == "task-halted" and "interrupted" in r["reason"] for r in records)
+    assert not _temporary_files(tmp_path)
+
+
+def test_an_output_that_fails_after_the_run_comes_after_the_summary(tmp_path):
+    process = _started(["run", DELIVER, "--realtime", "--until", "2", "--no-prior-map", "--trace", "out/t.jsonl",
+                        "--map-out", "out/grid.npz"], tmp_path)
+    try:
+        process.stdout.readline()  # the run has started
+        shutil.rmtree(tmp_path / "out")  # the folder of the outputs goes away while it runs
+        out, err = process.communicate(timeout=120)
+    finally:
+        process.kill()
+    assert "Traceback" not in out + err, err
+    assert process.returncode == 1, out + err
+    assert "0 of 1 posted tasks succeeded" in out and "(time limit reached)" in out  # the summary is there
+    assert "written to" not in out
+    assert err.strip().splitlines() == [
+        "--trace out/t.jsonl: cannot write it (No such file or directory)",
+        "--map-out out/grid.npz: cannot write it (No such file or directory)",
+    ]
+    assert not (tmp_path / "out").exists()
+
+
+def test_ctrl_c_in_the_experiment_stops_it_and_writes_what_it_has_marked_incomplete(tmp_path):
+    code, out, err = _interrupted(["experiment", "skill-acquisition", "--runs", "4", "--obstacles", "none",
+                                   "--out", "out"], tmp_path, _a_line_with("run 1: map quality"))  # run 2 drives
+    assert code == 130, out + err
+    data = json.loads((tmp_path / "out" / "figures.json").read_text(encoding="utf-8"))
+    assert data["complete"] is False and data["runs_asked"] == 4
+    done = len(data["runs"])
+    assert 1 <= done < 4
+    assert data["incomplete"] == f"interrupted after run {done} of 4"
+    assert f"interrupted after run {done} of 4: the results are marked incomplete" in err
+    assert len((tmp_path / "out" / "runs.csv").read_text().splitlines()) == 1 + done
+    for name in ("fig12a-map-quality", "fig12b-durations", "fig13a-layers-per-run"):
+        assert (tmp_path / "out" / f"{name}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not _temporary_files(tmp_path)
+
+
+def _cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime + stime
+
+
+def test_atlas_plan_json_stopped_with_ctrl_c_prints_an_interrupted_result(tmp_path):
+    from pddl_problems import triangle_tireworld_problem
+
+    domain, problem = triangle_tireworld_problem(tmp_path, 60)  # a search far longer than the test
+
+    def searching(process: subprocess.Popen) -> None:  # past start-up and reading: 1.5 s of CPU
+        while _cpu_seconds(process.pid) < 1.5:
+            assert process.poll() is None, process.stderr.read()
+            select.select([], [], [], 0.05)
+
+    code, out, err = _interrupted(["plan", "--pddl", str(domain), str(problem), "--json"], tmp_path, searching)
+    assert code == 130, out + err
+    result = json.loads(out)
+    assert result["status"] == "interrupted" and result["steps"] == []
+    assert "interrupted" in result["reason"] and result["limits"]["timeout_s"] == 60

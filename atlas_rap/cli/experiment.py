@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import click
 
 from atlas_rap.cli.options import SEED, OutputFolder
@@ -23,7 +25,8 @@ def experiment_group() -> None:
               help="The world of the obstacle scenario, run on the last run's map ('none': skip it).")
 @click.option("--layer-rules", "layer_rules", type=click.Path(dir_okay=False, exists=True), metavar="RULES.rap",
               help="Memory rules that choose the primary layer (default: the shipped rap_library/layers.rap).")
-@click.option("--out", "out_dir", required=True, type=OutputFolder(), help="Folder for the results and figures.")
+@click.option("--out", "out_dir", required=True, type=OutputFolder(writes=lambda: _result_files()),
+              help="Folder for the results and figures.")
 def skill_acquisition_command(runs: int, seed: int, world: str, obstacles: str, layer_rules: str | None,
                               out_dir: str) -> None:
     """The ATLAS paper's skill-acquisition experiment (seed 000 §5.2, Figs. 12 and 13).
@@ -35,6 +38,10 @@ def skill_acquisition_command(runs: int, seed: int, world: str, obstacles: str, 
     runs.csv, the grid of each run (map-runN.npz) and the figures as PNG:
     map quality per run (Fig. 12a), durations against the optimal time (12b),
     the primary layer per run (13a) and in the obstacle scenario (13b).
+
+    Ctrl-C stops the whole experiment: what it has is written, marked
+    incomplete ("complete": false in figures.json, and on every figure),
+    then it exits 130.
     """
     import time
 
@@ -42,6 +49,7 @@ def skill_acquisition_command(runs: int, seed: int, world: str, obstacles: str, 
 
     from atlas_rap.cli.console import console
     from atlas_rap.layers.experiment import Settings, skill_acquisition, write_results
+    from atlas_rap.outputs import naming, write_all
 
     settings = Settings(world=world, runs=runs, seed=seed, obstacles=None if obstacles == "none" else obstacles,
                         layer_rules=layer_rules)
@@ -55,16 +63,36 @@ def skill_acquisition_command(runs: int, seed: int, world: str, obstacles: str, 
             done.append(what)
 
         done: list[str] = []
-        data = skill_acquisition(out_dir, settings, progress=advance)
+        with naming("--out"):
+            data = skill_acquisition(out_dir, settings, progress=advance, finished=_say_run)
         progress.update(bar, completed=steps)
-    for run in data["runs"]:
-        layers = ", ".join(f"{name} {seconds:.0f} s" for name, seconds in run["primary_s"].items() if seconds)
-        click.echo(f"run {run['run']}: map quality {run['map_quality']:.3f}, {run['duration_s']:.1f} s "
-                   f"(optimal {run['optimal_s']:.1f} s); primary {layers}"
-                   + ("" if run["ok"] else f"; the errand failed ({run['ended_by']})"))
     if "obstacles" in data:
         switches = " → ".join(f"{entry['layer']} at {entry['t']:.1f} s" for entry in data["obstacles"]["timeline"])
         click.echo(f"obstacles: {switches}")
-    for path in write_results(data, out_dir):
+    written: list = []
+    failed = write_all({"--out": lambda: written.extend(write_results(data, out_dir))})
+    for path in written:
         click.echo(f"wrote {path}")
-    click.echo(f"{runs} runs in {time.perf_counter() - started:.1f} s wall")
+    click.echo(f"{len(data['runs'])} runs in {time.perf_counter() - started:.1f} s wall")
+    for error in failed.values():
+        click.echo(str(error), err=True)
+    if not data["complete"]:
+        click.echo(f"{data['incomplete']}: the results are marked incomplete", err=True)
+        sys.exit(130)
+    if failed:
+        sys.exit(1)
+
+
+def _say_run(run: dict) -> None:
+    """One line for a run as it ends."""
+    layers = ", ".join(f"{name} {seconds:.0f} s" for name, seconds in run["primary_s"].items() if seconds)
+    click.echo(f"run {run['run']}: map quality {run['map_quality']:.3f}, {run['duration_s']:.1f} s "
+               f"(optimal {run['optimal_s']:.1f} s); primary {layers}"
+               + ("" if run["ok"] else f"; the errand failed ({run['ended_by']})"))
+    sys.stdout.flush()  # each run as it ends, also through a pipe
+
+
+def _result_files() -> tuple[str, ...]:
+    from atlas_rap.layers.experiment import RESULT_FILES
+
+    return RESULT_FILES

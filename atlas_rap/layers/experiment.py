@@ -15,7 +15,9 @@ a box blocks the way (long-lived: Layer III re-routes and hands back to II).
 
 :func:`skill_acquisition` returns the ``figures.json`` structure
 (:mod:`atlas_rap.layers.figures` draws it); :func:`write_results` writes it
-with the CSV of the runs and the figures.
+with the CSV of the runs and the figures. Ctrl-C stops the whole
+experiment; what it has is returned marked incomplete (``"complete":
+false``), and the figures say so.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from atlas_rap.layers.figures import (
     plot_obstacle_layers,
     plot_run_layers,
 )
+from atlas_rap.outputs import atomic_write, write_text
 from atlas_rap.shipped import shipped_root
 
 ERRAND = """;;; The seed's errand: from the lab to the office, and back (atlas experiment skill-acquisition).
@@ -56,6 +59,10 @@ OBSTACLE_WORLD = "lab-corridor-office-obstacles"
 RUN_LIMIT = 900.0
 """Simulated seconds one run may take."""
 
+RESULT_FILES = ("errand.rap", "figures.json", "runs.csv", "map-run*.npz", "map-obstacles.npz",
+                *FIGURE_FILES.values())
+"""The files the experiment writes in its folder (glob patterns)."""
+
 
 @dataclass(frozen=True)
 class Settings:
@@ -73,10 +80,8 @@ class Settings:
 def errand_file(out: Path, settings: Settings) -> Path:
     """The mission of every run, written into ``out``."""
     navigation = shipped_root("rap_library") / "navigation.rap"
-    path = out / "errand.rap"
-    path.write_text(ERRAND.format(navigation=navigation.as_posix(), goal=settings.goal, home=settings.home),
-                    encoding="utf-8")
-    return path
+    return write_text(out / "errand.rap",
+                      ERRAND.format(navigation=navigation.as_posix(), goal=settings.goal, home=settings.home))
 
 
 def optimal_seconds(world_name: str, home: str, goal: str) -> float:
@@ -94,13 +99,16 @@ def optimal_seconds(world_name: str, home: str, goal: str) -> float:
 def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: Path,
             layer_rules: str | None) -> tuple[dict[str, Any], LayerStack]:
     """One errand with no prior map, from ``map_in``: its figures (the grid written to
-    ``map_out``), and the layer stack it ran with (for its settings)."""
+    ``map_out``), and the layer stack it ran with (for its settings). Ctrl-C: the grid
+    it has is written, then KeyboardInterrupt goes on up (the whole experiment stops)."""
     engine = MissionEngine(world, seed=seed, prior_map=False, map_in=map_in, layer_rules=layer_rules)
     engine.load_file(mission, require_post=True)
     try:
         result = engine.run_mission(RUN_LIMIT)
     finally:
         engine.save_map(map_out)
+    if result.ended_by == "interrupted":
+        raise KeyboardInterrupt
     stack = engine.stack
     timeline = stack.timeline_records()
     return {"ok": result.ok, "ended_by": result.ended_by, "map_quality": stack.layers["IV"].quality(),
@@ -110,29 +118,44 @@ def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: 
 
 
 def skill_acquisition(out: str | Path, settings: Settings = Settings(),
-                      progress: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """Run the experiment (see the module docstring); the ``figures.json`` structure."""
+                      progress: Callable[[str], None] | None = None,
+                      finished: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+    """Run the experiment (see the module docstring); the ``figures.json`` structure.
+
+    ``progress`` is told what starts (``"run 2 of 7"``), ``finished`` is given each
+    run's figures as it ends. Ctrl-C stops the whole experiment: the runs that ended
+    are returned with ``"complete": false`` and ``"incomplete"`` saying where it
+    stopped (``"interrupted after run 3 of 7"``); the run it stopped is left out.
+    """
     _check_worlds(settings)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     mission = errand_file(out, settings)
     optimal = round(optimal_seconds(settings.world, settings.home, settings.goal), 2)
-    runs = []
-    threshold = 0.9
+    runs: list[dict[str, Any]] = []
+    data: dict[str, Any] = {"world": settings.world, "seed": settings.seed, "threshold": 0.9, "runs": runs,
+                            "runs_asked": settings.runs, "complete": True}
     map_in: Path | None = None
-    for number in range(1, settings.runs + 1):
-        if progress is not None:
-            progress(f"run {number} of {settings.runs}")
-        map_out = out / f"map-run{number}.npz"
-        run, stack = one_run(mission, settings.world, settings.seed, map_in, map_out, settings.layer_rules)
-        runs.append({"run": number, **run, "optimal_s": optimal})
-        threshold = stack.setting("map-quality-threshold", 0.9)  # the rules file's, as the runs used it
-        map_in = map_out
-    data: dict[str, Any] = {"world": settings.world, "seed": settings.seed, "threshold": threshold, "runs": runs}
-    if settings.obstacles is not None:
-        if progress is not None:
-            progress("obstacle scenario")
-        data["obstacles"] = obstacle_scenario(mission, settings, map_in, out, optimal)
+    during = ""
+    try:
+        for number in range(1, settings.runs + 1):
+            if progress is not None:
+                progress(f"run {number} of {settings.runs}")
+            map_out = out / f"map-run{number}.npz"
+            run, stack = one_run(mission, settings.world, settings.seed, map_in, map_out, settings.layer_rules)
+            runs.append({"run": number, **run, "optimal_s": optimal})
+            data["threshold"] = stack.setting("map-quality-threshold", 0.9)  # the rules file's, as the runs used it
+            map_in = map_out
+            if finished is not None:
+                finished(runs[-1])
+        if settings.obstacles is not None:
+            during = " in the obstacle scenario"
+            if progress is not None:
+                progress("obstacle scenario")
+            data["obstacles"] = obstacle_scenario(mission, settings, map_in, out, optimal)
+    except KeyboardInterrupt:
+        data["complete"] = False
+        data["incomplete"] = f"interrupted{during} after run {len(runs)} of {settings.runs}"
     return data
 
 
@@ -150,12 +173,14 @@ def obstacle_scenario(mission: Path, settings: Settings, map_in: Path | None, ou
 
 
 def write_results(data: dict[str, Any], out: str | Path) -> list[Path]:
-    """``figures.json``, ``runs.csv`` and the four figures, into ``out``; the paths written."""
+    """``figures.json``, ``runs.csv`` and the four figures (three without the obstacle scenario),
+    into ``out``, each written whole; the paths written. Results marked incomplete say so on
+    every figure."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "figures.json", out / "runs.csv"]
-    written[0].write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
-    with written[1].open("w", newline="", encoding="utf-8") as handle:
+    write_text(written[0], json.dumps(data, indent=1) + "\n")
+    with atomic_write(written[1], text=True, newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(["run", "map_quality", "duration_s", "optimal_s", "primary_I_s", "primary_II_s",
                          "primary_III_s", "primary_IV_s", "ok"])

@@ -23,6 +23,10 @@ Layer I is always active, so the layer plots draw it as a thin line
 throughout and as a thick bar where it is *primary*, like the other
 layers. Each layer has one colour (:data:`LAYER_COLOURS`) in every figure.
 
+Results marked incomplete (``"complete": false``: the experiment was
+stopped) say so above every figure's title, in red, with ``incomplete``'s
+text ("interrupted after run 3 of 7").
+
 Every figure is 800 × 450 px (8 × 4.5 in at 100 dpi), laid out tight.
 matplotlib is imported inside the functions (``Figure`` + Agg canvas, no
 pyplot and no global state), so importing this module stays cheap. The
@@ -61,6 +65,7 @@ SIZE_INCHES = (8.0, 4.5)  # 800 x 450 px at DPI
 _MEASURED = "#1f4e79"  # measured values (map quality, durations)
 _REFERENCE = "#555555"  # threshold and optimal time
 _EVENT = "#333333"
+_INCOMPLETE = "#c0392b"
 _GRID = "#e6e6e6"
 _BAR_HEIGHT = 0.5  # of a layer's row (rows are 1 apart)
 _THIN_LINE = 1.2  # points, layer I where it is active but not primary
@@ -113,7 +118,7 @@ def primary_seconds(timeline: Sequence[Mapping[str, Any]], end: float) -> dict[s
 
 def plot_map_quality(data: Mapping[str, Any], path: str | Path) -> Path:
     """Fig. 12(a): the map quality of each run, with the quality threshold dashed; the PNG's path."""
-    fig, ax = _figure(_title("Fig. 12(a) map quality per run", data))
+    fig, ax = _figure(_title("Fig. 12(a) map quality per run", data), data)
     runs = _runs(data)
     numbers = [_run_number(run) for run in runs]
     ax.plot(numbers, [float(run["map_quality"]) for run in runs], marker="o", color=_MEASURED,
@@ -131,7 +136,7 @@ def plot_map_quality(data: Mapping[str, Any], path: str | Path) -> Path:
 
 def plot_durations(data: Mapping[str, Any], path: str | Path) -> Path:
     """Fig. 12(b): how long each run took, with each run's optimal time as a dashed step; the PNG's path."""
-    fig, ax = _figure(_title("Fig. 12(b) run duration per run", data))
+    fig, ax = _figure(_title("Fig. 12(b) run duration per run", data), data)
     runs = _runs(data)
     numbers = [_run_number(run) for run in runs]
     durations = [float(run["duration_s"]) for run in runs]
@@ -160,7 +165,7 @@ def plot_run_layers(data: Mapping[str, Any], path: str | Path) -> Path:
     [0, its duration] into that interval; a run without a timeline shows
     no bar.
     """
-    fig, ax = _figure(_title("Fig. 13(a) primary layer per run", data))
+    fig, ax = _figure(_title("Fig. 13(a) primary layer per run", data), data)
     runs = _runs(data)
     numbers = [_run_number(run) for run in runs]
     bars: list[tuple[str, float, float]] = []
@@ -184,7 +189,7 @@ def plot_run_layers(data: Mapping[str, Any], path: str | Path) -> Path:
 def plot_obstacle_layers(data: Mapping[str, Any], path: str | Path) -> Path:
     """Fig. 13(b): which layer was primary over the obstacle scenario, its events dotted; the PNG's path."""
     scenario = data["obstacles"]
-    fig, ax = _figure(_title("Fig. 13(b) primary layer with obstacles", data))
+    fig, ax = _figure(_title("Fig. 13(b) primary layer with obstacles", data), data)
     duration = max(float(scenario["duration_s"]), 0.0)
     _layer_rows(ax, timeline_spans(scenario.get("timeline") or [], duration), 0.0, duration)
     events = sorted(scenario.get("events") or [], key=lambda event: float(event["t"]))
@@ -216,8 +221,9 @@ def write_figures(data: Mapping[str, Any], out_dir: str | Path) -> list[Path]:
 # Pieces --------------------------------------------------------------------
 
 
-def _figure(title: str) -> tuple[Any, Any]:
-    """A blank 800 x 450 px figure on an Agg canvas and its one axes, titled."""
+def _figure(title: str, data: Mapping[str, Any]) -> tuple[Any, Any]:
+    """A blank 800 x 450 px figure on an Agg canvas and its one axes, titled; results marked
+    incomplete (``"complete": false``) say so in red, right-aligned above the title."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -225,6 +231,9 @@ def _figure(title: str) -> tuple[Any, Any]:
     FigureCanvasAgg(fig)
     ax = fig.add_subplot()
     ax.set_title(title, fontsize=11, loc="left")
+    if data.get("complete") is False:
+        note = _plain(f"incomplete: {data.get('incomplete') or 'the experiment stopped early'}")
+        ax.set_title(note + "\n", fontsize=10, loc="right", color=_INCOMPLETE)  # a line above the title
     ax.grid(True, color=_GRID, linewidth=0.6, zorder=0)
     ax.set_axisbelow(True)
     ax.tick_params(labelsize=9)
@@ -235,11 +244,13 @@ def _figure(title: str) -> tuple[Any, Any]:
 
 def _save(fig: Any, path: str | Path) -> Path:
     """Lay ``fig`` out tight and write it as a PNG at ``path`` (parent created), without a software name."""
+    from atlas_rap.pictures import save_figure_png
+
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     try:
         fig.tight_layout(pad=0.6)
-        fig.savefig(out, format="png", dpi=DPI, facecolor="white", metadata={"Software": None})
+        save_figure_png(fig, out, dpi=DPI)
     finally:
         fig.clear()
     return out
