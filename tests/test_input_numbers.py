@@ -228,7 +228,7 @@ def test_repl_commands_refuse_numbers_that_are_not_finite_and_go_on(tmp_path):
 
     from cli_process import ENV, atlas_command
 
-    script = ":run nan\n:step inf\n:run 1e400\n:trace " + DIGITS_400 + "\n:trace -1\n:step 1\n"
+    script = ":run nan\n:step inf\n:run 1e400\n:run 1e300\n:trace " + DIGITS_400 + "\n:trace -1\n:step 1\n"
     done = subprocess.run(atlas_command("repl"), input=script, cwd=tmp_path, capture_output=True, text=True,
                           env=ENV, timeout=60)
     assert_no_traceback(done)
@@ -236,6 +236,7 @@ def test_repl_commands_refuse_numbers_that_are_not_finite_and_go_on(tmp_path):
     assert "error: expected a finite number, not nan: :run SECONDS" in done.stderr
     assert "error: expected a finite number, not inf: :step SECONDS" in done.stderr
     assert "error: expected a finite number, not 1e400: :run SECONDS" in done.stderr
+    assert "error: expected at most 1e+09 seconds (about 32 years): :run SECONDS" in done.stderr
     assert "error: expected a number at least 0: :trace N" in done.stderr
     assert done.stdout.rstrip().endswith("time 1 s")  # the session went on
 

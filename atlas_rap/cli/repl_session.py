@@ -64,7 +64,7 @@ from rich.console import Console
 from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation, line_of, source_lines
 from atlas_rap.lang import ast, format_node, load_text
 from atlas_rap.lang.reader import Forms, SList, read_text
-from atlas_rap.lang.validator import to_term
+from atlas_rap.lang.validator import MAX_SECONDS, to_term
 from atlas_rap.logic import Compound, Term, Var, is_anonymous, substitute, term_to_str, variables
 from atlas_rap.shipped import resolve_user_path
 
@@ -316,11 +316,11 @@ class Session:
             self.out.print(json.dumps(record, separators=(",", ":")), markup=False)
 
     def _step(self, rest: str) -> None:
-        self.advance(_number(rest, ":step SECONDS") if rest else STEP)
+        self.advance(_number(rest, ":step SECONDS", seconds=True) if rest else STEP)
         self.note(f"time {self.sequencer.now():g} s")
 
     def _run(self, rest: str) -> None:
-        self.run(_number(rest, ":run SECONDS") if rest else None)
+        self.run(_number(rest, ":run SECONDS", seconds=True) if rest else None)
 
     def _pause(self, rest: str) -> None:
         self.paused = not self.paused
@@ -463,8 +463,9 @@ class Session:
                 self.engine.save_map(self.map_out)
 
 
-def _number(text: str, usage: str, kind: Callable = float):
-    """A command's number: at least 0, and finite (``:run nan``, ``:run inf`` and ``:run 1e400`` are errors)."""
+def _number(text: str, usage: str, kind: Callable = float, *, seconds: bool = False):
+    """A command's number: at least 0, and finite (``:run nan``, ``:run inf`` and ``:run 1e400`` are errors);
+    ``seconds``: a time, at most the longest time a file may give (``lang.validator.MAX_SECONDS``)."""
     try:
         value = kind(text)
     except ValueError:
@@ -473,6 +474,8 @@ def _number(text: str, usage: str, kind: Callable = float):
         raise AtlasError(f"expected a finite number, not {text.strip()}: {usage}")
     if value < 0:
         raise AtlasError(f"expected a number at least 0: {usage}")
+    if seconds and value > MAX_SECONDS:
+        raise AtlasError(f"expected at most {MAX_SECONDS:g} seconds (about 32 years): {usage}")
     return value
 
 
