@@ -8,7 +8,7 @@ import sys
 import click
 
 from atlas_rap.cli.bus_options import MAX_MESSAGE, ZENOH_CONFIG
-from atlas_rap.cli.options import LIVE_PORT, POSITIVE, OutputFile, world_help
+from atlas_rap.cli.options import LIVE_PORT, POSITIVE, SEED, OutputFile, world_help
 
 
 @click.group("skills")
@@ -25,7 +25,7 @@ def skills_group() -> None:
               help="Zenoh endpoint of another peer to connect to (repeatable).")
 @click.option("--robot", default="robot", show_default=True, metavar="NAME",
               help="The robot's name on the bus: its keys (atlas/NAME/...) and the symbol its facts use.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the simulation's random choices.")
+@click.option("--seed", type=SEED, default=0, show_default=True, help="Seed of the simulation's random choices.")
 @click.option("--record", "record_file", type=OutputFile(), metavar="HOST.mcap",
               help="Record each session's world for Foxglove as MCAP (pose, tf, path, sonar, scene, topology, "
                    "route; in simulated time): the first session to HOST.mcap, later ones to HOST-2.mcap, ...; "

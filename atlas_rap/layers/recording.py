@@ -551,6 +551,8 @@ class HostRecorder:
 
 
 def session_file(path: str | Path, number: int) -> Path:
-    """The file of a skill host's session ``number``: ``path`` for the first, ``NAME-2.mcap``, ... after."""
+    """The file of a skill host's session ``number``: ``path`` for the first, ``NAME-2.mcap``, ... after;
+    a device (``/dev/null``, a pipe) is every session's."""
     path = Path(path)
-    return path if number <= 1 else path.with_name(f"{path.stem}-{number}{path.suffix}")
+    device = (path.exists() and not path.is_file()) or path.is_relative_to("/dev")
+    return path if number <= 1 or device else path.with_name(f"{path.stem}-{number}{path.suffix}")
