@@ -31,7 +31,6 @@ import os
 import random
 import sys
 import threading
-import time
 
 import zenoh
 
