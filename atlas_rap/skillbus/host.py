@@ -40,8 +40,8 @@ from typing import Any, Callable, Iterable
 from atlas_rap.logic import Compound, Memory, Term
 from atlas_rap.skillbus import keys
 from atlas_rap.skillbus.auth import NONCE, TAG, TO_HOST, TO_SEQUENCER, Secret, new_nonce, session_key, verify
-from atlas_rap.skillbus.messages import (Ack, Disable, Done, Enable, FactAsserted, FactRetracted, Frame, Hello,
-                                         Message, Note, RuleFired, Tick, Welcome, changes_to_messages, decode)
+from atlas_rap.skillbus.messages import (Ack, DecodeError, Disable, Done, Enable, FactAsserted, FactRetracted, Frame,
+                                         Hello, Message, Note, RuleFired, Tick, Welcome, changes_to_messages, decode)
 from atlas_rap.skillbus.protocol import BEGIN, END, FRAME, GONE, HELLO, SEQUENCER, SKILLS, Peer, Position, log
 from atlas_rap.skillbus.zenoh_bus import Conversation
 
@@ -87,7 +87,7 @@ class HostDoor:
             return None
         try:
             frame = decode(payload, max_bytes=self.conversation.max_message)
-        except Exception as exc:
+        except DecodeError as exc:
             self.conversation.drops("a Hello that cannot be decoded", key, str(exc))
             return None
         if type(frame) is not Frame or frame.seq != 0 or type(frame.last) is not Hello:
@@ -113,7 +113,7 @@ class HostDoor:
         self._refused_at = now
         try:
             frame = decode(payload, max_bytes=self.conversation.max_message)
-        except Exception:
+        except DecodeError:
             return
         if type(frame) is Frame and type(frame.last) is Hello:
             refusal = Frame(frame.session, 0, (Welcome(self.robot, error=REFUSAL),))

@@ -125,6 +125,10 @@ class Peer:
         if not self.authentic(key, payload, attachment):
             self.conversation.drops("a frame that fails authentication", key)
             return None
+        return self.take(key, payload)
+
+    def take(self, key: str, payload: bytes) -> tuple[str, Any] | None:
+        """A frame whose tag held: ``(FRAME, frame)`` when it decodes and is this session's next."""
         frame = self.decode(key, payload)
         if frame is None or not self.accept(key, frame):
             return None

@@ -49,9 +49,9 @@ from atlas_rap.logic import Compound, String, term_to_str
 from atlas_rap.skillbus import keys
 from atlas_rap.skillbus.auth import NONCE, TAG, SecretSource, TokenError, new_nonce, sequencer_secrets, session_key, \
     verify
-from atlas_rap.skillbus.messages import (MAX_MESSAGE, Ack, Disable, Enable, FactAsserted, FactRetracted, Frame, Hello,
-                                         Message, Note, RuleFired, Tick, Welcome, decode, message_change)
-from atlas_rap.skillbus.protocol import ALIVE, END, FRAME, GONE, HELLO, Peer, Position, log
+from atlas_rap.skillbus.messages import (MAX_MESSAGE, Ack, DecodeError, Disable, Enable, FactAsserted, FactRetracted,
+                                         Frame, Hello, Message, Note, RuleFired, Tick, Welcome, decode, message_change)
+from atlas_rap.skillbus.protocol import ALIVE, END, GONE, HELLO, Peer, Position, log
 from atlas_rap.skillbus.skill_link import SkillHost
 from atlas_rap.skillbus.zenoh_bus import BusError, Conversation, close_session, open_session
 
@@ -220,8 +220,7 @@ class HostLink(Peer):
                 candidate = session_key(self.secret, self.session, self._nonce, nonce)
                 if verify(candidate, self.inbound, key, payload, attachment, nonce=True):
                     self.key = candidate
-                    frame = self.decode(key, payload)
-                    return (FRAME, frame) if frame is not None and self.accept(key, frame) else None
+                    return self.take(key, payload)
             self._refused(key, payload)
             return None
         return super().admit(key, payload, attachment)
@@ -231,7 +230,7 @@ class HostLink(Peer):
         why if no Welcome that holds comes (it is only a hint: anyone can send one)."""
         try:
             frame = decode(payload, max_bytes=self.conversation.max_message)
-        except Exception:
+        except DecodeError:
             frame = None
         if type(frame) is Frame and frame.session == self.session and type(frame.last) is Welcome \
                 and frame.last.error:

@@ -322,7 +322,7 @@ class Conversation:
             key = str(sample.key_expr)
             size = len(sample.payload)
             if size > self.max_message:
-                self.drops(f"a message of {size} bytes (the cap is {self.max_message})", key)
+                self.drops(f"a message larger than the cap of {self.max_message} bytes", key, f"{size} bytes")
                 return
             if self.queued + size > INBOX_BYTES:
                 self.drops("a message that came while the inbox was full", key)
