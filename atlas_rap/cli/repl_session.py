@@ -282,10 +282,10 @@ class Session:
         rest = rest.strip()
         handler = _COMMAND_HANDLERS.get(name)
         if handler is None:
-            from difflib import get_close_matches
+            from atlas_rap.lang.guesses import nearest
 
-            close = get_close_matches(name, list(COMMANDS), n=1)
-            hint = f"; did you mean {close[0]}?" if close else ""
+            close = nearest(name, list(COMMANDS))
+            hint = f"; did you mean {close}?" if close else ""
             raise AtlasError(f"unknown command {name}{hint} (:help lists them)")
         handler(self, rest)
 
