@@ -8,7 +8,7 @@ the thing, and show its shape when the names are far apart.
 from __future__ import annotations
 
 import pytest
-from cli_process import assert_no_traceback, atlas
+from cli_process import REPO, assert_no_traceback, atlas
 
 from atlas_rap.errors import SourceError
 from atlas_rap.lang import load_text, parse_text
@@ -91,3 +91,30 @@ def test_a_task_net_step_named_like_another_languages_control_form_gets_the_net_
     problem = only_problem(f"(world none)\n(define-rap (go) (method (task-net {step})))\n", load=True)
     assert problem.message.endswith("is neither a RAP nor a skill")
     assert problem.hint.startswith(hint)
+
+
+def test_on_preempt_takes_resume_or_fail_and_says_what_each_does():
+    problem = only_problem("(define-rap (a) (method (on-preempt sometimes) (task-net (t1 (beep)))))")
+    assert problem.message == "on-preempt takes resume or fail, found 'sometimes'"
+    assert "resume (the default)" in problem.hint and "fail: the step ends :preempted" in problem.hint
+
+
+def test_on_preempt_written_as_a_rap_clause_is_told_it_belongs_to_a_method():
+    problem = only_problem("(define-rap (a) (on-preempt fail) (method (task-net (t1 (beep)))))")
+    assert problem.message == "unknown clause 'on-preempt'"
+    assert problem.hint == "on-preempt belongs to a method: (method (on-preempt fail) (task-net ...))"
+
+
+def test_a_back_off_by_another_name_is_retry_backoff():
+    problem = only_problem("(define-rap (a) (retry-delay 2) (method (task-net (t1 (beep)))))")
+    assert problem.hint.startswith("did you mean 'retry-backoff'?")
+
+
+def test_the_readmes_example_of_the_additions_reads_and_means_what_it_says():
+    from atlas_rap.lang import ast
+
+    readme = (REPO / "README.md").read_text(encoding="utf-8")
+    example = readme.split("Two additions to LANGUAGE.md's RAPs")[1].split("```lisp")[1].split("```")[0]
+    (rap,) = [form for form in parse_text(example, "README.md").forms if isinstance(form, ast.RapDef)]
+    assert rap.retries == 5 and rap.retry_backoff == 4
+    assert [method.on_preempt for method in rap.methods] == ["fail"]

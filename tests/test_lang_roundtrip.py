@@ -74,7 +74,7 @@ ints = st.integers(min_value=-10**15, max_value=10**15)
 floats = st.floats(allow_nan=False, allow_infinity=False)
 numbers = st.one_of(ints, floats)
 non_negative = st.one_of(st.integers(0, 10**6), st.floats(min_value=0, max_value=1e9, allow_nan=False))
-string_chars = st.one_of(st.sampled_from('"\\\n\t ;()#|?:é漢🤖'), st.characters())
+string_chars = st.one_of(st.sampled_from('"\\\n\t ;()#|?:é漢🤖'), st.characters(exclude_categories=("Cs",)))  # a file is UTF-8: no lone surrogates
 strings = st.builds(String, st.text(string_chars, max_size=12))
 variables = st.builds(Var, words)  # names start with a letter; never anonymous
 
@@ -212,7 +212,8 @@ primitive_actions = st.one_of(
     memory_ops,
 )
 primitives = st.builds(ast.Primitive, st.lists(primitive_actions, min_size=1, max_size=5).map(tuple))
-methods = st.builds(ast.Method, st.one_of(task_nets(), primitives), st.none() | names, st.none() | queries)
+methods = st.builds(ast.Method, st.one_of(task_nets(), primitives), st.none() | names, st.none() | queries,
+                    st.sampled_from(["resume", "fail"]))
 
 rap_defs = st.builds(
     ast.RapDef,
@@ -225,6 +226,7 @@ rap_defs = st.builds(
     timeout=st.none() | non_negative,
     priority=st.none() | numbers,
     retries=st.none() | st.integers(1, 100),
+    retry_backoff=st.none() | non_negative,
 )
 
 # ----------------------------------------------------------------- memory, skills, events

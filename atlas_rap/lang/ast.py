@@ -167,15 +167,18 @@ class Primitive:
 
 @dataclass(frozen=True, slots=True)
 class Method:
-    """``(method [NAME] (context Q) BODY)``: one way to do a task.
+    """``(method [NAME] (context Q) [(on-preempt resume|fail)] BODY)``: one way to do a task.
 
     ``context`` None means always applicable. ``body`` is a task net or a
-    primitive.
+    primitive. ``on_preempt`` says what a step of this method does when a
+    task of higher priority takes its skill: ``"resume"`` (the default: it
+    waits and runs again) or ``"fail"`` (it ends ``:preempted``).
     """
 
     body: TaskNet | Primitive
     name: str | None = None
     context: Term | None = None
+    on_preempt: str = "resume"
     loc: SourceLocation = _loc()
 
 
@@ -184,7 +187,8 @@ class RapDef:
     """``(define-rap (NAME ?ARG ...) CLAUSE ...)``: a Reactive Action Package.
 
     ``head`` is the task as written, e.g. ``(attach-at-site ?thesite)``.
-    Clauses not written are None; ``retries`` None means the default (3).
+    Clauses not written are None; ``retries`` None means the default (3),
+    ``retry_backoff`` None the default (1 s).
     """
 
     head: Compound
@@ -196,6 +200,7 @@ class RapDef:
     timeout: float | None = None
     priority: float | None = None
     retries: int | None = None
+    retry_backoff: float | None = None
     loc: SourceLocation = _loc()
 
     @property

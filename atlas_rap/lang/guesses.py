@@ -60,6 +60,9 @@ WRONG_GUESSES: dict[str, dict[str, str]] = {
         **dict.fromkeys(("context", "task-net", "primitive"),
                         "!this goes inside a method: (method (context ...) (task-net ...))"),
         **dict.fromkeys(("retry", "attempts", "tries", "max-retries"), "retries"),
+        **dict.fromkeys(("backoff", "back-off", "retry-delay", "retry-after", "retry-wait"), "retry-backoff"),
+        **dict.fromkeys(("on-preempt", "preempt", "on-preemption"),
+                        "!on-preempt belongs to a method: (method (on-preempt fail) (task-net ...))"),
         **dict.fromkeys(("time-out", "deadline", "time-limit", "timelimit"), "timeout"),
         **dict.fromkeys(("while", "repeat", "loop"), "repeat-while"),
         "until": "repeat-until",
@@ -74,6 +77,7 @@ WRONG_GUESSES: dict[str, dict[str, str]] = {
                                 "wrap sequences in it: (task-net (sequence ...))"),
         **dict.fromkeys(("action", "actions", "skills", "enable"), "primitive"),
         "succeed": "!succeed is a clause of the RAP, not of a method: write it beside the methods",
+        **dict.fromkeys(("preempt", "on-preemption", "preemption", "on-halt", "when-preempted"), "on-preempt"),
     },
     "primitive action": {
         **dict.fromkeys(("start", "activate", "run", "turn-on", "on"), "enable"),

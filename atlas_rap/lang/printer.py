@@ -108,6 +108,8 @@ def _(node: ast.Method) -> Layout:
         out.append(node.name)
     if node.context is not None:
         out.append(["context", layout(node.context)])
+    if node.on_preempt != "resume":
+        out.append(["on-preempt", node.on_preempt])
     out.append(layout(node.body))
     return out
 
@@ -119,10 +121,10 @@ def _(node: ast.RapDef) -> Layout:
         value = getattr(node, clause)
         if value is not None:
             out.append([clause.replace("_", "-"), layout(value)])
-    for clause in ("timeout", "priority", "retries"):
+    for clause in ("timeout", "priority", "retries", "retry_backoff"):
         value = getattr(node, clause)
         if value is not None:
-            out.append([clause, _num(value)])
+            out.append([clause.replace("_", "-"), _num(value)])
     out += [layout(m) for m in node.methods]
     return out
 

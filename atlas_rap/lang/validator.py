@@ -54,8 +54,10 @@ TOP_LEVEL_FORMS = (
     "deadline",
 )
 RAP_CLAUSES = ("succeed", "constraints", "repeat-while", "repeat-until", "timeout", "priority",
-               "retries", "method")
-METHOD_PARTS = ("context", "task-net", "primitive")
+               "retries", "retry-backoff", "method")
+METHOD_PARTS = ("context", "on-preempt", "task-net", "primitive")
+ON_PREEMPT = ("resume", "fail")
+NUMBER_CLAUSES = ("timeout", "priority", "retries", "retry-backoff")
 NET_FORMS = ("sequence", "parallel", "wait-for", "assert", "retract", "plan")
 ANNOTATIONS = ("for", "until-end", "wait-for")
 PRIMITIVE_ACTIONS = ("enable", "disable", "wait-for", "assert", "retract")
@@ -310,14 +312,15 @@ class Validator:
                     self.fail(f"clause '{name}' given twice in define-rap (first at line {first_seen[name]})",
                               clause.locs[0], "keep one; combine queries with (and ...)")
                 first_seen[name] = clause.line
-                arg, arg_loc = self.one_arg(clause, "query" if name not in ("timeout", "priority", "retries")
-                                            else "number")
+                arg, arg_loc = self.one_arg(clause, "number" if name in NUMBER_CLAUSES else "query")
                 if name == "timeout":
                     fields["timeout"] = self.number(arg, arg_loc, "timeout", minimum=0, seconds=True)
                 elif name == "priority":
                     fields["priority"] = self.number(arg, arg_loc, "priority")
                 elif name == "retries":
                     fields["retries"] = self.number(arg, arg_loc, "retries", minimum=1, integer=True)
+                elif name == "retry-backoff":
+                    fields["retry_backoff"] = self.number(arg, arg_loc, "retry-backoff", minimum=0, seconds=True)
                 else:
                     fields[name.replace("-", "_")] = self.query(arg, arg_loc)
             except _Skip:
@@ -332,6 +335,7 @@ class Validator:
             name = self.name(items[1], locs[1], "a method name")
             index = 2
         context = None
+        on_preempt = None
         body = None
         for part, loc in zip(items[index:], locs[index:]):
             part = self.list_form(part, loc, "(context ...), (task-net ...) or (primitive ...)")
@@ -343,6 +347,11 @@ class Validator:
                     self.fail("method has two contexts", part.locs[0], "combine them with (and ...)")
                 context = self.query(*self.one_arg(part, "query"))
                 continue
+            if kind == "on-preempt":
+                if on_preempt is not None:
+                    self.fail("method has two on-preempt parts", part.locs[0], "keep one")
+                on_preempt = self.on_preempt(*self.one_arg(part, "symbol"))
+                continue
             if body is not None:
                 self.fail("method has two bodies", part.locs[0],
                           "a method has one (task-net ...) or one (primitive ...); split it into two methods")
@@ -350,7 +359,15 @@ class Validator:
         if body is None:
             what = "context or body" if context is None else "body"
             self.fail(f"method has no {what}", self.at(form), "add (task-net ...) or (primitive ...)")
-        return ast.Method(body=body, name=name, context=context, loc=self.loc(self.at(form)))
+        return ast.Method(body=body, name=name, context=context, on_preempt=on_preempt or "resume",
+                          loc=self.loc(self.at(form)))
+
+    def on_preempt(self, datum: Datum, where: tuple[int, int]) -> str:
+        """``resume`` or ``fail``: what a method's step does when its skill is taken."""
+        if datum not in ON_PREEMPT:
+            self.fail(f"on-preempt takes resume or fail, found {_describe(datum)}", where,
+                      "resume (the default): the step waits and runs again; fail: the step ends :preempted")
+        return datum  # type: ignore[return-value]
 
     # ------------------------------------------------------------ task nets
 
