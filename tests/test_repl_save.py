@@ -48,8 +48,9 @@ def test_a_session_in_a_world_saves_the_world_and_loads_back_to_the_same_file(tm
 
     run = repl(":run\n(? (at robot ?where))\n", "saved.rap", cwd=tmp_path)
     assert run.returncode == 0, run.stderr
-    assert "✓ [1] (go-to storeroom) succeeded" in run.stdout  # the stock skills of the saved world drove it
-    assert "?where = storeroom" in run.stdout
+    assert "✓ [2] (go-to storeroom) succeeded" in run.stdout  # the stock skills of the saved world drove it
+    assert "✓ [1] (deliver mail office lab) succeeded" in run.stdout  # after the storeroom: they share the base
+    assert "?where = lab" in run.stdout
 
 
 def test_a_session_without_a_world_keeps_what_its_virtual_skills_asserted_and_its_plans(tmp_path):

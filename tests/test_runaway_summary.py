@@ -76,7 +76,7 @@ def test_the_live_trace_of_a_runaway_stops_indenting_and_does_not_repeat_the_cau
 
 
 def test_a_huge_retries_of_a_method_that_fails_at_once_ends_as_a_runaway_not_a_hang(tmp_path):
-    mission = ("(define-rap (go) (retries 1000000000) (method (task-net (wait-for (x) :fail))))\n"
+    mission = ("(define-rap (go) (retries 1000000000) (retry-backoff 0) (method (task-net (wait-for (x) :fail))))\n"
                "(initial-memory (x))\n(post (go))\n")
     lines = summary(tmp_path, mission, "--quiet").stdout.splitlines()
     assert lines[2].strip() == "tried 1000 methods without simulated time passing"

@@ -98,6 +98,8 @@ def test_a_reload_keeps_the_running_method_and_the_next_choice_uses_the_new_defi
                      "(method new (task-net (sequence (assert (said bonjour)) (assert (greeted))))))"))
     seq.assert_fact(term("(go)"))  # the old method's net ends; (greeted) is still false
     seq.settle()
+    assert task.status == "pending" and task.backoff is not None  # its attempt failed: it waits a while
+    seq.advance_to(1.0)
     assert task.status == "succeeded"
     methods = [r["method"] for r in trace.records if r["event"] == "method-selected"]
     assert methods == ["old", "new"]

@@ -103,12 +103,14 @@ def test_second_method_after_first_fails(tmp_path):
 
 
 def test_untried_methods_are_preferred_before_repeating_one(tmp_path):
-    # both methods always fail; the default 3 attempts go 1, 2, then 1 again
+    # both methods always fail; the default 3 attempts go 1, 2 at once (untried: another way), then 1
+    # again after the 1 s back-off (repeating a method waits for a change)
     text = FASTEN.format(retries="", glue="(finish :fail)")
     with run(tmp_path, text) as s:
         chosen = [(r["method"], r["attempt"], r["t"]) for r in s.events("method-selected")]
-        assert chosen == [("1", 1, 0.0), ("2", 2, 1.0), ("1", 3, 3.0)]
-        assert s.times("task-failed", task="(fasten panel)") == [4.0]
+        assert chosen == [("1", 1, 0.0), ("2", 2, 1.0), ("1", 3, 4.0)]
+        assert s.times("task-resumed", task="(fasten panel)") == [4.0]
+        assert s.times("task-failed", task="(fasten panel)") == [5.0]
         assert s.task("(fasten panel)").status == "failed"
 
 
@@ -126,11 +128,11 @@ def test_retries_exhausted(tmp_path):
     """
     with run(tmp_path, text) as s:
         assert s.field("attempt", "method-selected") == [1, 2]
-        assert s.times("method-selected") == [0.0, 1.0]
-        assert s.times("skill-enabled", skill="(crank h1)") == [0.0, 1.0]
-        assert s.times("skill-disabled", skill="(crank h1)") == [1.0, 2.0]
+        assert s.times("method-selected") == [0.0, 2.0]  # the retry waits the 1 s back-off
+        assert s.times("skill-enabled", skill="(crank h1)") == [0.0, 2.0]
+        assert s.times("skill-disabled", skill="(crank h1)") == [1.0, 3.0]
         [failed] = s.events("task-failed")
-        assert failed["t"] == 2.0 and failed["task"] == "(open-hatch h1)"
+        assert failed["t"] == 3.0 and failed["task"] == "(open-hatch h1)"
         assert "2 attempts" in failed["reason"]
         assert "(crank h1)" in failed["because"]
         task = s.task("(open-hatch h1)")
@@ -160,11 +162,11 @@ def test_wait_for_times_out(tmp_path):
     with run(tmp_path, WAIT_SIGNAL.format(when=10)) as s:
         outcomes = [(r["t"], r["step"], r["outcome"]) for r in s.events("step-outcome")]
         assert outcomes == [(2.0, "(wait-for (signal))", ":timeout"),
-                            (4.0, "(wait-for (signal))", ":timeout")]
-        assert s.times("method-selected") == [0.0, 2.0]
-        assert s.times("task-failed", task="(await-signal)") == [4.0]
+                            (5.0, "(wait-for (signal))", ":timeout")]
+        assert s.times("method-selected") == [0.0, 3.0]  # the retry waits the 1 s back-off
+        assert s.times("task-failed", task="(await-signal)") == [5.0]
         assert s.events("fact-asserted", fact="(got-signal)") == []
-        assert s.result.time == 4.0
+        assert s.result.time == 5.0
 
 
 def test_wait_for_matching_before_its_timeout_succeeds(tmp_path):
@@ -742,13 +744,14 @@ def test_timeout_clause_fails_the_task_with_outcome_timeout_and_disables_its_ski
 
 def test_3t_attach_with_a_broken_gripper_retries_then_fails(tmp_path):
     # hull-7 is not ferrous, so only method 2 applies; without (gripper-ok) the
-    # grip fails 0.5 s after the 2.5 s approach, three times (the default retries)
+    # grip fails 0.5 s after the 2.5 s approach, three times (the default retries), each retry after
+    # the 1 s back-off
     with run(tmp_path, ATTACH.format(site="hull-7", gripper="")) as s:
         chosen = [(r["method"], r["attempt"], r["t"]) for r in s.events("method-selected")]
-        assert chosen == [("2", 1, 0.0), ("2", 2, 3.0), ("2", 3, 6.0)]
-        assert s.times("skill-disabled", skill="(grip-attach hull-7)") == [3.0, 6.0, 9.0]
+        assert chosen == [("2", 1, 0.0), ("2", 2, 4.0), ("2", 3, 8.0)]
+        assert s.times("skill-disabled", skill="(grip-attach hull-7)") == [3.0, 7.0, 11.0]
         [failed] = s.events("task-failed")
-        assert failed["t"] == 9.0 and "3 attempts" in failed["reason"]
+        assert failed["t"] == 11.0 and "3 attempts" in failed["reason"]
         assert s.events("fact-asserted", fact="(docked hull-7)") == []  # the cancelled script line
 
 
@@ -782,9 +785,9 @@ def test_method_ending_with_succeed_still_false_is_retried(tmp_path):
     """
     with run(tmp_path, text) as s:
         assert s.field("outcome", "step-outcome") == [":succeed", ":succeed"]
-        assert s.times("method-selected") == [0.0, 1.0]
+        assert s.times("method-selected") == [0.0, 2.0]  # the retry waits the 1 s back-off
         [failed] = s.events("task-failed")
-        assert failed["t"] == 2.0 and "(charged)" in failed["because"]
+        assert failed["t"] == 3.0 and "(charged)" in failed["because"]
 
 
 def test_equal_priority_earlier_deadline_is_selected_first(tmp_path):

@@ -339,6 +339,10 @@ class Session:
                 for run, call in self.sequencer.holders.values()]
         if held:
             self.out.print("running: " + ", ".join(sorted(held)), markup=False)
+        waiting = [f"[{claim.task.id}] {claim.task.text} for {term_to_str(claim.call)}"
+                   for claim in self.sequencer.resources.claims()]
+        if waiting:
+            self.out.print("waiting: " + ", ".join(waiting), markup=False)
 
     def _layers(self, rest: str) -> None:
         stack = self.engine.stack if self.engine.built else None

@@ -96,9 +96,17 @@ class LiveTrace:
         if event == "skill-disabled":
             return text.append(f"{indent}  ⚙ disable {record['skill']}", style="dim") if self.verbose else None
         if event == "skill-preempted":
-            verb = "took" if record["outcome"] == ":preempted" else "keeps"
-            return text.append(f"{indent}  ⚠ [{record['winner_id']}] {record['winner']} {verb} {record['skill']} "
-                               f"from {who} ({record['outcome']})", style="yellow")
+            then = "it waits to resume" if record["outcome"] == ":halted" else "its step fails"
+            return text.append(f"{indent}  ⚠ [{record['winner_id']}] {record['winner']} took {record['skill']} "
+                               f"from {who}: {then}", style="yellow")
+        if event == "task-waiting":
+            return text.append(f"{indent}⏸ {who} waits for {_waited_for(record)}", style="yellow")
+        if event == "task-resumed":
+            after = f"after {record['waited']:g} s"
+            if "skill" in record:
+                then = f": it chooses its method again ({record['rechoose']})" if "rechoose" in record else ""
+                return text.append(f"{indent}⏵ {who} has {record['skill']} {after}{then}", style="yellow")
+            return text.append(f"{indent}⏵ {who} tries again {after} ({record['by']})", style="yellow")
         if event in ("skill-waiting", "skill-resumed"):
             mark = "⏸" if event == "skill-waiting" else "⏵"
             return text.append(f"  {mark} {record['skill']}: {record['reason']}", style="yellow")
@@ -118,6 +126,15 @@ class LiveTrace:
             by = f"  ({record['by']})" if "by" in record else ""
             return text.append(f"  {sign} {record['fact']}", style="blue").append(by, style="dim")
         return text.append(f"{event} " + " ".join(f"{k}={v}" for k, v in record.items() if k not in ("t", "event")))
+
+
+def _waited_for(record: dict) -> str:
+    """What a ``task-waiting`` record waits for: a skill and its holder, or a change before a retry."""
+    if "skill" in record:
+        holder = f" held by [{record['holder_id']}] {record['holder']}" if "holder_id" in record else ""
+        return f"{record['skill']}{holder}"
+    changes = f"a change of {', '.join(record['watching'])} or " if record.get("watching") else ""
+    return f"{changes}t={record['until']:g} s before its next attempt"
 
 
 def _plan_line(text: Text, indent: str, record: dict) -> Text | None:

@@ -49,7 +49,7 @@ from atlas_rap.layers.monitoring import MonitoringLayer
 from atlas_rap.layers.operational import OperationalLayer
 from atlas_rap.layers.strategic import StrategicLayer
 from atlas_rap.layers.tactical import TacticalLayer
-from atlas_rap.logic import Compound, Relation, Term, term_to_str
+from atlas_rap.logic import Compound, Relation, Term
 from atlas_rap.sequencer import Sequencer, Task, Trace
 from atlas_rap.sequencer.checks import check_program
 from atlas_rap.sequencer.introspect import waiting_for

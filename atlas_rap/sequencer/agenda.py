@@ -15,6 +15,11 @@ from math import inf
 from atlas_rap.sequencer.task import PENDING, Task
 
 
+def agenda_key(task: Task) -> tuple[float, float, int]:
+    """A task's place in the agenda's order: smaller is selected (and served) first."""
+    return -task.priority, inf if task.deadline is None else task.deadline, task.id
+
+
 class Agenda:
     """A priority queue of pending tasks."""
 
@@ -26,8 +31,7 @@ class Agenda:
         if task.queued:
             return
         task.queued = True
-        deadline = inf if task.deadline is None else task.deadline
-        heapq.heappush(self._heap, (-task.priority, deadline, task.id, task))
+        heapq.heappush(self._heap, (*agenda_key(task), task))
 
     def pop(self) -> Task | None:
         """The best pending task, or None when no task is pending."""

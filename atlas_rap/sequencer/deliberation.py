@@ -35,6 +35,13 @@ plan from memory, and a :class:`PlanExecution` carries it out:
   the request. A plan whose makespan does not fit in the time left is
   reported and not carried out, and a plan still running at the deadline is
   abandoned.
+- **Sharing the robot.** A step whose RAP waits for a skill another task
+  holds (``Sequencer.enable_skill``) waits like any task: waiting is neither
+  progress nor failure. Only a wait that endangers the deadline counts: a
+  step still waiting when the rest of the plan (the makespan after the
+  step's scheduled start) no longer fits before the deadline is a changed
+  situation, repaired (another agent may be free), and a plan that cannot
+  fit is abandoned.
 - **Giving up.** Each failure (a step whose RAP failed, or every step done
   and goals still false) is charged to the goals its step serves. A goal
   charged ``max_failures`` times (default 3) is abandoned and the plan is
@@ -100,6 +107,12 @@ PARTIAL = ":partial"
 _ANY = Var("%any")
 
 
+class SkillWait(Protocol):
+    """A step's wait for a skill (``resources.Claim``): ``live`` while the step still waits."""
+
+    live: bool
+
+
 class Ticket(Protocol):
     """A plan being made; :meth:`cancel` drops it (its result is never delivered)."""
 
@@ -153,6 +166,10 @@ class StepRun:
 
     def child_ended(self, task: Task) -> None:
         self.execution.step_ended(self, task)
+
+    def subtask_waiting(self, wait: SkillWait, what: str) -> None:
+        """The step's task, or a task under it, waits for a skill (``what`` says which and who has it)."""
+        self.execution.step_waiting(self, wait, what)
 
     def describe(self) -> str:
         return f"plan step s{self.step.id} {self.action}"
@@ -260,8 +277,9 @@ class PlanExecution:
         now = self.seq.now()
         if self.deadline_at is not None and now + plan.makespan > self.deadline_at + 1e-9:
             left = max(0.0, self.deadline_at - now)
+            repair = {"cause": self.cause} if self.version else {}  # what the plan was being repaired for
             self._abandon(f"no plan meets the deadline: the plan takes {_num(plan.makespan)} s and "
-                          f"{_num(left)} s are left", makespan=_num(plan.makespan), left=_num(left))
+                          f"{_num(left)} s are left", makespan=_num(plan.makespan), left=_num(left), **repair)
             return
         old = self.steps
         self.version += 1
@@ -370,6 +388,22 @@ class PlanExecution:
         reason = _root_reason(task.failure)
         seq.trace.emit("plan-step-failed", reason=reason, **fields)
         self._trouble(f"step s{run.step.id} {run.action} failed: {reason}", self.serves.get(run.step.id))
+
+    def step_waiting(self, run: StepRun, wait: SkillWait, what: str) -> None:
+        """A running step waits for a skill: if it still waits when the rest of the plan no longer fits
+        before the deadline, the plan is repaired."""
+        if self.ended or self.deadline_at is None or self.plan is None or run.status != "running":
+            return
+        seq = self.seq
+        rest = self.plan.makespan - run.step.start
+        latest = self.deadline_at - rest
+
+        def check() -> None:
+            if wait.live and run.status == "running" and not self.ended and self.steps.get(run.step.id) is run:
+                self._changed(f"step s{run.step.id} {run.action} waits for {what}, and the {_num(rest)} s of plan "
+                              f"left from it no longer fit before the deadline at t={_num(self.deadline_at or 0.0)} s")
+
+        self._timers.append(seq.timers.at(max(latest, seq.now()), check))
 
     def _all_done(self) -> None:
         memory, relations = self.seq.memory, self.seq.relations

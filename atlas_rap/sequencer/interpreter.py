@@ -37,15 +37,30 @@ user would expect:
   fail at once instead of retrying.
 - Reloading (:meth:`Sequencer.define`) replaces definitions; a running task
   keeps its current method and uses the new definition at its next selection.
-- Skills are resources (:meth:`Sequencer.enable_skill`): a skill instance
-  belongs to the task whose step enabled it, until that step ends. When
-  another live task enables it, the newer task takes it unless the
-  holder's priority is higher: the loser's step ends at once with
-  ``:preempted`` (the holder) or ``:busy`` (a refused newcomer), a failure
-  outcome, with a reason naming the other task, so its RAP recovers through
-  its methods and retries. Each contest is a ``skill-preempted`` trace
-  event naming both tasks. The same task enabling a skill it holds restarts
-  it, as before.
+- Skills are resources (:meth:`Sequencer.enable_skill`, ``resources``): a
+  skill instance belongs to the task whose step enabled it, until that step
+  ends. A task whose step needs an instance that another live task holds
+  *waits* when the holder's priority is equal or higher: its step stays on
+  the agenda in a visible state (``waiting for (navigate-to storeroom) held
+  by [4] (go-to office)``, a ``task-waiting`` record) and takes the instance
+  when it is let go (``task-resumed``), costing no retry. Waiters are served
+  in the agenda's order (priority, deadline, age), so who is served is
+  deterministic. A task of higher priority (or a subtask of the holder,
+  which would otherwise wait for itself) takes the instance instead: the
+  holder's step is *halted*, not failed (``skill-preempted`` with outcome
+  ``:halted``, naming both tasks), and waits in the queue itself. When it is
+  served it runs the halted step again from its start (a ``primitive``
+  enables the skill again and waits again where it waited), or, when its
+  method's ``context`` no longer holds or its ``succeed`` test already does,
+  its task chooses a method again, without being charged a retry. A method
+  with ``(on-preempt fail)`` fails instead: its step ends ``:preempted``, a
+  failure outcome, as a behaviour-tree action that cannot resume. A task's
+  ``timeout`` and deadline count while it waits; one that runs out says what
+  it waited for. A task enabling an instance it already holds restarts it.
+- A failed attempt whose task would next repeat a method waits for a
+  change first (``retrying.RetryWait``): a change of a fact the RAP's tests
+  read, or its ``retry-backoff`` (default 1 s). An applicable method not yet
+  tried is another way, and is tried at once.
 - A memory rule that cannot be applied (a cycle, an effect that is not
   ground, arithmetic that fails) leaves memory untrustworthy, so the run
   stops: the task whose change triggered it fails (fatally), every other
@@ -80,9 +95,19 @@ from atlas_rap.logic import (
 from atlas_rap.logic.arithmetic import evaluated_fact
 from atlas_rap.logic.errors import RuleError
 from atlas_rap.logic.rules import Change
-from atlas_rap.sequencer.agenda import Agenda
+from atlas_rap.sequencer.agenda import Agenda, agenda_key
 from atlas_rap.sequencer.deliberation import Deliberator
-from atlas_rap.sequencer.net import FAILURE_OUTCOMES, HALTED_OUTCOME, MethodRun, Node, StepNode, method_label
+from atlas_rap.sequencer.net import (
+    FAILURE_OUTCOMES,
+    HALTED_OUTCOME,
+    WAITING_OUTCOME,
+    MethodRun,
+    Node,
+    StepNode,
+    method_label,
+)
+from atlas_rap.sequencer.resources import Claim, Resources
+from atlas_rap.sequencer.retrying import DEFAULT_RETRY_BACKOFF, RetryWait
 from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Task
 from atlas_rap.sequencer.trace import Trace
 from atlas_rap.sequencer.waiting import WaitIndex
@@ -138,7 +163,8 @@ class Sequencer:
         self.library: dict[tuple[str, int], ast.RapDef] = {}
         self.roots: list[Task] = []
         self._ids = count(1)
-        self.holders: dict[Hashable, tuple[MethodRun, Compound]] = {}  # skill instance -> its run and call
+        self.resources = Resources()  # who holds each skill instance, and who waits for it
+        self.holders: dict[Hashable, tuple[MethodRun, Compound]] = self.resources.holders
         self.fault: str | None = None  # why memory rules stopped the run, until the runner takes it
         self.deliberator: Deliberator | None = None  # the planner, for (plan GOAL ...) steps
         self._plan_numbers = count(1)
@@ -235,12 +261,17 @@ class Sequencer:
     # -- the agenda ----------------------------------------------------------
 
     def settle(self) -> None:
-        """Select pending tasks, best first, until none is pending (no time passes)."""
+        """Select pending tasks, best first, and hand skill instances let go to the tasks waiting
+        for them, until neither is left (no time passes)."""
         pop = self.agenda.pop
-        task = pop()
-        while task is not None:
-            self._select(task)
+        while True:
             task = pop()
+            while task is not None:
+                self._select(task)
+                task = pop()
+            if not self.resources.released:
+                return
+            self._serve_released()
 
     def advance_to(self, time: float) -> None:
         """Move the clock to ``time``, instant by instant: fire the timers due, settle the agenda.
@@ -250,6 +281,8 @@ class Sequencer:
         on time is on time.
         """
         timers = self.timers
+        if self.resources.released:
+            self.settle()
         due = timers.next_time()
         while due is not None and due <= time:
             timers.fire_due(due, late=False)
@@ -358,7 +391,48 @@ class Sequencer:
                 return
             task.method_ended_ok = True
         task.status = PENDING
+        rap = self.library.get((task.call.functor, len(task.call.args)))
+        if rap is not None and self._waits_to_retry(task, rap):
+            self._back_off(task, rap)
+            return
         self.agenda.push(task)
+
+    def _waits_to_retry(self, task: Task, rap: ast.RapDef) -> bool:
+        """Whether a task whose attempt failed waits for a change (``retrying``) before its next one:
+        it has retries left and a back-off, its ``succeed`` test does not already hold, and its next
+        choice would repeat a method: an applicable method not yet tried is another way, tried at once,
+        and a task with no applicable method fails at once, as it always has."""
+        retries = rap.retries if rap.retries is not None else DEFAULT_RETRIES
+        backoff = rap.retry_backoff if rap.retry_backoff is not None else DEFAULT_RETRY_BACKOFF
+        if task.attempts >= retries or backoff <= 0:
+            return False
+        memory, bindings, relations = self.memory, task.bindings, self.relations
+        try:
+            if rap.succeed is not None and memory.holds(rap.succeed, bindings, relations):
+                return False
+            applicable = [number for number, m in enumerate(rap.methods, 1)
+                          if m.context is None or memory.holds(m.context, bindings, relations)]
+            return bool(applicable) and all(number in task.tries for number in applicable)
+        except QueryError:
+            return False  # the selection reports it
+
+    def _back_off(self, task: Task, rap: ast.RapDef) -> None:
+        queries = [query for query in (rap.succeed, rap.constraints, *(m.context for m in rap.methods))
+                   if query is not None and query not in ("t", "nil")]
+        bindings = task.bindings
+        queries = list(dict.fromkeys(substitute(query, bindings) if bindings else query for query in queries))
+        backoff = rap.retry_backoff if rap.retry_backoff is not None else DEFAULT_RETRY_BACKOFF
+
+        def resume(wait: RetryWait, by: str) -> None:
+            task.backoff = None
+            self.trace.emit("task-resumed", id=task.id, task=task.text, waited=_seconds(self.timers.now - wait.since),
+                            by=by)
+            self.agenda.push(task)
+
+        task.backoff = RetryWait(queries, backoff, waits=self.waits, timers=self.timers, relations=self.relations,
+                                 on_end=resume)
+        self.trace.emit("task-waiting", id=task.id, task=task.text, until=task.backoff.until,
+                        watching=task.backoff.watching)
 
     # -- ending tasks --------------------------------------------------------
 
@@ -393,13 +467,23 @@ class Sequencer:
 
     def _timed_out(self, task: Task, seconds: float) -> None:
         if not task.finished:
-            self._fail(task, f"timed out after {seconds:g} s (its timeout clause)", task.last_failure,
-                       outcome=":timeout")
+            self._fail(task, f"timed out after {seconds:g} s (its timeout clause){self._waited(task)}",
+                       task.last_failure, outcome=":timeout")
 
     def _missed_deadline(self, task: Task) -> None:
         if not task.finished:
-            self._fail(task, f"missed its deadline at t={task.deadline:g} s", task.last_failure,
+            self._fail(task, f"missed its deadline at t={task.deadline:g} s{self._waited(task)}", task.last_failure,
                        outcome=":timeout")
+
+    def _waited(self, task: Task) -> str:
+        """What ``task`` (or a task under it) is waiting for, as the end of a timeout's reason."""
+        for claim in self.resources.claims():
+            under: Task | None = claim.task
+            while under is not None and under is not task:
+                under = under.parent
+            if under is task:
+                return f": it waited for {term_to_str(claim.call)} {self.held_by(claim)} since t={claim.since:g} s"
+        return ""
 
     def _end(self, task: Task, status: str, failure: Failure | None) -> None:
         self._stop(task)
@@ -418,6 +502,9 @@ class Sequencer:
         for timer in task.timers:
             timer.cancel()
         task.timers.clear()
+        if task.backoff is not None:
+            task.backoff.cancel()
+            task.backoff = None
         run = task.run
         if run is not None:
             task.run = None
@@ -488,6 +575,9 @@ class Sequencer:
         for waiter in self.waits.candidates(made):
             if not waiter.active:
                 continue
+            if waiter.any_change:
+                waiter.owner.woken(waiter, {})
+                continue
             try:
                 answer = memory.ask(waiter.query, None, relations)
             except QueryError as exc:
@@ -514,9 +604,11 @@ class Sequencer:
         """Enable a skill for ``node`` of a method; None, or the outcome and reason its step ends with.
 
         The skill's instance (:meth:`SkillLink.instance`) then belongs to
-        ``run``'s task. If another live task holds it, the one with the
-        higher priority keeps or takes it, the newer on a tie: the holder's
-        step ends ``:preempted``, or this one ``:busy``.
+        ``run``'s task. If another live task holds it (or waits for it
+        ahead of this one), this one waits: the outcome is
+        :data:`~atlas_rap.sequencer.net.WAITING_OUTCOME` and ``node.claim``
+        its place in the queue, served by :meth:`settle`. A task that
+        outranks the holder takes the instance and halts the holder's step.
         """
         if not is_ground(call):
             return ":fail", f"skill {term_to_str(call)} was enabled with unbound arguments"
@@ -524,12 +616,17 @@ class Sequencer:
             return ":fail", f"no skill {call.functor} with {_plural(len(call.args), 'argument')}"
         instance = self.skills.instance(call)
         held = self.holders.get(instance)
+        task = run.task
         if held is not None and held[0] is not run:
-            refused = self._contest(held, run, call)
-            if refused is not None:
-                return refused
+            if not _outranks(task, held[0].task):
+                return self._wait(node, call, instance)
+            self._preempt(held, run, call)
             if not run.live:  # the holder's failure halted this very task
                 return HALTED_OUTCOME, "its method was halted"
+        elif held is None and instance in self.resources.queues:
+            ahead = self.resources.best(instance)
+            if ahead is not None and ahead.task is not task and agenda_key(ahead.task) < agenda_key(task):
+                return self._wait(node, call, instance)
         stale = list(self.memory.facts(Compound("done", (call, _ANY)))) + list(
             self.memory.facts(Compound("why", (call, _ANY))))
         if stale:
@@ -537,22 +634,97 @@ class Sequencer:
         self.skills.enable(call)
         self.holders[instance] = (run, call)
         run.enabled[call] = node
-        self.trace.emit("skill-enabled", skill=term_to_str(call), id=run.task.id, task=run.task.text)
+        self.trace.emit("skill-enabled", skill=term_to_str(call), id=task.id, task=task.text)
         return None
 
-    def _contest(self, held: tuple[MethodRun, Compound], run: MethodRun, call: Compound) -> tuple[str, str] | None:
-        """Another live task holds the instance ``call`` needs: refuse ``run`` (its outcome) or preempt."""
+    def _wait(self, node: Node, call: Compound, instance: Hashable, *, preempted: bool = False) -> tuple[str, str]:
+        """Queue ``node``'s claim on ``instance`` and trace the wait."""
+        task = node.run.task
+        claim = node.claim = Claim(node, task, call, instance, self.timers.now, preempted)
+        self.resources.queue(claim)
+        held = self.holders.get(instance)
+        holder = {"holder_id": held[0].task.id, "holder": held[0].task.text} if held is not None else {}
+        self.trace.emit("task-waiting", id=task.id, task=task.text, skill=term_to_str(call), **holder)
+        what = f"{term_to_str(call)} {self.held_by(claim)}"
+        above: Task | None = task
+        while above is not None:  # a plan whose step this is watches the wait against its deadline
+            if above.step is not None:
+                above.step.subtask_waiting(claim, what)
+            above = above.parent
+        return WAITING_OUTCOME, f"waiting for {what}"
+
+    def held_by(self, claim: Claim) -> str:
+        """Who has the instance ``claim`` waits for: ``held by [4] (go-to office) of [1] (deliver ...)``."""
+        held = self.holders.get(claim.instance)
+        if held is None:
+            return "(free: it is handed over at the end of this instant)"
+        holder = held[0].task
+        root = _ancestors(holder)[0]
+        of = f" of [{root.id}] {root.text}" if root is not holder else ""
+        return f"held by [{holder.id}] {holder.text}{of}"
+
+    def _preempt(self, held: tuple[MethodRun, Compound], run: MethodRun, call: Compound) -> None:
+        """``run``'s task outranks the holder: halt the holder's step (it waits to resume) or, with
+        ``(on-preempt fail)``, fail it."""
         holder_run, holder_call = held
         holder, newcomer = holder_run.task, run.task
-        if holder.priority > newcomer.priority:
-            self.trace.emit("skill-preempted", skill=term_to_str(call), outcome=":busy", id=newcomer.id,
-                            task=newcomer.text, winner_id=holder.id, winner=holder.text)
-            return ":busy", (f"skill {term_to_str(holder_call)} is held by [{holder.id}] {holder.text}, "
-                             f"whose priority {holder.priority:g} is higher than {newcomer.priority:g}")
-        self.trace.emit("skill-preempted", skill=term_to_str(holder_call), outcome=":preempted", id=holder.id,
-                        task=holder.text, winner_id=newcomer.id, winner=newcomer.text)
-        holder_run.preempt(holder_call, f"preempted by [{newcomer.id}] {newcomer.text}, "
-                                        f"which enabled {term_to_str(call)}")
+        resume = holder_run.method.on_preempt == "resume"
+        self.trace.emit("skill-preempted", skill=term_to_str(holder_call), outcome=":halted" if resume else ":preempted",
+                        id=holder.id, task=holder.text, winner_id=newcomer.id, winner=newcomer.text)
+        reason = f"preempted by [{newcomer.id}] {newcomer.text}, which enabled {term_to_str(call)}"
+        holder_run.preempt(holder_call, reason, resume)
+
+    def wait_again(self, node: Node, call: Compound) -> None:
+        """``node`` lost the skill ``call`` to a task that outranks it: it waits to resume."""
+        self._wait(node, call, self.skills.instance(call), preempted=True)
+
+    def _serve_released(self) -> None:
+        """Hand each instance let go to the best claim waiting for it (agenda order)."""
+        resources, holders = self.resources, self.holders
+        for instance in resources.take_released():
+            while instance not in holders:
+                claim = resources.pop_best(instance)
+                if claim is None:
+                    break
+                node = claim.node
+                if node.claim is claim and node.run.live:
+                    self._resume(claim)
+
+    def _resume(self, claim: Claim) -> None:
+        task, node = claim.task, claim.node
+        node.claim = None
+        run = node.run
+        waited = self.timers.now - claim.since
+        changed = self._changed_while_halted(run) if claim.preempted else None
+        fields = {"rechoose": changed} if changed is not None else {}
+        self.trace.emit("task-resumed", id=task.id, task=task.text, skill=term_to_str(claim.call), waited=_seconds(waited),
+                        **fields)
+        if changed is None:
+            node.resume(claim.call, claim.preempted)
+            return
+        task.attempts -= 1  # the halted attempt is not charged
+        task.tries[run.number] -= 1
+        if not task.tries[run.number]:
+            del task.tries[run.number]
+        if task.run is run:
+            task.run = None
+        run.halt()
+        task.status = PENDING
+        self.agenda.push(task)
+
+    def _changed_while_halted(self, run: MethodRun) -> str | None:
+        """Why a halted method should not just go on (its task chooses again), or None."""
+        task = run.task
+        rap = self.library.get((task.call.functor, len(task.call.args)))
+        memory, relations = self.memory, self.relations
+        try:
+            if rap is not None and rap.succeed is not None and memory.holds(rap.succeed, task.bindings, relations):
+                return f"its succeed test {_shown(rap.succeed, task.bindings)} holds"
+            context = run.method.context
+            if context is not None and not memory.holds(context, task.bindings, relations):
+                return f"the context of method {run.label} no longer holds: {_shown(context, task.bindings)}"
+        except QueryError:
+            return None
         return None
 
     def disable_skill(self, run: MethodRun, call: Compound) -> None:
@@ -562,6 +734,7 @@ class Sequencer:
             instance = self.skills.instance(call)
             if self.holders.get(instance) == (run, call):
                 del self.holders[instance]
+                self.resources.release(instance)
             self.skills.disable(call)
             self.trace.emit("skill-disabled", skill=term_to_str(call), id=run.task.id, task=run.task.text)
 
@@ -571,6 +744,17 @@ class Sequencer:
             fields = {"reason": why} if why and outcome in FAILURE_OUTCOMES else {}
             self.trace.emit("step-outcome", id=task.id, task=task.text, step=step.describe(), outcome=outcome,
                             **fields)
+
+
+def _outranks(newcomer: Task, holder: Task) -> bool:
+    """Whether ``newcomer`` takes a skill instance ``holder`` holds: a higher priority, or the holder
+    is its own ancestor (it would wait for itself). On a tie the newcomer waits."""
+    above = newcomer.parent
+    while above is not None:
+        if above is holder:
+            return True
+        above = above.parent
+    return newcomer.priority > holder.priority
 
 
 def _ancestors(task: Task) -> list[Task]:
@@ -584,6 +768,11 @@ def _ancestors(task: Task) -> list[Task]:
 
 def _shown(query: Term | None, bindings: Subst) -> str:
     return term_to_str(substitute(query, bindings)) if query is not None else "t"
+
+
+def _seconds(span: float) -> float:
+    """A span of simulated time as the trace writes it (no float noise: 8.8, not 8.799999999999997)."""
+    return round(span, 9)
 
 
 def _plural(n: int, word: str) -> str:

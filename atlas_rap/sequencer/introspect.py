@@ -45,7 +45,8 @@ def view(task: Task) -> TaskView:
         priority=task.priority,
         method=run.label if run is not None else (task.last_method or None),
         attempt=task.attempts,
-        waiting=tuple(run.waiting_for()) if run is not None else (),
+        waiting=tuple(run.waiting_for()) if run is not None else (
+            (task.backoff.describe(),) if task.backoff is not None else ()),
         reason=task.failure.reason if task.failure is not None else None,
         children=tuple(view(child) for child in task.children),
     )
@@ -68,7 +69,7 @@ def waiting_for(task: Task) -> list[str]:
 def describe(node: TaskView) -> str:
     """One line for a task: mark, id, call, status, method and what it waits for."""
     parts = [f"{node.mark} [{node.id}] {node.task} {node.status}"]
-    if node.method is not None:
+    if node.method is not None and node.attempt:
         parts.append(f"method {node.method} (attempt {node.attempt})")
     if node.waiting:
         parts.append("waiting for " + ", ".join(node.waiting))

@@ -20,8 +20,12 @@ of nodes mirroring the method's body (LANGUAGE.md §2.2-§2.4):
 
 Nodes report upward: a part that ends well calls ``parent.child_done``; a
 step that ends with a failure outcome (``:fail``, ``:timeout``, and for a
-skill taken by another task ``:preempted`` or ``:busy``) fails the whole
-method (``MethodRun.fail``), which halts every live node. Bindings made by a
+skill taken by a task of higher priority in a method with ``(on-preempt
+fail)``, ``:preempted``) fails the whole method (``MethodRun.fail``), which
+halts every live node. A step whose skill is held by another task waits
+(state ``waiting``, its ``claim`` queued in the sequencer's resources) and
+begins when it is served (:meth:`Node.resume`); a step whose skill is taken
+from it waits the same way and runs again. Bindings made by a
 ``wait-for`` join the method's bindings, so later steps can use them.
 Every skill a method enabled is disabled when the method ends, however it
 ends: no skill is ever left running by a dead method.
@@ -39,16 +43,21 @@ from atlas_rap.sequencer.waiting import Waiter
 
 if TYPE_CHECKING:
     from atlas_rap.sequencer.interpreter import Sequencer
+    from atlas_rap.sequencer.resources import Claim
     from atlas_rap.skillbus.timers import Timer
 
-FAILURE_OUTCOMES = frozenset({":fail", ":timeout", ":preempted", ":busy"})
+FAILURE_OUTCOMES = frozenset({":fail", ":timeout", ":preempted"})
 """Step outcomes that fail the method; every other outcome counts as success.
 
-``:preempted``: another task took the skill this step ran; ``:busy``: the
-skill was held by a task of higher priority (``Sequencer.enable_skill``)."""
+``:preempted``: a task of higher priority took the skill this step ran, and
+the method says ``(on-preempt fail)`` (``Sequencer.enable_skill``)."""
 
 HALTED_OUTCOME = ":halted"
 """The outcome recorded for a monitor halted by ``until-end``."""
+
+WAITING_OUTCOME = ":waiting"
+"""What ``Sequencer.enable_skill`` answers when the step must wait for its skill (not an outcome a
+step ends with: the step goes on when it is served)."""
 
 _OUTCOME = Var("%outcome")  # binds the outcome in (done (SKILL ...) ?outcome); no source can name it
 _WHY = Var("%why")  # binds the reason in (why (SKILL ...) "reason"), which a skill may post before done
@@ -105,13 +114,14 @@ class MethodRun:
         if self.live:
             self._stop()
 
-    def preempt(self, call: Compound, reason: str) -> None:
-        """Another task took the skill ``call``: the step that runs it ends ``:preempted``."""
+    def preempt(self, call: Compound, reason: str, resume: bool) -> None:
+        """A task that outranks this one took the skill ``call``: the step that runs it waits to
+        resume (``resume``) or ends ``:preempted``."""
         node = self.enabled.get(call)
         if node is None or not self.live:
             self.seq.disable_skill(self, call)
             return
-        node.preempted(call, reason)
+        node.preempted(call, reason, resume)
 
     def _stop(self) -> None:
         self.live = False
@@ -127,11 +137,12 @@ class MethodRun:
 class Node:
     """A live part of a method body."""
 
-    __slots__ = ("run", "parent")
+    __slots__ = ("run", "parent", "claim")
 
     def __init__(self, run: MethodRun, parent: Node | MethodRun) -> None:
         self.run = run
         self.parent = parent
+        self.claim: Claim | None = None  # its place in the queue for a skill, while it waits for one
 
     def start(self) -> None:
         raise NotImplementedError
@@ -145,9 +156,20 @@ class Node:
     def waiting_for(self) -> list[str]:
         return []
 
-    def preempted(self, call: Compound, reason: str) -> None:
-        """Another task took the skill ``call`` this node enabled (only skill-running nodes do)."""
+    def preempted(self, call: Compound, reason: str, resume: bool) -> None:
+        """A task that outranks this one took the skill ``call`` this node enabled (only
+        skill-running nodes do more than let it go)."""
         self.run.seq.disable_skill(self.run, call)
+
+    def resume(self, call: Compound, preempted: bool) -> None:
+        """The skill ``call`` this node waited for is free for it: go on (only skill-running nodes wait)."""
+        raise NotImplementedError
+
+    def _stop_waiting(self) -> None:
+        """Leave the queue for a skill, if waiting in one."""
+        claim, self.claim = self.claim, None
+        if claim is not None:
+            self.run.seq.resources.withdraw(claim)
 
 
 class SequenceNode(Node):
@@ -409,7 +431,7 @@ class StepNode(_Leaf):
         self.gate = 0  # steps that must end well first, from their (for L) annotations
         self.successors: list[StepNode] = []
         self.monitors: list[StepNode] = []
-        self.state = "new"  # new | blocked | running | done
+        self.state = "new"  # new | blocked | waiting (for its skill) | running | done
         self.child: Task | None = None
         self.skill: Compound | None = None
         self.group: WaitGroup | None = None
@@ -452,6 +474,9 @@ class StepNode(_Leaf):
         elif seq.is_skill(call):
             refused = seq.enable_skill(run, call, self)
             if refused is not None:
+                if refused[0] == WAITING_OUTCOME:
+                    self.state = "waiting"
+                    return
                 self.state = "done"
                 if run.live:
                     self.record(*refused)
@@ -486,6 +511,9 @@ class StepNode(_Leaf):
         self.execution = None
         if self.state == "running":
             self._finish(outcome, why, None)
+
+    def subtask_waiting(self, wait: object, what: str) -> None:
+        """A task under this step waits for a skill: nothing to do (a plan's step watches its deadline)."""
 
     def child_ended(self, child: Task) -> None:
         """The child task ended (succeeded or failed) before any wait-for matched."""
@@ -537,12 +565,14 @@ class StepNode(_Leaf):
         if self.state == "new":
             self.cut = True
             return
-        was_running = self.state == "running"
+        was_running = self.state in ("running", "waiting")
+        self._stop_waiting()
         self.state = "done"
         if was_running:
             self._release(target, "ended (until-end)")
             self.run.seq.step_outcome(self.run.task, self, HALTED_OUTCOME)
         self._ended()
+
 
     def _release(self, cause: _Leaf | None, what: str) -> None:
         """Stop this step's work: its waits, its child task (saying why) and its skill."""
@@ -560,17 +590,34 @@ class StepNode(_Leaf):
     def halt(self) -> None:
         if self.state == "running":
             self._release(None, "its method was halted")
+        self._stop_waiting()
         self.state = "done"
 
-    def preempted(self, call: Compound, reason: str) -> None:
+    def preempted(self, call: Compound, reason: str, resume: bool) -> None:
         if self.state != "running" or call != self.skill:
-            super().preempted(call, reason)
+            super().preempted(call, reason, resume)
             return
-        self._finish(":preempted", "the skill was taken by another task", Failure(f"skill {term_to_str(call)}", reason))
+        if not resume:
+            self._finish(":preempted", "the skill was taken by another task",
+                         Failure(f"skill {term_to_str(call)}", reason))
+            return
+        if self.group is not None:
+            self.group.cancel()
+            self.group = None
+        self.skill = None
+        self.run.seq.disable_skill(self.run, call)
+        self.state = "waiting"
+        self.run.seq.wait_again(self, call)
+
+    def resume(self, call: Compound, preempted: bool) -> None:
+        if self.state == "waiting" and self.run.live:
+            self._begin()
 
     def waiting_for(self) -> list[str]:
         if self.state == "blocked":
             return [f"{self.describe()}: waiting for an earlier step (for)"]
+        if self.state == "waiting" and self.claim is not None:
+            return [f"{term_to_str(self.claim.call)} {self.run.seq.held_by(self.claim)}"]
         if self.execution is not None:
             return self.execution.waiting_for()
         if self.state != "running" or self.group is None or self.child is not None:
@@ -579,15 +626,24 @@ class StepNode(_Leaf):
 
 
 class PrimitiveNode(_Leaf):
-    """A ``primitive`` body: enable, wait-for groups, disable and memory actions, in order."""
+    """A ``primitive`` body: enable, wait-for groups, disable and memory actions, in order.
 
-    __slots__ = ("actions", "index", "outcome")
+    An ``enable`` whose skill another task holds waits there (``claim``) and
+    goes on from that skill when served. A skill taken from it by a task that
+    outranks it is enabled again when served; if the primitive was waiting on
+    a ``wait-for`` group then, it waits on that group again from its start.
+    """
+
+    __slots__ = ("actions", "index", "skill_index", "group_start", "regroup")
 
     def __init__(self, run: MethodRun, parent: Node | MethodRun, primitive: ast.Primitive) -> None:
         super().__init__(run, parent)
         self.actions = primitive.actions
         self.index = 0
+        self.skill_index = 0  # within an enable of several skills, the next to enable
         self.group: WaitGroup | None = None
+        self.group_start = 0
+        self.regroup = False  # preempted while waiting on a group: wait on it again when resumed
 
     def describe(self) -> str:
         return "primitive"
@@ -604,19 +660,24 @@ class PrimitiveNode(_Leaf):
                 while end < len(actions) and isinstance(actions[end], ast.WaitFor):
                     end += 1
                 entries = [_wait_entry(wait, run.subst) for wait in actions[self.index:end]]  # type: ignore[arg-type]
-                self.index = end
+                self.group_start, self.index = self.index, end
                 self.group = WaitGroup(seq, entries, self._decided)
                 self.group.start()
                 return
-            self.index += 1
             if isinstance(action, ast.Enable):
-                for skill in action.skills:
-                    refused = seq.enable_skill(run, substitute(skill, run.subst), self)  # type: ignore[arg-type]
+                skills = action.skills
+                while self.skill_index < len(skills):
+                    refused = seq.enable_skill(run, substitute(skills[self.skill_index], run.subst), self)  # type: ignore[arg-type]
                     if refused is not None:
-                        if run.live:
+                        if refused[0] != WAITING_OUTCOME and run.live:
                             self.record(*refused)
                         return
-            elif isinstance(action, ast.Disable):
+                    self.skill_index += 1
+                self.skill_index = 0
+                self.index += 1
+                continue
+            self.index += 1
+            if isinstance(action, ast.Disable):
                 calls = list(run.enabled) if action.above else [substitute(s, run.subst) for s in action.skills]
                 for call in calls:
                     seq.disable_skill(run, call)  # type: ignore[arg-type]
@@ -633,15 +694,41 @@ class PrimitiveNode(_Leaf):
     def halt(self) -> None:
         if self.group is not None:
             self.group.cancel()
+        self._stop_waiting()
         self.index = len(self.actions)
 
-    def preempted(self, call: Compound, reason: str) -> None:
+    def preempted(self, call: Compound, reason: str, resume: bool) -> None:
+        if resume and self.claim is None:
+            self.regroup = self.group is not None and not self.group.done
+            if self.regroup:
+                self.group.cancel()  # type: ignore[union-attr]
+                self.index = self.group_start
+            self.run.seq.disable_skill(self.run, call)
+            self.run.seq.wait_again(self, call)
+            return
         if self.group is not None:
             self.group.cancel()
+        self._stop_waiting()  # already waiting for another skill: it cannot wait for two
         self.index = len(self.actions)
         self.record(":preempted", f"skill {term_to_str(call)} {reason}")
 
+    def resume(self, call: Compound, preempted: bool) -> None:
+        run = self.run
+        if not preempted:
+            self._continue()  # from the skill of the enable that waited
+            return
+        refused = run.seq.enable_skill(run, call, self)
+        if refused is not None:
+            if refused[0] != WAITING_OUTCOME and run.live:
+                self.record(*refused)
+            return
+        if self.regroup:
+            self.regroup = False
+            self._continue()
+
     def waiting_for(self) -> list[str]:
+        if self.claim is not None:
+            return [f"{term_to_str(self.claim.call)} {self.run.seq.held_by(self.claim)}"]
         return self.group.describe() if self.group is not None else []
 
 

@@ -8,8 +8,10 @@ these statuses::
        │                     │
        └──────────────▶ succeeded | failed | halted
 
-``pending`` tasks are on the agenda, waiting to be selected; ``running``
-tasks have a method whose task net is live. A task that fails keeps a
+``pending`` tasks are on the agenda, waiting to be selected (or, after a
+failed attempt, waiting for a change before they go back on it:
+:attr:`Task.backoff`); ``running`` tasks have a method whose task net is
+live (a step of it may be waiting for a skill another task holds). A task that fails keeps a
 :class:`Failure`: what went wrong and, when a subtask, a skill or an
 event caused it, the failure underneath, so the whole chain can be told.
 """
@@ -23,6 +25,7 @@ from atlas_rap.logic import Compound, term_to_str
 
 if TYPE_CHECKING:
     from atlas_rap.sequencer.net import MethodRun, StepNode
+    from atlas_rap.sequencer.retrying import RetryWait
     from atlas_rap.skillbus.timers import Timer
 
 PENDING = "pending"
@@ -80,7 +83,7 @@ class Task:
         "id", "call", "text", "parent", "step", "depth", "priority", "deadline", "status",
         "attempts", "tries", "run", "children", "failure", "last_failure", "timers",
         "queued", "method_ended_ok", "repeats", "repeat_time", "repeats_now", "attempt_time", "attempts_now",
-        "started", "ended", "bindings", "last_method",
+        "started", "ended", "bindings", "last_method", "backoff",
     )
 
     def __init__(self, id: int, call: Compound, parent: Task | None, step: StepNode | None,
@@ -112,6 +115,7 @@ class Task:
         self.ended: float | None = None
         self.bindings: dict = {}
         self.last_method = ""
+        self.backoff: RetryWait | None = None  # the wait before its next attempt, after a failed one
 
     @property
     def name(self) -> str:

@@ -24,6 +24,8 @@ EVENTS = (
     # the plan executive (sequencer.deliberation), beyond LANGUAGE.md's list:
     "plan-requested", "plan-step-started", "plan-step-done", "plan-step-failed", "replanned",
     "plan-abandoned", "plan-done",
+    # skills shared by tasks (sequencer.interpreter, sequencer.retrying):
+    "skill-preempted", "task-waiting", "task-resumed",
 )
 """The event names of LANGUAGE.md §2.8; every record's ``event`` is one of them."""
 

@@ -16,7 +16,9 @@ nothing (no polling, no scan). Keys come from the query:
 - a defined relation: woken by every change (its body is not analysed).
 
 A woken waiter's whole query is then evaluated against memory; only if it
-holds is the waiter's owner told. Candidates are tried in the order the
+holds is the waiter's owner told. A waiter made by :func:`change_waiter`
+is told of every change that could concern its queries, true or not (a
+failed task waiting for the world to change before it tries again). Candidates are tried in the order the
 waiters were registered, so waking is deterministic.
 """
 
@@ -46,7 +48,8 @@ class WaitOwner(Protocol):
 class Waiter:
     """One registered wait: a query (already substituted), its owner and its index keys."""
 
-    __slots__ = ("query", "owner", "seq", "active", "assert_keys", "retract_keys", "everything", "tag")
+    __slots__ = ("query", "owner", "seq", "active", "assert_keys", "retract_keys", "everything", "tag",
+                 "any_change")
 
     def __init__(self, query: Term, owner: WaitOwner, tag: object = None) -> None:
         self.query = query
@@ -57,6 +60,19 @@ class Waiter:
         self.assert_keys: list[Key] = []
         self.retract_keys: list[tuple[str, int]] = []
         self.everything = False
+        self.any_change = False  # woken by every change its keys match, without asking its query
+
+
+def change_waiter(queries: Sequence[Term], owner: WaitOwner,
+                  relations: Mapping[str, Sequence[Relation]]) -> Waiter:
+    """A waiter woken by any assertion or retraction that could change what ``queries`` answer
+    (its owner is told with an empty answer); file it with :meth:`WaitIndex.add`."""
+    waiter = Waiter(Compound("and", tuple(queries)), owner)
+    waiter.any_change = True
+    for query in queries:
+        _collect_keys(query, True, waiter, relations)
+        _collect_keys(query, False, waiter, relations)
+    return waiter
 
 
 class WaitIndex:
@@ -71,8 +87,9 @@ class WaitIndex:
         self.size = 0
 
     def add(self, waiter: Waiter) -> None:
-        """File ``waiter`` under the keys of its query."""
-        _collect_keys(waiter.query, True, waiter, self.relations)
+        """File ``waiter`` under the keys of its query (a :func:`change_waiter` has its keys already)."""
+        if not waiter.any_change:
+            _collect_keys(waiter.query, True, waiter, self.relations)
         waiter.seq = next(self._order)
         waiter.active = True
         for key in waiter.assert_keys:
