@@ -133,6 +133,28 @@ def test_a_primitive_whose_skill_is_taken_enables_it_again_and_waits_again_where
         assert s.events("skill-enabled", id=1)[-1]["t"] == 13.0
 
 
+def test_two_primitives_each_holding_what_the_other_needs_do_not_wait_for_each_other_for_ever(tmp_path):
+    mission = """
+(define-virtual-skill (arm) (after 5 (finish :succeed)))
+(define-virtual-skill (cam) (after 5 (finish :succeed)))
+(define-rap (a) (method (primitive (enable (arm)) (wait-for (go)) (enable (cam)) (wait-for (done (cam) ?o))
+                                   (disable :above) (assert (done-a)))))
+(define-rap (b) (method (primitive (enable (cam)) (wait-for (go)) (enable (arm)) (wait-for (done (arm) ?o))
+                                   (disable :above) (assert (done-b)))))
+(post (a))
+(post (b))
+(at-time 1 (assert (go)))
+"""
+    with run(tmp_path, mission) as s:
+        assert s.result.ok and s.result.time < 30
+        assert [(r["id"], r["skill"]) for r in s.events("task-waiting")] == [(1, "(cam)"), (1, "(arm)")]
+        (contest,) = s.events("skill-preempted")  # b's wait would close the circle: b takes the arm
+        assert (contest["t"], contest["task"], contest["winner"], contest["outcome"]) == (1.0, "(a)", "(b)", ":halted")
+        assert s.times("fact-asserted", fact="(done-b)") == [6.0]
+        assert s.times("fact-asserted", fact="(done-a)") == [11.0]  # arm back, then cam, 5 s
+        assert [t.attempts for t in s.result.tasks] == [1, 1]
+
+
 def test_a_failed_attempt_waits_for_the_back_off_instead_of_retrying_in_the_same_instant(tmp_path):
     mission = """
 (define-virtual-skill (grab ?x) (after 0.5 (finish :fail)))

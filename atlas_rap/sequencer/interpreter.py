@@ -56,7 +56,10 @@ user would expect:
   with ``(on-preempt fail)`` fails instead: its step ends ``:preempted``, a
   failure outcome, as a behaviour-tree action that cannot resume. A task's
   ``timeout`` and deadline count while it waits; one that runs out says what
-  it waited for. A task enabling an instance it already holds restarts it.
+  it waited for. A wait that would close a circle of waits (two
+  ``primitive``\ s, each holding one skill and waiting for the other's) takes
+  the instance instead, as if it outranked the holder. A task enabling an
+  instance it already holds restarts it.
 - A failed attempt whose task would next repeat a method waits for a
   change first (``retrying.RetryWait``): a change of a fact the RAP's tests
   read, or its ``retry-backoff`` (default 1 s). An applicable method not yet
@@ -618,7 +621,7 @@ class Sequencer:
         held = self.holders.get(instance)
         task = run.task
         if held is not None and held[0] is not run:
-            if not _outranks(task, held[0].task):
+            if not _outranks(task, held[0].task) and not self._closes_a_circle(run, held[0]):
                 return self._wait(node, call, instance)
             self._preempt(held, run, call)
             if not run.live:  # the holder's failure halted this very task
@@ -652,6 +655,22 @@ class Sequencer:
                 above.step.subtask_waiting(claim, what)
             above = above.parent
         return WAITING_OUTCOME, f"waiting for {what}"
+
+    def _closes_a_circle(self, run: MethodRun, holder: MethodRun) -> bool:
+        """Whether ``run`` waiting for ``holder`` would close a circle of waits: the holder waits (a
+        ``primitive`` holding one skill while it waits for another) for a run that waits ... for
+        ``run``. Then ``run`` takes the instance instead, as if it outranked the holder."""
+        waiting = {claim.node.run: claim.instance for claim in self.resources.claims()}
+        seen: set[int] = set()
+        while holder is not run:
+            if id(holder) in seen or holder not in waiting:
+                return False
+            seen.add(id(holder))
+            held = self.holders.get(waiting[holder])
+            if held is None:
+                return False
+            holder = held[0]
+        return True
 
     def held_by(self, claim: Claim) -> str:
         """Who has the instance ``claim`` waits for: ``held by [4] (go-to office) of [1] (deliver ...)``."""

@@ -630,11 +630,12 @@ class PrimitiveNode(_Leaf):
 
     An ``enable`` whose skill another task holds waits there (``claim``) and
     goes on from that skill when served. A skill taken from it by a task that
-    outranks it is enabled again when served; if the primitive was waiting on
-    a ``wait-for`` group then, it waits on that group again from its start.
+    outranks it is enabled again when served, and the primitive goes on where
+    it was: waiting on the ``wait-for`` group it was waiting on (again from
+    the group's start), or at the ``enable`` it was waiting at.
     """
 
-    __slots__ = ("actions", "index", "skill_index", "group_start", "regroup")
+    __slots__ = ("actions", "index", "skill_index", "group_start")
 
     def __init__(self, run: MethodRun, parent: Node | MethodRun, primitive: ast.Primitive) -> None:
         super().__init__(run, parent)
@@ -643,7 +644,6 @@ class PrimitiveNode(_Leaf):
         self.skill_index = 0  # within an enable of several skills, the next to enable
         self.group: WaitGroup | None = None
         self.group_start = 0
-        self.regroup = False  # preempted while waiting on a group: wait on it again when resumed
 
     def describe(self) -> str:
         return "primitive"
@@ -698,33 +698,28 @@ class PrimitiveNode(_Leaf):
         self.index = len(self.actions)
 
     def preempted(self, call: Compound, reason: str, resume: bool) -> None:
-        if resume and self.claim is None:
-            self.regroup = self.group is not None and not self.group.done
-            if self.regroup:
-                self.group.cancel()  # type: ignore[union-attr]
-                self.index = self.group_start
+        if self.group is not None and not self.group.done:
+            self.group.cancel()
+            self.index = self.group_start  # resumed, it waits on this group again
+        self._stop_waiting()  # waiting at a later enable: it goes on there once it has this skill back
+        if resume:
             self.run.seq.disable_skill(self.run, call)
             self.run.seq.wait_again(self, call)
             return
-        if self.group is not None:
-            self.group.cancel()
-        self._stop_waiting()  # already waiting for another skill: it cannot wait for two
         self.index = len(self.actions)
         self.record(":preempted", f"skill {term_to_str(call)} {reason}")
 
     def resume(self, call: Compound, preempted: bool) -> None:
         run = self.run
-        if not preempted:
-            self._continue()  # from the skill of the enable that waited
-            return
-        refused = run.seq.enable_skill(run, call, self)
-        if refused is not None:
-            if refused[0] != WAITING_OUTCOME and run.live:
-                self.record(*refused)
-            return
-        if self.regroup:
-            self.regroup = False
-            self._continue()
+        if preempted:
+            refused = run.seq.enable_skill(run, call, self)
+            if refused is not None:
+                if refused[0] != WAITING_OUTCOME and run.live:
+                    self.record(*refused)
+                return
+            if self.index >= len(self.actions):  # it had ended, leaving the skill on: on again, that is all
+                return
+        self._continue()  # from the group or the enable it was at
 
     def waiting_for(self) -> list[str]:
         if self.claim is not None:
