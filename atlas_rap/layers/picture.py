@@ -16,8 +16,9 @@ A run with no world (``--world none``: virtual skills only) has no map, so
 :meth:`RunPicture.render` draws its timeline instead (``layers.timeline``):
 a lane per agent of the plan steps, re-plans and abandoned plans, and the
 tasks at most one level below a posted one, in simulated time. For it the
-picture keeps those tasks' posting, first selection, methods and end, and
-the methods and halts of the plan steps' tasks.
+picture keeps those tasks' posting, first selection, methods, waits, skills
+taken from them and end, and the methods, halts, waits and skills taken of
+the plan steps' tasks.
 """
 
 from __future__ import annotations
@@ -26,7 +27,8 @@ from bisect import bisect_left
 from typing import Any
 
 _KINDS = {"task-selected": "started", "task-succeeded": "succeeded", "task-failed": "failed"}
-_TIMELINE_TASK_EVENTS = frozenset({"task-selected", "method-selected", "task-succeeded", "task-failed", "task-halted"})
+_TIMELINE_TASK_EVENTS = frozenset({"task-selected", "method-selected", "task-succeeded", "task-failed", "task-halted",
+                                   "task-waiting", "task-resumed", "skill-preempted"})
 
 
 class RunPicture:
@@ -62,7 +64,8 @@ class RunPicture:
 
     def _keep_for_timeline(self, record: dict) -> None:
         """A task record the timeline shows: of a task at most one level below a posted one
-        (its first selection, methods and end), or of a plan step's task (methods, halt)."""
+        (its first selection, methods, waits, skills taken and end), or of a plan step's task
+        (methods, halt, waits, skills taken)."""
         event, task = record["event"], record["id"]
         if self.depth.get(task, 9) <= 1:
             if event == "task-selected":
@@ -70,7 +73,8 @@ class RunPicture:
                     return
                 self._selected.add(task)
             self.timeline.append(record)
-        elif task in self._step_tasks and event in ("method-selected", "task-halted"):
+        elif task in self._step_tasks and event in ("method-selected", "task-halted", "task-waiting", "task-resumed",
+                                                    "skill-preempted"):
             self.timeline.append(record)
 
     def render(self, out_png: str, title: str) -> None:
