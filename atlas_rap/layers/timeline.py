@@ -30,6 +30,19 @@ time, read from the trace records (the plan executive's, see
   where the method changed (not a retry of the same method) a task's tick is
   named (``→ give-up``), and a plan step's label ends with the new method
   (``s2 attach-at fx-b → handrail``).
+- **Waits** (``task-waiting`` to ``task-resumed``: :func:`wait_spans`) are
+  lighter parts of a task's or plan step's bar: hatched ``////`` while the
+  task, or a task below it, waited for a skill instance another task held
+  ("waits for a skill"), dotted while it waited out a failed attempt's
+  back-off ("waits before retrying"). A wait no ``task-resumed`` ended runs
+  to the task's next method choice or its end, else to the end of the bar.
+  Where a task of higher priority took a skill from the task or one below
+  it (``skill-preempted``, :func:`preemptions`; halted to resume, when the
+  holder's wait starts there, or failed) a small orange triangle sits on
+  the bar. The legend names each only when the chart has one
+  (:func:`legend_labels`), so a run without waits is drawn as before. (An
+  ``atlas run`` picture keeps these records for the tasks it shows, not
+  for tasks two levels down: ``layers.picture``.)
 
 The title is the mission and seed, the time axis simulated seconds.
 :func:`render_timeline` draws with matplotlib's object-oriented API on an Agg
@@ -46,9 +59,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
 
-__all__ = ["NO_AGENT", "OUTCOME_COLOURS", "MethodChange", "PlanLine", "StepBar", "TaskBar", "lanes", "method_changes",
-           "pack_rows",
-           "plan_lines", "render_timeline", "short_action", "stack_labels", "step_bars", "task_bars"]
+__all__ = ["NO_AGENT", "OUTCOME_COLOURS", "MethodChange", "PlanLine", "Preemption", "StepBar", "TaskBar", "WaitSpan",
+           "lanes", "legend_labels", "method_changes", "pack_rows", "plan_lines", "preemptions", "render_timeline",
+           "short_action", "stack_labels", "step_bars", "task_bars", "wait_spans"]
 
 NO_AGENT = "(no agent)"
 """The lane of plan steps that have no agent."""
@@ -60,7 +73,14 @@ OUTCOME_COLOURS = {"done": "#2f9e44", "failed": "#e03131", "halted": "#868e96", 
 _OUTCOME_WORDS = {"done": "done / succeeded", "failed": "failed", "halted": "halted", "running": "still running",
                   "handed-over": "handed to another agent by a re-plan"}
 _LINE_STYLE = {"replanned": ("#9c36b5", (0, (4, 2)), 1.1), "abandoned": ("#862e2e", "-", 1.4)}
+_LINE_WORDS = {"replanned": "re-plan", "abandoned": "plan or goal abandoned"}
 _TICK_COLOUR = "#212529"
+_TICK_WORD = "method changed (or retried)"
+_WAIT_HATCH = {"skill": "////", "retry": "...."}
+_WAIT_WORDS = {"skill": "waits for a skill", "retry": "waits before retrying"}
+_WAIT_KEY_COLOUR = "#495057"
+_PREEMPT_COLOUR = "#e8590c"
+_PREEMPT_WORD = "skill taken by a task of higher priority"
 _LANE_SHADE = "#f1f3f5"
 
 CHART_WIDTH = 8.0  # inches of the time axis
@@ -94,13 +114,37 @@ class MethodChange(NamedTuple):
         return self.method != self.previous
 
 
+class WaitSpan(NamedTuple):
+    """Task ``task`` waited from ``start`` to ``end`` (None: still waiting where the records
+    end): ``kind`` ``skill`` for the skill instance ``what`` another task held, or ``retry``
+    for the back-off before its next attempt (``what`` is "")."""
+
+    start: float
+    end: float | None
+    kind: str
+    task: int
+    what: str = ""
+
+
+class Preemption(NamedTuple):
+    """At ``t`` task ``winner`` (of higher priority) took the skill ``skill`` from task ``task``,
+    whose step was halted to resume (``outcome`` ``:halted``) or failed (``:preempted``)."""
+
+    t: float
+    task: int
+    skill: str
+    winner: str
+    outcome: str
+
+
 @dataclass(frozen=True, slots=True)
 class StepBar:
     """A plan step (or the part of it one agent did): in ``lane`` from ``start`` to ``end``
     (None: still running). ``outcome`` is done, failed, halted, running or handed-over;
     ``label`` e.g. ``"v2 s1 repair-site site-b"`` (``→ METHOD`` after it for each change
     of method); ``task`` the step's RAP task; ``from_agent`` the agent it was taken from
-    when a re-plan gave it to this lane's agent; ``ticks`` its task's method changes then."""
+    when a re-plan gave it to this lane's agent; ``ticks`` its task's method changes then,
+    ``waits`` and ``preempted`` its task's waits and lost skills then (as a :class:`TaskBar`'s)."""
 
     lane: str
     start: float
@@ -115,6 +159,8 @@ class StepBar:
     reason: str = ""
     from_agent: str | None = None
     ticks: tuple[MethodChange, ...] = ()
+    waits: tuple[WaitSpan, ...] = ()
+    preempted: tuple[Preemption, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -137,7 +183,9 @@ class PlanLine:
 class TaskBar:
     """A task posted (``depth`` 0) or one level below (1), from its first selection (or its
     posting) to its end; ``outcome`` done, failed, halted or running; ``reason`` why it
-    failed or was halted; ``ticks`` its method changes."""
+    failed or was halted; ``ticks`` its method changes; ``waits`` the spans in which it or a
+    task below it waited (:func:`wait_spans`), within the bar; ``preempted`` the times a task
+    of higher priority took a skill from it or from a task below it."""
 
     task: int
     text: str
@@ -147,6 +195,8 @@ class TaskBar:
     outcome: str
     reason: str = ""
     ticks: tuple[MethodChange, ...] = ()
+    waits: tuple[WaitSpan, ...] = ()
+    preempted: tuple[Preemption, ...] = ()
 
 
 # Reading the records --------------------------------------------------------
@@ -225,6 +275,7 @@ def step_bars(records: Iterable[Mapping[str, Any]]) -> list[StepBar]:
                     seg.update(end=t, outcome="halted", reason="the plan was abandoned")
     several_plans = len({s["plan"] for s in segments} | set(versions)) > 1
     changes = method_changes(records)
+    waits = _Waits.read(records)
     bars = []
     for seg in segments:
         end = seg["end"] if seg["end"] is not None else float("inf")
@@ -238,7 +289,8 @@ def step_bars(records: Iterable[Mapping[str, Any]]) -> list[StepBar]:
             label += f" (from {seg['from_agent']})"
         label += "".join(f" \u2192 {_cut(c.method, 16)}" for c in ticks if c.changed)
         bars.append(StepBar(seg["lane"], seg["start"], seg["end"], seg["outcome"], label, seg["action"], seg["plan"],
-                            seg["version"], seg["step"], seg["task"], seg["reason"], seg["from_agent"], ticks))
+                            seg["version"], seg["step"], seg["task"], seg["reason"], seg["from_agent"], ticks,
+                            **waits.on(seg["task"], seg["start"], seg["end"])))
     order = {id(b): i for i, b in enumerate(bars)}
     return sorted(bars, key=lambda b: (b.start, order[id(b)]))
 
@@ -298,6 +350,88 @@ def method_changes(records: Iterable[Mapping[str, Any]]) -> dict[int, list[Metho
     return out
 
 
+def wait_spans(records: Iterable[Mapping[str, Any]]) -> dict[int, list[WaitSpan]]:
+    """Each task's own waits, by task id in time order: from a ``task-waiting`` (with a
+    ``skill``: for that skill; without: a retry's back-off) to the ``task-resumed`` that ends
+    it (the same skill; no skill for a back-off), else to the task's next method choice or its
+    end; ``end`` None when the records end first. A wait of no length is left out."""
+    out: dict[int, list[WaitSpan]] = {}
+    waiting: dict[int, dict[str | None, int]] = {}  # task -> skill (None: back-off) -> index in out[task]
+    for record in records:
+        event, task = record.get("event"), record.get("id")
+        t = float(record.get("t", 0.0))
+        skill = None if record.get("skill") is None else str(record["skill"])
+        if event == "task-waiting" and skill not in waiting.get(task, {}):
+            spans = out.setdefault(task, [])
+            waiting.setdefault(task, {})[skill] = len(spans)
+            spans.append(WaitSpan(t, None, "retry" if skill is None else "skill", task, skill or ""))
+        elif event == "task-resumed":
+            _end_waits(out, waiting, task, [skill], t)
+        elif event in _TASK_ENDS or event == "method-selected":
+            _end_waits(out, waiting, task, list(waiting.get(task, ())), t)
+    return {task: [s for s in spans if s.end is None or s.end > s.start] for task, spans in out.items()}
+
+
+def preemptions(records: Iterable[Mapping[str, Any]]) -> dict[int, list[Preemption]]:
+    """The skills taken from each task (``skill-preempted``), by the holder's task id in time order."""
+    out: dict[int, list[Preemption]] = {}
+    for record in records:
+        if record.get("event") == "skill-preempted":
+            task = record.get("id")
+            out.setdefault(task, []).append(Preemption(float(record.get("t", 0.0)), task, str(record.get("skill", "")),
+                                                       str(record.get("winner", "")), str(record.get("outcome", ""))))
+    return out
+
+
+class _Waits(NamedTuple):
+    """The waits and lost skills of a run's tasks, and each task's parent, to put on bars."""
+
+    spans: dict[int, list[WaitSpan]]
+    taken: dict[int, list[Preemption]]
+    parents: dict[Any, Any]
+
+    @classmethod
+    def read(cls, records: Sequence[Mapping[str, Any]]) -> _Waits:
+        parents = {r.get("id"): r.get("parent") for r in records if r.get("event") == "task-posted"}
+        return cls(wait_spans(records), preemptions(records), parents)
+
+    def on(self, task: Any, start: float, end: float | None) -> dict[str, tuple]:
+        """A bar's ``waits`` and ``preempted`` (of ``task`` and the tasks below it, from ``start``
+        to ``end``), as keyword arguments."""
+        if task is None or not (self.spans or self.taken):
+            return {"waits": (), "preempted": ()}
+        waits = []
+        for span in self._below(self.spans, task):
+            s0 = max(span.start, start)
+            s1 = span.end if end is None else min(end, span.end if span.end is not None else end)
+            if s1 is None or s1 > s0:
+                waits.append(span._replace(start=s0, end=s1))
+        taken = [p for p in self._below(self.taken, task) if start <= p.t and (end is None or p.t <= end)]
+        return {"waits": tuple(waits), "preempted": tuple(taken)}
+
+    def _below(self, by_task: Mapping[int, Sequence[Any]], task: Any) -> list[Any]:
+        """The entries of ``task`` and of every task below it, by time (then task order)."""
+        items = [item for other, entries in by_task.items() if self._is_under(other, task) for item in entries]
+        return sorted(items, key=lambda item: item[0])
+
+    def _is_under(self, other: Any, task: Any) -> bool:
+        seen = set()
+        while other is not None and other not in seen:
+            if other == task:
+                return True
+            seen.add(other)
+            other = self.parents.get(other)
+        return False
+
+
+def _end_waits(out: dict[int, list[WaitSpan]], waiting: dict[int, dict[str | None, int]], task: Any,
+               skills: Sequence[str | None], t: float) -> None:
+    for skill in skills:
+        index = waiting.get(task, {}).pop(skill, None)
+        if index is not None:
+            out[task][index] = out[task][index]._replace(end=t)
+
+
 def task_bars(records: Iterable[Mapping[str, Any]], skip: Iterable[int] = ()) -> list[TaskBar]:
     """The tasks posted (depth 0) and one level below them (depth 1) in ``records``, less
     those in ``skip`` (the plan steps' tasks), in tree order: each posted task, then its
@@ -324,16 +458,19 @@ def task_bars(records: Iterable[Mapping[str, Any]], skip: Iterable[int] = ()) ->
             elif event in _TASK_ENDS and item["end"] is None:
                 item.update(end=t, outcome=_TASK_ENDS[event], reason=str(record.get("reason", "")))
     ticks = method_changes(records)
+    waits = _Waits.read(records)
     order: list[int] = []
     for tid in info:  # posting order; each posted task followed by its subtasks
         if depth[tid] == 0:
             order.append(tid)
             order.extend(child for child in info if parent_of[child] == tid)
     order.extend(tid for tid in info if tid not in order)
-    return [TaskBar(tid, info[tid]["text"], depth[tid],
-                    info[tid]["start"] if info[tid]["start"] is not None else info[tid]["posted"],
-                    info[tid]["end"], info[tid]["outcome"], info[tid]["reason"], tuple(ticks.get(tid, ())))
-            for tid in order]
+    bars = []
+    for tid in order:
+        start = info[tid]["start"] if info[tid]["start"] is not None else info[tid]["posted"]
+        bars.append(TaskBar(tid, info[tid]["text"], depth[tid], start, info[tid]["end"], info[tid]["outcome"],
+                            info[tid]["reason"], tuple(ticks.get(tid, ())), **waits.on(tid, start, info[tid]["end"])))
+    return bars
 
 
 # Text ------------------------------------------------------------------------
@@ -515,10 +652,11 @@ def render_timeline(records: Iterable[Mapping[str, Any]], out_png: str | Path, t
         _draw_bar(ax, bar.start, bar.end if bar.end is not None else t_end, yc, STEP_BAR, bar.outcome,
                   bar.end is None, edge=True)
         x0, x1 = bar.start, bar.end if bar.end is not None else t_end
+        _draw_waits(ax, bar, x1, yc, STEP_BAR)
         label = _plain(bar.label)
         if where == "inside":
             ax.text(x0 + 0.05 * sec_per_inch, yc, label, ha="left", va="center", fontsize=FONT, color="white",
-                    fontweight="bold", zorder=4, clip_on=False)
+                    fontweight="bold", zorder=4, clip_on=False, **_inside_halo(bar))
         elif where == "left":
             ax.text(x0 - 0.05 * sec_per_inch, yc, label, ha="right", va="center", fontsize=FONT, color="#212529",
                     zorder=4, path_effects=_halo())
@@ -532,6 +670,7 @@ def render_timeline(records: Iterable[Mapping[str, Any]], out_png: str | Path, t
         _left_label(ax, yc, _task_text(task), column, bold=task.depth == 0, indent=INDENT * task.depth)
         x1 = task.end if task.end is not None else t_end
         _draw_bar(ax, task.start, x1, yc, TASK_BAR, task.outcome, task.end is None, edge=False)
+        _draw_waits(ax, task, x1, yc, TASK_BAR)
         _draw_ticks(ax, task.ticks, yc, TASK_BAR, named=True, sec_per_inch=sec_per_inch)
         if task.outcome in ("failed", "halted") and task.reason:
             words = _plain(_cut(f"{task.outcome}: {short_cause(task.reason).split('; ')[0]}", MAX_REASON_CHARS))
@@ -551,15 +690,14 @@ def render_timeline(records: Iterable[Mapping[str, Any]], out_png: str | Path, t
         head.text(note.time + 0.04 * sec_per_inch, bottom + h - 0.02, _plain("\n".join(note.lines)), ha="left",
                   va="top", fontsize=LINE_FONT, color=colour, linespacing=1.05)
 
-    _legend(key, {b.outcome for b in bars} | {t.outcome for t in tasks}, {n.kind for n in notes},
-            any(b.ticks for b in bars) or any(t.ticks for t in tasks))
+    _legend(key, legend_labels(bars, tasks, notes))
     return save_figure(fig, out)
 
 
-def _halo(width: float = 2.4) -> list:
+def _halo(width: float = 2.4, colour: str = "white") -> list:
     from matplotlib import patheffects
 
-    return [patheffects.withStroke(linewidth=width, foreground="white")]
+    return [patheffects.withStroke(linewidth=width, foreground=colour)]
 
 
 def _darker(outcome: str) -> str:
@@ -607,19 +745,22 @@ def _left_label(ax, y: float, text: str, column: float, *, bold: bool = False, i
                 annotation_clip=False, zorder=4, path_effects=_halo())
 
 
-def _legend(key, outcomes: set[str], lines: set[str], with_ticks: bool) -> None:
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
+def legend_labels(bars: Sequence[StepBar], tasks: Sequence[TaskBar], notes: Sequence[PlanLine]) -> list[str]:
+    """The legend's entries, in order: the outcomes shown, the kinds of line, method changes,
+    waits (for a skill, before retrying) and skills taken, each only when the chart has it."""
+    every: list[StepBar | TaskBar] = [*bars, *tasks]
+    outcomes = {b.outcome for b in every}
+    kinds = {n.kind for n in notes}
+    waited = {w.kind for b in every for w in b.waits}
+    return ([_OUTCOME_WORDS[o] for o in OUTCOME_COLOURS if o in outcomes]
+            + [word for kind, word in _LINE_WORDS.items() if kind in kinds]
+            + ([_TICK_WORD] if any(b.ticks for b in every) else [])
+            + [word for kind, word in _WAIT_WORDS.items() if kind in waited]
+            + ([_PREEMPT_WORD] if any(b.preempted for b in every) else []))
 
-    handles: list[Any] = [Patch(facecolor=OUTCOME_COLOURS[o], label=_OUTCOME_WORDS[o])
-                          for o in OUTCOME_COLOURS if o in outcomes]
-    for kind, word in (("replanned", "re-plan"), ("abandoned", "plan or goal abandoned")):
-        if kind in lines:
-            colour, style, width = _LINE_STYLE[kind]
-            handles.append(Line2D([], [], color=colour, linestyle=style, linewidth=width, label=word))
-    if with_ticks:
-        handles.append(Line2D([], [], color=_TICK_COLOUR, linestyle="none", marker="|", markersize=8,
-                              markeredgewidth=1.3, label="method changed (or retried)"))
+
+def _legend(key, labels: Sequence[str]) -> None:
+    handles = [_legend_handle(label) for label in labels]
     if handles:
         # one row when it fits under the chart, else as few columns per row as it takes
         inches = [(len(h.get_label()) * CHAR_WIDTH * 7 + 40) / 72 for h in handles]
@@ -628,6 +769,54 @@ def _legend(key, outcomes: set[str], lines: set[str], with_ticks: bool) -> None:
             ncol -= 1
         key.legend(handles=handles, loc="upper left", ncol=ncol, fontsize=7, frameon=False,
                    handlelength=1.5, columnspacing=1.2, borderaxespad=0.0, bbox_to_anchor=(0.0, 1.0))
+
+
+def _legend_handle(label: str) -> Any:
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    outcome = {word: o for o, word in _OUTCOME_WORDS.items()}.get(label)
+    kind = {word: k for k, word in _LINE_WORDS.items()}.get(label)
+    wait = {word: k for k, word in _WAIT_WORDS.items()}.get(label)
+    if outcome is not None:
+        return Patch(facecolor=OUTCOME_COLOURS[outcome], label=label)
+    if kind is not None:
+        colour, style, width = _LINE_STYLE[kind]
+        return Line2D([], [], color=colour, linestyle=style, linewidth=width, label=label)
+    if wait is not None:
+        return Patch(facecolor=_tint(_WAIT_KEY_COLOUR), edgecolor=_WAIT_KEY_COLOUR, linewidth=0,
+                     hatch=_WAIT_HATCH[wait], label=label)
+    if label == _PREEMPT_WORD:
+        return Line2D([], [], color=_PREEMPT_COLOUR, linestyle="none", marker="v", markersize=5, label=label)
+    return Line2D([], [], color=_TICK_COLOUR, linestyle="none", marker="|", markersize=8,
+                  markeredgewidth=1.3, label=label)
+
+
+def _draw_waits(ax, bar: StepBar | TaskBar, x1: float, yc: float, height: float) -> None:
+    """A bar's waits (drawn from its start to ``x1``): lighter and hatched, a pattern per kind;
+    and a small mark above it where a task of higher priority took a skill."""
+    from matplotlib.patches import Rectangle
+
+    colour = OUTCOME_COLOURS.get(bar.outcome, "#495057")
+    for span in bar.waits:
+        s0, s1 = span.start, min(span.end if span.end is not None else x1, x1)
+        if s1 > s0:
+            ax.add_patch(Rectangle((s0, yc - height / 2), s1 - s0, height, facecolor=_tint(colour), edgecolor=colour,
+                                   linewidth=0, hatch=_WAIT_HATCH[span.kind], zorder=2.2))
+    for taken in bar.preempted:
+        ax.plot([taken.t], [yc - height / 2 - 0.09], marker="v", markersize=4.5, color=_PREEMPT_COLOUR,
+                linestyle="none", zorder=3.5, clip_on=False)
+
+
+def _inside_halo(bar: StepBar) -> dict[str, Any]:
+    """A white label inside a step bar keeps its contrast over a lighter (waiting) part."""
+    return {"path_effects": _halo(1.5, OUTCOME_COLOURS.get(bar.outcome, "#495057"))} if bar.waits else {}
+
+
+def _tint(colour: str, white: float = 0.6) -> str:
+    """``colour`` mixed with ``white`` parts of white (a ``#rrggbb``)."""
+    rgb = [int(colour[i:i + 2], 16) for i in (1, 3, 5)]
+    return "#" + "".join(f"{round(c + (255 - c) * white):02x}" for c in rgb)
 
 
 def _label_place(bar: StepBar, t_end: float, sec_per_inch: float, xmax: float) -> tuple[str, tuple[float, float]]:
