@@ -28,6 +28,29 @@ for an event, fed the 3N events one at a time in round-robin order
 - ``sequencer-flatness``: our cost per event at the largest N over that at
   the smallest (target <= 2.0: the wait index, not a scan) and our lowest
   events/s over all N (target >= 20,000/s).
+- ``sequencer-contention``: one line per N, N tasks contending for
+  K = max(1, N // 10) skill instances (``k`` in the record: ten tasks an
+  instance, nine of them waiting). Task i is ``(worker i i mod K)``, a
+  ``task-net`` sequence ``(wait-for (ev ?i 1))``, a skill step
+  ``(use ?k)``, ``(wait-for (ev ?i 3))``; ``use`` is a virtual skill
+  (``VirtualSkills``, the real skill link, one instance per call: so
+  ``(use 3)`` is one instance) without a script, whose outcome
+  ``(done (use k) :succeed)`` is one of the events fed, as a skill on
+  another host reports it. The 3N events are fed round-robin as above:
+  ``(ev i 1)`` for every i (the first task of each instance takes it, the
+  other N - K wait: ``task-waiting``), then ``(done (use i mod K) :succeed)``
+  for every i (each ends its holder's step, which lets the instance go, and
+  the next task in agenda order takes it: ``task-resumed``; task i holds
+  its instance when its outcome arrives), then ``(ev i 3)``. Timed like
+  ``sequencer`` (only the event loop, best of several runs, every task
+  must have succeeded and no instance be held or waited for afterwards);
+  one more untimed run with a trace that counts its records checks that
+  the contention happened: N - K ``task-waiting`` and as many
+  ``task-resumed`` (``waits``), N ``skill-enabled``, no ``skill-preempted``.
+  ``ours_events_per_s`` is that; ``uncontended_events_per_s`` the same
+  workload with N distinct instances (task i is ``(worker i i)``; its
+  traced run must have no wait), the same number and kinds of events;
+  ``ratio`` the first over the second (``target`` >= 0.5).
 
 Run: ``pip install '.[bench]' && python benchmarks/bench_sequencer.py``
 (``--quick`` for N = 100 and 1,000 only, to try it out).
@@ -46,9 +69,14 @@ sys.path[:0] = [str(HERE.parent)]  # the checkout, if not installed
 
 TARGET_EVENTS_PER_S = 20000
 TARGET_COST_RATIO = 2.0
+TARGET_CONTENTION_RATIO = 0.5
 
 WORKER = """(define-rap (worker ?i)
   (method (task-net (sequence (wait-for (ev ?i 1)) (wait-for (ev ?i 2)) (wait-for (ev ?i 3))))))"""
+
+CONTENDER = """(define-virtual-skill (use ?k))
+(define-rap (worker ?i ?k)
+  (method (task-net (sequence (wait-for (ev ?i 1)) (t1 (use ?k)) (wait-for (ev ?i 3))))))"""
 
 
 def emit(record: dict) -> None:
@@ -117,6 +145,66 @@ def bench_ours(n: int, runs: int) -> tuple[float, float]:
 
     traced_s = best_of(min(runs, 3), feed, lambda: setup(Trace(keep=True)), check_traced)
     return len(events) / seconds, len(events) / traced_s
+
+
+def contention_instances(n: int) -> int:
+    """K, the skill instances N tasks contend for: ten tasks an instance."""
+    return max(1, n // 10)
+
+
+def bench_contention(n: int, k: int, runs: int) -> tuple[float, int]:
+    """Events per second of N tasks sharing K instances of ``use`` (best of ``runs``), and the waits
+    a traced run counted (K = N: nobody waits)."""
+    from collections import Counter
+
+    from atlas_rap.lang import ast, parse_text
+    from atlas_rap.logic import Compound
+    from atlas_rap.sequencer import SUCCEEDED, Sequencer, Trace
+    from atlas_rap.skills.virtual import VirtualSkills
+
+    forms = parse_text(CONTENDER, "bench.rap").forms
+    raps = [form for form in forms if isinstance(form, ast.RapDef)]
+    scripts = [form for form in forms if isinstance(form, ast.VirtualSkillDef)]
+    events = ([Compound("ev", (i, 1)) for i in range(n)]
+              + [Compound("done", (Compound("use", (i % k,)), ":succeed")) for i in range(n)]
+              + [Compound("ev", (i, 3)) for i in range(n)])
+
+    def setup(trace: Trace | None = None) -> Sequencer:
+        seq = Sequencer(raps, skills=VirtualSkills(scripts), trace=trace)
+        for i in range(n):
+            seq.post(Compound("worker", (i, i % k)))
+        seq.settle()  # selects every task; each now waits for (ev i 1)
+        if any(task.finished for task in seq.roots):
+            raise SystemExit("bench: a contender ended before any event")
+        return seq
+
+    def feed(seq: Sequencer) -> None:
+        assert_fact, settle = seq.assert_fact, seq.settle
+        for event in events:
+            assert_fact(event)
+            settle()
+
+    def check(seq: Sequencer) -> None:
+        if len(seq.roots) != n or any(task.status != SUCCEEDED for task in seq.roots):
+            raise SystemExit(f"bench: contention N={n} K={k}: not every worker succeeded")
+        if seq.holders or seq.resources.queues or seq.skills.running():
+            raise SystemExit(f"bench: contention N={n} K={k}: an instance is still held or waited for")
+
+    seconds = best_of(runs, feed, setup, check)
+
+    counted: Counter[str] = Counter()
+    trace = Trace()
+    trace.add_sink(lambda record: counted.update((record["event"],)))
+    seq = setup(trace)
+    feed(seq)
+    check(seq)
+    waits = counted["task-waiting"]
+    if (waits != n - k or counted["task-resumed"] != waits or counted["skill-enabled"] != n
+            or counted["skill-preempted"]):
+        raise SystemExit(f"bench: contention N={n} K={k}: {waits} task-waiting, {counted['task-resumed']} "
+                         f"task-resumed, {counted['skill-enabled']} skill-enabled, "
+                         f"{counted['skill-preempted']} skill-preempted (want {n - k}, {n - k}, {n}, 0)")
+    return len(events) / seconds, waits
 
 
 # -- py_trees ------------------------------------------------------------------
@@ -201,6 +289,16 @@ def bench(sizes: list[int], budget_s: float) -> None:
     emit({"bench": "sequencer-flatness", f"cost_ratio_{large}_vs_{small}": round(cost_ratio, 2),
           "target": TARGET_COST_RATIO, "ok": cost_ratio <= TARGET_COST_RATIO and lowest >= TARGET_EVENTS_PER_S,
           "min_events_per_s": round(lowest), "target_events_per_s": TARGET_EVENTS_PER_S})
+    for n in sizes:
+        runs = 10 if n <= 100 else 5 if n <= 1000 else 3
+        k = contention_instances(n)
+        per_s, waits = bench_contention(n, k, runs)
+        alone_per_s, _ = bench_contention(n, n, runs)
+        ratio = per_s / alone_per_s
+        emit({"bench": "sequencer-contention", "n": n, "k": k, "events": 3 * n, "waits": waits,
+              "ours_events_per_s": round(per_s), "uncontended_events_per_s": round(alone_per_s),
+              "ratio": round(ratio, 2), "target": TARGET_CONTENTION_RATIO,
+              "ok": ratio >= TARGET_CONTENTION_RATIO})
 
 
 def main() -> None:

@@ -57,7 +57,7 @@ user would expect:
   failure outcome, as a behaviour-tree action that cannot resume. A task's
   ``timeout`` and deadline count while it waits; one that runs out says what
   it waited for. A wait that would close a circle of waits (two
-  ``primitive``\ s, each holding one skill and waiting for the other's) takes
+  primitives, each holding one skill and waiting for the other's) takes
   the instance instead, as if it outranked the holder. A task enabling an
   instance it already holds restarts it.
 - A failed attempt whose task would next repeat a method waits for a
@@ -660,13 +660,14 @@ class Sequencer:
         """Whether ``run`` waiting for ``holder`` would close a circle of waits: the holder waits (a
         ``primitive`` holding one skill while it waits for another) for a run that waits ... for
         ``run``. Then ``run`` takes the instance instead, as if it outranked the holder."""
-        waiting = {claim.node.run: claim.instance for claim in self.resources.claims()}
+        waiting = self.resources.waiting_runs
         seen: set[int] = set()
         while holder is not run:
-            if id(holder) in seen or holder not in waiting:
+            claim = waiting.get(holder)
+            if claim is None or id(holder) in seen:
                 return False
             seen.add(id(holder))
-            held = self.holders.get(waiting[holder])
+            held = self.holders.get(claim.instance)
             if held is None:
                 return False
             holder = held[0]

@@ -66,21 +66,25 @@ class Resources:
     cost O(log n) whatever the number of waiters.
     """
 
-    __slots__ = ("holders", "queues", "released", "_order")
+    __slots__ = ("holders", "queues", "released", "waiting_runs", "_order")
 
     def __init__(self) -> None:
         self.holders: dict[Hashable, tuple[MethodRun, Compound]] = {}
         self.queues: dict[Hashable, list[tuple[tuple, int, Claim]]] = {}
         self.released: list[Hashable] = []
+        self.waiting_runs: dict[MethodRun, Claim] = {}  # each method run with a step that waits, and its claim
         self._order = count()
 
     def queue(self, claim: Claim) -> None:
         """Put ``claim`` in its instance's queue."""
         heapq.heappush(self.queues.setdefault(claim.instance, []), (claim.key(), next(self._order), claim))
+        self.waiting_runs[claim.node.run] = claim
 
     def withdraw(self, claim: Claim) -> None:
         """Take a claim out of its queue (its step stopped waiting, or is served)."""
         claim.live = False
+        if self.waiting_runs.get(claim.node.run) is claim:
+            del self.waiting_runs[claim.node.run]
         self._prune(claim.instance)
 
     def best(self, instance: Hashable) -> Claim | None:
