@@ -573,7 +573,6 @@ class StepNode(_Leaf):
             self.run.seq.step_outcome(self.run.task, self, HALTED_OUTCOME)
         self._ended()
 
-
     def _release(self, cause: _Leaf | None, what: str) -> None:
         """Stop this step's work: its waits, its child task (saying why) and its skill."""
         if self.group is not None:
