@@ -108,32 +108,48 @@ def event_order(n: int) -> list[tuple[int, int]]:
 # -- ours ----------------------------------------------------------------------
 
 
+def started(seq, calls: list) -> object:
+    """``seq`` with ``calls`` posted and selected: each worker now waits for its first event."""
+    for call in calls:
+        seq.post(call)
+    seq.settle()
+    if any(task.finished for task in seq.roots):
+        raise SystemExit("bench: a worker ended before any event")
+    return seq
+
+
+def feed_events(seq, events: list) -> None:
+    """The timed loop: each event asserted, then the agenda settled."""
+    assert_fact, settle = seq.assert_fact, seq.settle
+    for event in events:
+        assert_fact(event)
+        settle()
+
+
+def all_succeeded(seq, n: int) -> bool:
+    """Whether the ``n`` posted workers all succeeded."""
+    from atlas_rap.sequencer import SUCCEEDED
+
+    return len(seq.roots) == n and all(task.status == SUCCEEDED for task in seq.roots)
+
+
 def bench_ours(n: int, runs: int) -> tuple[float, float]:
     """Events per second of the RAP sequencer, untraced (best of ``runs``) and traced (once)."""
     from atlas_rap.lang import parse_text
     from atlas_rap.logic import Compound
-    from atlas_rap.sequencer import SUCCEEDED, Sequencer, Trace
+    from atlas_rap.sequencer import Sequencer, Trace
 
     forms = parse_text(WORKER, "bench.rap").forms
     events = [Compound("ev", (i, j)) for i, j in event_order(n)]
 
     def setup(trace: Trace | None = None) -> Sequencer:
-        seq = Sequencer(forms, trace=trace)
-        for i in range(n):
-            seq.post(Compound("worker", (i,)))
-        seq.settle()  # selects every task; each now waits for (ev i 1)
-        if any(task.finished for task in seq.roots):
-            raise SystemExit("bench: a worker ended before any event")
-        return seq
+        return started(Sequencer(forms, trace=trace), [Compound("worker", (i,)) for i in range(n)])
 
     def feed(seq: Sequencer) -> None:
-        assert_fact, settle = seq.assert_fact, seq.settle
-        for event in events:
-            assert_fact(event)
-            settle()
+        feed_events(seq, events)
 
     def check(seq: Sequencer) -> None:
-        if len(seq.roots) != n or any(task.status != SUCCEEDED for task in seq.roots):
+        if not all_succeeded(seq, n):
             raise SystemExit(f"bench: N={n}: not every worker succeeded")
 
     seconds = best_of(runs, feed, setup, check)
@@ -159,7 +175,7 @@ def bench_contention(n: int, k: int, runs: int) -> tuple[float, int]:
 
     from atlas_rap.lang import ast, parse_text
     from atlas_rap.logic import Compound
-    from atlas_rap.sequencer import SUCCEEDED, Sequencer, Trace
+    from atlas_rap.sequencer import Sequencer, Trace
     from atlas_rap.skills.virtual import VirtualSkills
 
     forms = parse_text(CONTENDER, "bench.rap").forms
@@ -171,21 +187,13 @@ def bench_contention(n: int, k: int, runs: int) -> tuple[float, int]:
 
     def setup(trace: Trace | None = None) -> Sequencer:
         seq = Sequencer(raps, skills=VirtualSkills(scripts), trace=trace)
-        for i in range(n):
-            seq.post(Compound("worker", (i, i % k)))
-        seq.settle()  # selects every task; each now waits for (ev i 1)
-        if any(task.finished for task in seq.roots):
-            raise SystemExit("bench: a contender ended before any event")
-        return seq
+        return started(seq, [Compound("worker", (i, i % k)) for i in range(n)])
 
     def feed(seq: Sequencer) -> None:
-        assert_fact, settle = seq.assert_fact, seq.settle
-        for event in events:
-            assert_fact(event)
-            settle()
+        feed_events(seq, events)
 
     def check(seq: Sequencer) -> None:
-        if len(seq.roots) != n or any(task.status != SUCCEEDED for task in seq.roots):
+        if not all_succeeded(seq, n):
             raise SystemExit(f"bench: contention N={n} K={k}: not every worker succeeded")
         if seq.holders or seq.resources.queues or seq.skills.running():
             raise SystemExit(f"bench: contention N={n} K={k}: an instance is still held or waited for")

@@ -333,8 +333,7 @@ class Sequencer:
                 task.last_failure = Failure(
                     f"method {task.last_method}", f"ended, but the succeed test "
                     f"{_shown(rap.succeed, bindings)} is still false")
-            retries = rap.retries if rap.retries is not None else DEFAULT_RETRIES
-            if task.attempts >= retries:
+            if task.attempts >= _retries(rap):
                 self._fail(task, f"gave up after {_plural(task.attempts, 'attempt')}", task.last_failure)
                 return
             now = self.timers.now
@@ -382,19 +381,18 @@ class Sequencer:
             task.run = None
         if task.finished:
             return
+        rap = self.library.get((task.call.functor, len(task.call.args)))
         if failure is not None:
             task.last_failure = failure
             if failure.fatal:
                 self._fail(task, "a failure that retrying cannot fix", failure, fatal=True)
                 return
         else:
-            rap = self.library.get((task.call.functor, len(task.call.args)))
             if rap is not None and rap.succeed is None:
                 self._succeed(task)
                 return
             task.method_ended_ok = True
         task.status = PENDING
-        rap = self.library.get((task.call.functor, len(task.call.args)))
         if rap is not None and self._waits_to_retry(task, rap):
             self._back_off(task, rap)
             return
@@ -405,9 +403,7 @@ class Sequencer:
         it has retries left and a back-off, its ``succeed`` test does not already hold, and its next
         choice would repeat a method: an applicable method not yet tried is another way, tried at once,
         and a task with no applicable method fails at once, as it always has."""
-        retries = rap.retries if rap.retries is not None else DEFAULT_RETRIES
-        backoff = rap.retry_backoff if rap.retry_backoff is not None else DEFAULT_RETRY_BACKOFF
-        if task.attempts >= retries or backoff <= 0:
+        if task.attempts >= _retries(rap) or _retry_backoff(rap) <= 0:
             return False
         memory, bindings, relations = self.memory, task.bindings, self.relations
         try:
@@ -424,7 +420,6 @@ class Sequencer:
                    if query is not None and query not in ("t", "nil")]
         bindings = task.bindings
         queries = list(dict.fromkeys(substitute(query, bindings) if bindings else query for query in queries))
-        backoff = rap.retry_backoff if rap.retry_backoff is not None else DEFAULT_RETRY_BACKOFF
 
         def resume(wait: RetryWait, by: str) -> None:
             task.backoff = None
@@ -432,8 +427,8 @@ class Sequencer:
                             by=by)
             self.agenda.push(task)
 
-        task.backoff = RetryWait(queries, backoff, waits=self.waits, timers=self.timers, relations=self.relations,
-                                 on_end=resume)
+        task.backoff = RetryWait(queries, _retry_backoff(rap), waits=self.waits, timers=self.timers,
+                                 relations=self.relations, on_end=resume)
         self.trace.emit("task-waiting", id=task.id, task=task.text, until=task.backoff.until,
                         watching=task.backoff.watching)
 
@@ -661,12 +656,12 @@ class Sequencer:
         ``primitive`` holding one skill while it waits for another) for a run that waits ... for
         ``run``. Then ``run`` takes the instance instead, as if it outranked the holder."""
         waiting = self.resources.waiting_runs
-        seen: set[int] = set()
+        seen: set[MethodRun] = set()
         while holder is not run:
             claim = waiting.get(holder)
-            if claim is None or id(holder) in seen:
+            if claim is None or holder in seen:
                 return False
-            seen.add(id(holder))
+            seen.add(holder)
             held = self.holders.get(claim.instance)
             if held is None:
                 return False
@@ -764,6 +759,16 @@ class Sequencer:
             fields = {"reason": why} if why and outcome in FAILURE_OUTCOMES else {}
             self.trace.emit("step-outcome", id=task.id, task=task.text, step=step.describe(), outcome=outcome,
                             **fields)
+
+
+def _retries(rap: ast.RapDef) -> int:
+    """The method attempts a task of ``rap`` gets (its ``retries``, else the default)."""
+    return rap.retries if rap.retries is not None else DEFAULT_RETRIES
+
+
+def _retry_backoff(rap: ast.RapDef) -> float:
+    """How long a failed attempt of ``rap`` waits for a change (its ``retry-backoff``, else the default)."""
+    return rap.retry_backoff if rap.retry_backoff is not None else DEFAULT_RETRY_BACKOFF
 
 
 def _outranks(newcomer: Task, holder: Task) -> bool:

@@ -600,11 +600,8 @@ class StepNode(_Leaf):
             self._finish(":preempted", "the skill was taken by another task",
                          Failure(f"skill {term_to_str(call)}", reason))
             return
-        if self.group is not None:
-            self.group.cancel()
-            self.group = None
-        self.skill = None
-        self.run.seq.disable_skill(self.run, call)
+        self._release(None, "its skill was taken")  # its waits and its skill
+        self.group = self.skill = None
         self.state = "waiting"
         self.run.seq.wait_again(self, call)
 
