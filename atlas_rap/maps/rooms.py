@@ -76,6 +76,10 @@ class RoomSettings:
     - ``min_room_area``: regions smaller than this join a neighbour.
     - ``open_border``: a region sharing more than this fraction of its
       perimeter with one neighbour joins it (it is part of that room).
+    - ``core_area``: a narrowing no wider than a door splits a region when
+      the space beyond it on each side still holds this much room for the
+      robot's centre at the narrowing's clearance (step 4: a room's core;
+      a nook behind a desk, or a corner between chairs, has less).
     """
 
     door_width: tuple[float, float] = (0.55, 1.7)
@@ -85,6 +89,7 @@ class RoomSettings:
     wall_thickness: float = 0.35
     min_room_area: float = 2.0
     open_border: float = 0.3
+    core_area: float = 2.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -286,6 +291,64 @@ def _side_cells(door: Doorway, cspace: np.ndarray, cut: np.ndarray, reach: int) 
     return tuple(found)
 
 
+def narrowing_cores(clearance: np.ndarray, levels: Sequence[float], cell_area: float,
+                    core_area: float) -> np.ndarray:
+    """The cores of the regions that narrowings split ``clearance`` into: a label image (0 elsewhere).
+
+    The morphological and distance methods of room segmentation (Bormann
+    et al. 2016) in one tree: the space where the clearance is above each
+    of ``levels`` (metres, rising) falls apart as the level passes the
+    half-width of each narrowing. A region is split where, at some level,
+    it holds two or more pieces of at least ``core_area`` (m², each cell
+    ``cell_area``): each piece is then split again the same way. A region
+    that never splits is one core, taken at the level it was found. Small
+    pieces (a corner between chairs, a nook behind a desk) never split a
+    region. Vectorised per level (one ``ndimage.label`` each); the tree
+    walk is over the pieces, not the cells.
+    """
+    labels, parents, big = [], [], []
+    for level in levels:
+        lab, count = ndimage.label(clearance > level)
+        area = np.bincount(lab.ravel(), minlength=count + 1) * cell_area
+        parent = np.zeros(count + 1, dtype=np.int64)
+        if labels:
+            cells = np.flatnonzero(lab.ravel())
+            parent[lab.ravel()[cells]] = labels[-1].ravel()[cells]
+        labels.append(lab)
+        parents.append(parent)
+        significant = area >= core_area
+        significant[0] = False
+        big.append(np.flatnonzero(significant))
+    chosen: list[tuple[int, int]] = []
+
+    def ancestor(level: int, nodes: np.ndarray, above: int) -> np.ndarray:
+        for k in range(level, above, -1):
+            nodes = parents[k][nodes]
+        return nodes
+
+    stack = [(0, int(node)) for node in big[0][::-1]] if len(levels) else []
+    while stack:
+        level, node = stack.pop()
+        for deeper in range(level + 1, len(levels)):
+            kids = big[deeper][ancestor(deeper, big[deeper], level) == node]
+            if len(kids) >= 2:
+                stack.extend((deeper, int(kid)) for kid in kids[::-1])
+                break
+            if not len(kids):
+                chosen.append((level, node))
+                break
+        else:
+            chosen.append((level, node))
+    cores = np.zeros(clearance.shape, dtype=np.int32)
+    for level in sorted({level for level, _ in chosen}):
+        lut = np.zeros(len(parents[level]), dtype=np.int32)
+        for number, (at, node) in enumerate(chosen, start=1):
+            if at == level:
+                lut[node] = number
+        np.maximum(cores, lut[labels[level]], out=cores)
+    return cores
+
+
 def region_borders(labels: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Areas (cells), perimeters (4-neighbour boundary pairs, walls included) and shared borders of regions.
 
@@ -306,8 +369,13 @@ def region_borders(labels: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarr
     return area, perimeter, shared
 
 
-def merge_regions(labels: np.ndarray, resolution: float, settings: RoomSettings = RoomSettings()) -> np.ndarray:
-    """Merge regions that are not rooms of their own (module docstring, step 5); labels renumbered 1..N."""
+def merge_regions(labels: np.ndarray, resolution: float, settings: RoomSettings = RoomSettings(), *,
+                  join: np.ndarray | None = None) -> np.ndarray:
+    """Merge regions that are not rooms of their own (module docstring, step 5); labels renumbered 1..N.
+
+    ``join`` (one flag per label, 0..max) marks regions that join their
+    neighbour whatever their size and shape (those without a room's core).
+    """
     count = int(labels.max()) if labels.size else 0
     if count <= 1:
         return labels
@@ -329,7 +397,7 @@ def merge_regions(labels: np.ndarray, resolution: float, settings: RoomSettings 
             j = int(np.argmax(border))
             if border[j] <= 0:
                 continue
-            small = area[i] < settings.min_room_area
+            small = area[i] < settings.min_room_area or (join is not None and bool(join[i]))
             open_ = perimeter[i] > 0 and border[j] > settings.open_border * perimeter[i]
             if not (small or open_):
                 continue
@@ -406,7 +474,70 @@ def segment_rooms(free: np.ndarray, occupied: np.ndarray, dt: np.ndarray, neares
         if one is not None and two is not None and labels[one] and labels[two] and labels[one] != labels[two]:
             separating.append(door)
     _grow(labels, free & (labels == 0), nearest, robot_radius / resolution)
-    return merge_regions(labels, resolution, settings), separating
+    labels = merge_regions(labels, resolution, settings)
+    clearance = np.where(cspace & ~_borders(labels), dt, 0.0)
+    labels, coreless = _split_at_narrowings(labels, clearance, resolution, settings)
+    return merge_regions(labels, resolution, settings, join=coreless), separating
+
+
+def _borders(labels: np.ndarray) -> np.ndarray:
+    """The cells of a place next to (4-neighbours) a cell of another place."""
+    border = np.zeros(labels.shape, dtype=bool)
+    for a, b in ((np.s_[:, 1:], np.s_[:, :-1]), (np.s_[1:, :], np.s_[:-1, :])):
+        differ = (labels[a] != labels[b]) & (labels[a] > 0) & (labels[b] > 0)
+        border[a] |= differ
+        border[b] |= differ
+    return border
+
+
+NARROWING_STEP = 0.05
+"""Metres between the clearance levels at which :func:`narrowing_cores` looks for splits."""
+
+
+def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: float,
+                         settings: RoomSettings) -> tuple[np.ndarray, np.ndarray]:
+    """Split the regions that narrowings no wider than a door cut into room-sized cores (step 4).
+
+    The cores (:func:`narrowing_cores`, on blocks of 2 x 2 cells: their
+    least clearance, so a doorway's cut line stays closed) are looked for
+    at the clearances of the doors (half of ``door_width``). A region
+    holding two or more is divided among them by a watershed of the
+    clearance, so each boundary runs through the narrowing; the other
+    regions stay as they are. Labels are renumbered 1..N in raster order
+    of first cells, as ``ndimage.label`` numbers them.
+    """
+    height, width = clearance.shape
+    blocks = np.pad(clearance, ((0, height % 2), (0, width % 2)))
+    blocks = blocks.reshape(blocks.shape[0] // 2, 2, blocks.shape[1] // 2, 2).min(axis=(1, 3))
+    lo, hi = (w / 2 for w in settings.door_width)
+    levels = np.arange(lo, hi + 1e-9, NARROWING_STEP)
+    small = narrowing_cores(blocks, levels, 4 * resolution * resolution, settings.core_area)
+    cores = small[np.arange(height)[:, None] // 2, np.arange(width)[None, :] // 2]
+    cores[labels == 0] = 0
+    count = int(labels.max()) if labels.size else 0
+    inside = cores > 0
+    pairs = np.unique(labels[inside].astype(np.int64) * (int(cores.max()) + 1) + cores[inside])
+    per_region = np.bincount(pairs // (int(cores.max()) + 1), minlength=count + 1)
+    split = per_region >= 2
+    if not split.any():
+        coreless = per_region == 0
+        coreless[0] = False
+        return labels, coreless
+    from skimage.segmentation import watershed
+
+    where = split[labels]
+    parts = watershed(-clearance, np.where(where, cores, 0), mask=where)
+    out = np.where(where, parts + count, labels)
+    _, first = np.unique(out.ravel(), return_index=True)
+    order = np.unique(out.ravel())
+    lut = np.zeros(int(out.max()) + 1, dtype=np.int32)
+    keep = order > 0
+    ranked = order[keep][np.argsort(first[keep], kind="stable")]
+    lut[ranked] = np.arange(1, ranked.size + 1, dtype=np.int32)
+    coreless = np.zeros(ranked.size + 1, dtype=bool)
+    coreless[lut[np.flatnonzero(per_region == 0)]] = True
+    coreless[0] = False
+    return lut[out], coreless
 
 
 def _walls(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:
