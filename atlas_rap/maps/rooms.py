@@ -490,21 +490,23 @@ def _borders(labels: np.ndarray) -> np.ndarray:
     return border
 
 
-NARROWING_STEP = 0.05
+NARROWING_STEP = 0.1
 """Metres between the clearance levels at which :func:`narrowing_cores` looks for splits."""
 
 
 def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: float,
                          settings: RoomSettings) -> tuple[np.ndarray, np.ndarray]:
-    """Split the regions that narrowings no wider than a door cut into room-sized cores (step 4).
+    """Split the regions that narrowings no wider than a door cut into cores (step 4); which have none.
 
     The cores (:func:`narrowing_cores`, on blocks of 2 x 2 cells: their
-    least clearance, so a doorway's cut line stays closed) are looked for
-    at the clearances of the doors (half of ``door_width``). A region
-    holding two or more is divided among them by a watershed of the
-    clearance, so each boundary runs through the narrowing; the other
-    regions stay as they are. Labels are renumbered 1..N in raster order
-    of first cells, as ``ndimage.label`` numbers them.
+    least clearance, so a doorway's cut line and the border between two
+    regions stay closed) are looked for at the clearances of the doors
+    (half of ``door_width``). A region holding two or more is divided
+    among them by a watershed of the clearance, so each boundary runs
+    through the narrowing; the other regions keep their labels, and the
+    parts of a split region take labels after them, in the order of their
+    cores. Returns the labels and, per label, whether the region holds no
+    core (it then joins a neighbour, :func:`merge_regions`).
     """
     height, width = clearance.shape
     blocks = np.pad(clearance, ((0, height % 2), (0, width % 2)))
@@ -512,32 +514,24 @@ def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: 
     lo, hi = (w / 2 for w in settings.door_width)
     levels = np.arange(lo, hi + 1e-9, NARROWING_STEP)
     small = narrowing_cores(blocks, levels, 4 * resolution * resolution, settings.core_area)
-    cores = small[np.arange(height)[:, None] // 2, np.arange(width)[None, :] // 2]
-    cores[labels == 0] = 0
     count = int(labels.max()) if labels.size else 0
-    inside = cores > 0
-    pairs = np.unique(labels[inside].astype(np.int64) * (int(cores.max()) + 1) + cores[inside])
-    per_region = np.bincount(pairs // (int(cores.max()) + 1), minlength=count + 1)
+    # Every block of a core lies in one region (the borders between regions have no clearance).
+    rows, cols = np.nonzero(small)
+    region_of = np.zeros(int(small.max()) + 1 if small.size else 1, dtype=np.int64)
+    region_of[small[rows, cols]] = labels[2 * rows, 2 * cols]
+    per_region = np.bincount(region_of[1:], minlength=count + 1)
     split = per_region >= 2
+    split[0] = False
+    coreless = np.zeros(count + region_of.size, dtype=bool)
+    coreless[1:count + 1] = per_region[1:] == 0
     if not split.any():
-        coreless = per_region == 0
-        coreless[0] = False
-        return labels, coreless
+        return labels, coreless[:count + 1]
     from skimage.segmentation import watershed
 
     where = split[labels]
+    cores = np.repeat(np.repeat(small, 2, axis=0), 2, axis=1)[:height, :width]
     parts = watershed(-clearance, np.where(where, cores, 0), mask=where)
-    out = np.where(where, parts + count, labels)
-    _, first = np.unique(out.ravel(), return_index=True)
-    order = np.unique(out.ravel())
-    lut = np.zeros(int(out.max()) + 1, dtype=np.int32)
-    keep = order > 0
-    ranked = order[keep][np.argsort(first[keep], kind="stable")]
-    lut[ranked] = np.arange(1, ranked.size + 1, dtype=np.int32)
-    coreless = np.zeros(ranked.size + 1, dtype=bool)
-    coreless[lut[np.flatnonzero(per_region == 0)]] = True
-    coreless[0] = False
-    return lut[out], coreless
+    return np.where(where, parts + count, labels), coreless
 
 
 def _walls(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:
