@@ -477,6 +477,7 @@ def segment_rooms(free: np.ndarray, occupied: np.ndarray, dt: np.ndarray, neares
     labels = merge_regions(labels, resolution, settings)
     clearance = np.where(cspace & ~_borders(labels), dt, 0.0)
     labels, coreless = _split_at_narrowings(labels, clearance, resolution, settings)
+    _grow(labels, free & (labels == 0), nearest, robot_radius / resolution)
     return merge_regions(labels, resolution, settings, join=coreless), separating
 
 
@@ -502,15 +503,18 @@ def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: 
     least clearance, so a doorway's cut line and the border between two
     regions stay closed) are looked for at the clearances of the doors
     (half of ``door_width``). A region holding two or more is divided
-    among them by a watershed of the clearance, so each boundary runs
-    through the narrowing; the other regions keep their labels, and the
-    parts of a split region take labels after them, in the order of their
-    cores. Returns the labels and, per label, whether the region holds no
-    core (it then joins a neighbour, :func:`merge_regions`).
+    among them by a watershed of the blocks' clearance, so each boundary
+    runs through the narrowing; the other regions keep their labels, and
+    the parts of a split region take labels after them, in the order of
+    their cores. The cells of a split region that no part's blocks cover
+    (within a cell or two of its walls and borders) are left 0 for
+    :func:`_grow`. Returns the labels and, per label, whether the region
+    holds no core (it then joins a neighbour, :func:`merge_regions`).
     """
     height, width = clearance.shape
-    blocks = np.pad(clearance, ((0, height % 2), (0, width % 2)))
-    blocks = blocks.reshape(blocks.shape[0] // 2, 2, blocks.shape[1] // 2, 2).min(axis=(1, 3))
+    padded = np.pad(clearance, ((0, height % 2), (0, width % 2)))
+    blocks = np.minimum(np.minimum(padded[::2, ::2], padded[1::2, ::2]),
+                        np.minimum(padded[::2, 1::2], padded[1::2, 1::2]))
     lo, hi = (w / 2 for w in settings.door_width)
     levels = np.arange(lo, hi + 1e-9, NARROWING_STEP)
     small = narrowing_cores(blocks, levels, 4 * resolution * resolution, settings.core_area)
@@ -528,10 +532,14 @@ def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: 
         return labels, coreless[:count + 1]
     from skimage.segmentation import watershed
 
-    where = split[labels]
-    cores = np.repeat(np.repeat(small, 2, axis=0), 2, axis=1)[:height, :width]
-    parts = watershed(-clearance, np.where(where, cores, 0), mask=where)
-    return np.where(where, parts + count, labels), coreless
+    # The blocks with clearance lie wholly in one region: the one of their first cell.
+    block_labels = np.pad(labels, ((0, height % 2), (0, width % 2)))[::2, ::2]
+    inside = split[block_labels] & (blocks > 0)
+    parts = watershed(-blocks, np.where(inside, small, 0), mask=inside)
+    parts = np.repeat(np.repeat(parts, 2, axis=0), 2, axis=1)[:height, :width]
+    out = np.where(split[labels], 0, labels)
+    np.add(parts, count, out=out, where=parts > 0)
+    return out, coreless
 
 
 def _walls(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:
