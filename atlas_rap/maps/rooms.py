@@ -1,11 +1,9 @@
 """Places that are rooms: room segmentation of an occupancy grid, on drawn maps and on maps built from sonar.
 
-The places of a map are its rooms and corridors. They are found in the
-spirit of the room-segmentation literature (Thrun's critical points on the
-Voronoi skeleton, 1998; the region merging of ipa_room_segmentation's
-Voronoi method, Bormann et al. 2016), with every setting in metres
-(:class:`RoomSettings`) and one implementation for drawn maps and for maps
-built from sonar:
+The places of a map are its rooms and corridors. They are found by two
+methods of the room-segmentation literature, one after the other, with
+every setting in metres (:class:`RoomSettings`) and one implementation for
+drawn maps, robots' scans and maps built from sonar:
 
 1. **Where a robot can be.** The space the robot's centre can reach (its
    configuration space: free cells with a clearance over its radius, and,
@@ -14,34 +12,64 @@ built from sonar:
    cannot pass (between furniture and a wall, a hole left in a wall by the
    sonar) never joins two places, and free cells the robot could never
    reach make no place.
-2. **Door candidates** (:func:`door_candidates`): critical points of the
-   skeleton, where the clearance along a skeleton path dips to a local
-   minimum, at most ``door_ratio`` times the clearance reached on both
-   sides, and the free gap there is as wide as a door of the building
-   (``door_width``).
-3. **Doorways** (:func:`doorways`): the critical line through the point, from
-   its nearest obstacle cell to the nearest one on the other side, must be
-   a gap *in a wall*: a thin wall goes on, in line with the gap, beyond
-   one of its ends (``jamb_length`` of occupied cells), and a wall or a
-   corner is at the other, which a gap between a desk and a wall does not
-   do; the line must be nearly straight through the point (the two
-   obstacles on opposite sides). On a map that draws its walls as unknown
-   (soft grey walls read in trinary mode), every cell that is not free
-   counts as wall.
-4. **Regions**: the configuration space cut along the doorways is labelled
-   (4-connected). A doorway whose two sides are joined anyway (round a
-   table, through another gap) is no door, and does not count. Every
-   other free cell is given to the region it touches, grown from all
-   regions at once.
-5. **Merging** (:func:`merge_regions`), by size, shape and shared border as
-   ipa_room_segmentation does: a region smaller than ``min_room_area``
-   joins the neighbour it shares the longest border with; a region that
-   shares more than ``open_border`` of its perimeter with one neighbour is
-   not a room of its own and joins it.
+2. **Doors in walls** (Thrun's critical points on the Voronoi skeleton,
+   1998; ipa_room_segmentation's Voronoi method, Bormann et al. 2016).
+   Candidates (:func:`door_candidates`): where the clearance along a
+   skeleton path dips to a local minimum, at most ``door_ratio`` times the
+   clearance reached on both sides, and the gap there is as wide as a door
+   (``door_width``). Doorways (:func:`doorways`): the critical line through
+   the point, from its nearest obstacle to the nearest one on the other
+   side, is a gap *in a wall*: a thin wall goes on, in line with the gap,
+   beyond one of its ends (``jamb_length``), and a wall or a corner is at
+   the other, which a gap between a desk and a wall does not do. On a map
+   that draws its walls as unknown, every cell that is not free is wall.
+   The configuration space cut along the doorways is labelled; a doorway
+   whose two sides are joined anyway is no door. The other free cells go
+   to the region they touch, and regions merge (:func:`merge_regions`, as
+   ipa_room_segmentation does): one smaller than ``min_room_area`` joins
+   the neighbour it shares the longest border with, one sharing more than
+   ``open_border`` of its perimeter with a neighbour joins it.
+3. **Narrowings between room-sized spaces** (the morphological and distance
+   methods of ipa_room_segmentation, as one tree: :func:`narrowing_cores`).
+   Within each region, the space where the clearance is above each level
+   from half the narrowest door to half the widest falls apart as the level
+   passes the half-width of each narrowing. Where a region holds two
+   pieces of at least ``core_area`` at some level, the narrowing between
+   them is a door: the region is divided among its pieces by a watershed
+   of the clearance, so the boundary runs through the narrowing. A region
+   with no such piece (a nook, the gap behind a row of chairs) is not a
+   room and joins a neighbour; then the merging of step 2 runs again.
+
+**Why both.** Step 2 reads the walls: on drawn plans it holds where a door
+is as wide as its corridor, and it ignores a gap beside a desk; but it
+needs walls that are drawn, thin and straight, so a scan's unknown, ragged
+or cluttered walls, or walls thicker than ``wall_thickness``, hide its
+doors. Step 3 needs no wall at all (wall thickness, jambs, a door at a
+wall's end, walls read as unknown: none of it matters), but it cannot tell
+a room from a corridor no wider than its door, and a table can leave two
+room-sized halves. Each alone, and both, measured on 2026-12-04
+(``benchmarks/bench_places.py``; hard generated plans, seeds 0-9, rooms
+with a place of IoU >= 0.5, clean / furnished; the real building g4s_y2,
+15 rooms):
+
+============================  ===============  ===========================
+method                        hard plans       g4s_y2 (rooms, precision)
+============================  ===============  ===========================
+doors in walls (step 2)       0.996 / 0.982    4 / 15, 0.64
+narrowings (step 3) alone     0.972 / 0.876    10 / 15 at best, 0.79
+both                          0.996 / 0.991    9 / 15, 0.86
+============================  ===============  ===========================
+
+(Step 3 alone was a prototype: the tree on the whole free space, grown by
+watershed, with the merging of step 2.) What still fails on g4s_y2: the
+corridor, which meets the long hall beside it through openings as wide as
+itself, so pieces of it go to the hall's parts, and rooms whose clutter
+leaves two room-sized halves. Telling those apart needs the building's
+wall lines (ROSE², Luperto et al. 2022), which this module does not read.
 
 :func:`segment_rooms` runs the whole of it and returns the label image (0
-off the places, 1..N in raster order of the first cell of each place's
-part the robot's centre can reach).
+off the places, 1..N: the regions of step 2 in raster order of their first
+cell the robot's centre can reach, then the parts step 3 cut them into).
 """
 
 from __future__ import annotations
