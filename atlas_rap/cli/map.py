@@ -15,7 +15,7 @@ def map_group() -> None:
 def room_options(command):
     """The options that say what the building's doors, rooms and walls are like (``RoomSettings``)."""
     command = click.option("--wall-thickness", type=POSITIVE, default=None, metavar="M",
-                           help="Walls are at most this thick (default 0.35 m); thicker is furniture.")(command)
+                           help="Walls are at most this thick (default 0.45 m); thicker is furniture.")(command)
     command = click.option("--min-room-area", type=POSITIVE, default=None, metavar="M2",
                            help="Places smaller than this join a neighbour (default 2 m²).")(command)
     return click.option("--door-width", type=(POSITIVE, POSITIVE), default=None, metavar="MIN MAX",

@@ -114,7 +114,7 @@ class RoomSettings:
     door_ratio: float = 0.9
     jamb_length: float = 0.3
     jamb_fill: float = 0.6
-    wall_thickness: float = 0.35
+    wall_thickness: float = 0.45
     min_room_area: float = 2.0
     open_border: float = 0.3
     core_area: float = 2.0
