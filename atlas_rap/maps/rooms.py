@@ -335,14 +335,20 @@ def narrowing_cores(clearance: np.ndarray, levels: Sequence[float], cell_area: f
     walk is over the pieces, not the cells.
     """
     labels, parents, big = [], [], []
+    flat = clearance.ravel()
+    above = np.flatnonzero(flat > levels[0]) if len(levels) else np.zeros(0, dtype=np.int64)
+    below: np.ndarray | None = None
     for level in levels:
-        lab, count = ndimage.label(clearance > level)
-        area = np.bincount(lab.ravel(), minlength=count + 1) * cell_area
+        still = flat[above] > level
+        above = above[still]
+        lab, count = ndimage.label(clearance > level, output=np.int64)
+        at = lab.ravel()[above]
+        area = np.bincount(at, minlength=count + 1) * cell_area
         parent = np.zeros(count + 1, dtype=np.int64)
-        if labels:
-            cells = np.flatnonzero(lab.ravel())
-            parent[lab.ravel()[cells]] = labels[-1].ravel()[cells]
-        labels.append(lab)
+        if below is not None:
+            parent[at] = below[still]
+        below = at
+        labels.append((above, at))
         parents.append(parent)
         significant = area >= core_area
         significant[0] = False
@@ -367,14 +373,16 @@ def narrowing_cores(clearance: np.ndarray, levels: Sequence[float], cell_area: f
                 break
         else:
             chosen.append((level, node))
-    cores = np.zeros(clearance.shape, dtype=np.int32)
+    cores = np.zeros(clearance.size, dtype=np.int32)
     for level in sorted({level for level, _ in chosen}):
         lut = np.zeros(len(parents[level]), dtype=np.int32)
         for number, (at, node) in enumerate(chosen, start=1):
             if at == level:
                 lut[node] = number
-        np.maximum(cores, lut[labels[level]], out=cores)
-    return cores
+        where, label = labels[level]
+        painted = lut[label]
+        cores[where[painted > 0]] = painted[painted > 0]
+    return cores.reshape(clearance.shape)
 
 
 def region_borders(labels: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -501,22 +509,9 @@ def segment_rooms(free: np.ndarray, occupied: np.ndarray, dt: np.ndarray, neares
         one, two = _side_cells(door, cspace, cut, reach)
         if one is not None and two is not None and labels[one] and labels[two] and labels[one] != labels[two]:
             separating.append(door)
-    _grow(labels, free & (labels == 0), nearest, robot_radius / resolution)
-    labels = merge_regions(labels, resolution, settings)
-    clearance = np.where(cspace & ~_borders(labels), dt, 0.0)
-    labels, coreless = _split_at_narrowings(labels, clearance, resolution, settings)
+    labels, coreless = _split_at_narrowings(labels, np.where(labels > 0, dt, 0.0), resolution, settings)
     _grow(labels, free & (labels == 0), nearest, robot_radius / resolution)
     return merge_regions(labels, resolution, settings, join=coreless), separating
-
-
-def _borders(labels: np.ndarray) -> np.ndarray:
-    """The cells of a place next to (4-neighbours) a cell of another place."""
-    border = np.zeros(labels.shape, dtype=bool)
-    for a, b in ((np.s_[:, 1:], np.s_[:, :-1]), (np.s_[1:, :], np.s_[:-1, :])):
-        differ = (labels[a] != labels[b]) & (labels[a] > 0) & (labels[b] > 0)
-        border[a] |= differ
-        border[b] |= differ
-    return border
 
 
 NARROWING_STEP = 0.1
