@@ -32,6 +32,20 @@ def test_abstract_writes_every_level_of_a_map(tmp_path):
     assert [node["kind"] for node in graph["nodes"]].count("L") == 2 and len(graph["edges"]) == 1
 
 
+def test_the_core_area_says_how_much_room_beyond_a_narrowing_makes_it_a_door(tmp_path):
+    """Two rooms of 4 x 4 m behind a 1 m door, with the door-in-a-wall test off (walls of at most
+    1 cm): the narrowing alone makes two places. Asked for 12 m² of core (more than a 4 x 4 m room
+    holds beyond the door's clearance), the narrowing is no door: one place."""
+    counts = []
+    for core in ("2", "12"):
+        done = atlas("map", "abstract", str(two_rooms(tmp_path)), "--out", f"levels-{core}", "--core-area", core,
+                     "--wall-thickness", "0.01", cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        graph = json.loads((tmp_path / f"levels-{core}" / "topology.json").read_text())
+        counts.append(len({node["place"] for node in graph["nodes"]}))
+    assert counts == [2, 1], counts
+
+
 def test_render_draws_a_map_file_and_a_written_grid(tmp_path):
     map_yaml = two_rooms(tmp_path)
     assert atlas("map", "render", str(map_yaml), "--out", "a.png", cwd=tmp_path).returncode == 0

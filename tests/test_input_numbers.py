@@ -160,6 +160,7 @@ OPTIONS = [
     (("map", "abstract", SMALL_MAP, "--out", "m"), "--robot-radius"),
     (("map", "abstract", SMALL_MAP, "--out", "m"), "--min-room-area"),
     (("map", "abstract", SMALL_MAP, "--out", "m"), "--wall-thickness"),
+    (("map", "abstract", SMALL_MAP, "--out", "m"), "--core-area"),
     (("experiment", "skill-acquisition", "--out", "e"), "--runs"),
     (("experiment", "skill-acquisition", "--out", "e"), "--seed"),
 ]

@@ -18,18 +18,22 @@ def room_options(command):
                            help="Walls are at most this thick (default 0.45 m); thicker is furniture.")(command)
     command = click.option("--min-room-area", type=POSITIVE, default=None, metavar="M2",
                            help="Places smaller than this join a neighbour (default 2 m²).")(command)
+    command = click.option("--core-area", type=POSITIVE, default=None, metavar="M2",
+                           help="A narrowing is a door where the space beyond it on each side holds this much "
+                                "room for the robot's centre at the door's clearance (default 2 m²).")(command)
     return click.option("--door-width", type=(POSITIVE, POSITIVE), default=None, metavar="MIN MAX",
                         help="The free width of the building's doorways (default 0.55 1.7 m).")(command)
 
 
-def _room_settings(door_width, min_room_area, wall_thickness):
+def _room_settings(door_width, min_room_area, wall_thickness, core_area):
     from dataclasses import replace
 
     from atlas_rap.maps.rooms import RoomSettings
 
     if door_width is not None and door_width[0] >= door_width[1]:
         raise click.BadParameter("MIN must be below MAX", param_hint="--door-width")
-    given = {"door_width": door_width, "min_room_area": min_room_area, "wall_thickness": wall_thickness}
+    given = {"door_width": door_width, "min_room_area": min_room_area, "wall_thickness": wall_thickness,
+             "core_area": core_area}
     return replace(RoomSettings(), **{k: v for k, v in given.items() if v is not None})
 
 
@@ -45,7 +49,7 @@ def _room_settings(door_width, min_room_area, wall_thickness):
               help="Simulated time limit.")
 @room_options
 def build_command(world: str, mission_file: str | None, out_dir: str, seed: int, until: float,
-                  door_width, min_room_area, wall_thickness) -> None:
+                  door_width, min_room_area, wall_thickness, core_area) -> None:
     """Drive the robot in a world, build an occupancy grid from its sonar, and write every level.
 
     Writes the grid (npz, ROS map) and, from it, the same levels as
@@ -100,7 +104,7 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
     grid_files = [out / "occupancy.npz", out / "occupancy.yaml"]
     try:
         result = abstract_map(p_occ, grid.frame, radius, source=f"the map of {world}",
-                              rooms=_room_settings(door_width, min_room_area, wall_thickness),
+                              rooms=_room_settings(door_width, min_room_area, wall_thickness, core_area),
                               reachable=inference.reachable, places=engine.world.place_shapes())
     except AtlasError as exc:
         if ended != "interrupted":
@@ -147,7 +151,7 @@ def _tour_mission(world: str, out) -> str:
                                            "(its regions: the place covering most of one takes its name).")
 @room_options
 def abstract_command(map_yaml: str, out_dir: str, robot_radius: float, world: str | None,
-                     door_width, min_room_area, wall_thickness) -> None:
+                     door_width, min_room_area, wall_thickness, core_area) -> None:
     """Run the whole abstraction on a ROS map_server map and write every level as data and PNG.
 
     Levels: occupancy grid, edges and polygons, distance transform, places
@@ -158,7 +162,7 @@ def abstract_command(map_yaml: str, out_dir: str, robot_radius: float, world: st
     from atlas_rap.maps.rosmap import load_ros_map
     from atlas_rap.outputs import naming
 
-    rooms = _room_settings(door_width, min_room_area, wall_thickness)
+    rooms = _room_settings(door_width, min_room_area, wall_thickness, core_area)
     places = None
     if world is not None:
         from atlas_rap.sim.world import load_world
