@@ -94,11 +94,15 @@ class RoomSettings:
       range is a little wider for maps whose walls the sonar drew thick or
       thin. (Wider, and corridor cross-sections start to pass for doors.)
     - ``door_ratio``: a door's clearance is at most this times the clearance
-      reached on both sides of it along the skeleton (a door is a narrowing).
+      reached on both sides of it along the skeleton (a door is a narrowing);
+      in step 3, at most this times the clearance of each space it divides
+      (a corridor pinched a little by a cabinet is not cut).
     - ``jamb_length``: how far the wall must go on in line with a doorway,
       beyond each of its ends, to make the gap a gap in a wall.
     - ``jamb_fill``: the fraction of those cells that must be occupied
-      (unknown cells do not count: the outside of a building is not a wall).
+      (an unknown cell counts where it touches the free space, a stretch of
+      wall the scan did not see; deeper unknown, the outside of a building,
+      does not).
     - ``wall_thickness``: walls are at most this thick; what is thicker
       (a desk, a cabinet) is furniture, and a gap beside it is no door.
     - ``min_room_area``: regions smaller than this join a neighbour.
@@ -320,7 +324,7 @@ def _side_cells(door: Doorway, cspace: np.ndarray, cut: np.ndarray, reach: int) 
 
 
 def narrowing_cores(clearance: np.ndarray, levels: Sequence[float], cell_area: float,
-                    core_area: float) -> np.ndarray:
+                    core_area: float, ratio: float = 1.0) -> np.ndarray:
     """The cores of the regions that narrowings split ``clearance`` into: a label image (0 elsewhere).
 
     The morphological and distance methods of room segmentation (Bormann
@@ -328,7 +332,9 @@ def narrowing_cores(clearance: np.ndarray, levels: Sequence[float], cell_area: f
     of ``levels`` (metres, rising) falls apart as the level passes the
     half-width of each narrowing. A region is split where, at some level,
     it holds two or more pieces of at least ``core_area`` (m², each cell
-    ``cell_area``): each piece is then split again the same way. A region
+    ``cell_area``) whose highest clearance is at least the level over
+    ``ratio`` (the narrowing is markedly narrower than the spaces it
+    divides): each piece is then split again the same way. A region
     that never splits is one core, taken at the level it was found. Small
     pieces (a corner between chairs, a nook behind a desk) never split a
     region. Vectorised per level (one ``ndimage.label`` each); the tree
@@ -350,7 +356,9 @@ def narrowing_cores(clearance: np.ndarray, levels: Sequence[float], cell_area: f
         below = at
         labels.append((above, at))
         parents.append(parent)
-        significant = area >= core_area
+        peak = np.zeros(count + 1)
+        np.maximum.at(peak, at, flat[above])
+        significant = (area >= core_area) & (ratio * peak >= level)
         significant[0] = False
         big.append(np.flatnonzero(significant))
     chosen: list[tuple[int, int]] = []
@@ -539,8 +547,8 @@ def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: 
     blocks = np.minimum(np.minimum(padded[::2, ::2], padded[1::2, ::2]),
                         np.minimum(padded[::2, 1::2], padded[1::2, 1::2]))
     lo, hi = (w / 2 for w in settings.door_width)
-    levels = np.arange(lo, hi + 1e-9, NARROWING_STEP)
-    small = narrowing_cores(blocks, levels, 4 * resolution * resolution, settings.core_area)
+    levels = np.linspace(lo, hi, max(2, int(math.ceil((hi - lo) / NARROWING_STEP)) + 1))
+    small = narrowing_cores(blocks, levels, 4 * resolution * resolution, settings.core_area, settings.door_ratio)
     count = int(labels.max()) if labels.size else 0
     # Every block of a core lies in one region (the borders between regions have no clearance).
     rows, cols = np.nonzero(small)
@@ -566,9 +574,10 @@ def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: 
 
 
 def _walls(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:
-    """What the doorway tests take for walls: the occupied cells, or, on a map that draws its walls
-    as unknown (less than half of the cells bounding the free space occupied, as on maps whose soft
-    grey walls read as unknown), every cell that is not free."""
+    """What the doorway tests take for walls: the occupied cells and the unknown cells touching the
+    free space (a stretch of wall a scan did not see), or, on a map that draws its walls as unknown
+    (less than half of the cells bounding the free space occupied, as on maps whose soft grey walls
+    read as unknown), every cell that is not free."""
     boundary = np.zeros_like(free)
     boundary[1:, :] |= free[:-1, :]
     boundary[:-1, :] |= free[1:, :]
@@ -578,7 +587,7 @@ def _walls(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:
     seen = int(boundary.sum())
     if seen and int(occupied[boundary].sum()) < seen / 2:
         return ~free
-    return occupied
+    return occupied | boundary
 
 
 def _grow(labels: np.ndarray, todo_mask: np.ndarray, nearest: np.ndarray, radius_cells: float) -> None:
