@@ -1,12 +1,14 @@
 """A test bed with ground truth: procedural floor plans, the rooms of the shipped worlds, and a scorer.
 
-Issue 13, part 2. Three things, importable by tests and benchmarks alike
+Issue 13, part 2 (issue 25: real buildings' walls, doors, wings and SLAM
+scans). Three things, importable by tests and benchmarks alike
 (``from floorplans import generate_plan, score``):
 
 - :func:`generate_plan` draws a building from a seed: an occupancy grid
   (0 free, 1 occupied, NaN unknown outside the outer wall) and its rooms as
   a label image, with names, doors and (optionally) furniture; ``hard``
-  plans are messier (see below).
+  plans are messier and come in more layouts, ``slam`` plans are hard
+  plans as a robot's scan shows them (see below).
   :func:`write_plan` saves it as a ROS map plus the ground truth.
 - :func:`world_rooms` rasterises a shipped world's named regions, so the
   worlds are ground truth too.
@@ -58,43 +60,104 @@ ranges below are checked on the images by ``tests/test_floorplans.py``):
 A plan is redrawn (deterministically, from the same stream) until it has
 10-40 rooms when the size is the default.
 
-**Hard plans** (``hard=True``) are the same building as the plain plan
-of the seed (the same labels, names and doors between the same rooms),
-made to look like a real drawn plan and a robot's map; the room rule is
-unchanged (the free pieces with the doors closed).
-In order, each from the plan's own "hard" random stream:
+**Hard plans** (``hard=True``) are made to look like real drawn plans and
+robots' maps; the room rule is unchanged (the free pieces with the doors
+closed). At the default size three in five are the same building as the
+plain plan of the seed (the same labels, names and doors between the same
+rooms, and a few more doors); two in five (:data:`WING_SHARE`, drawn from
+their own "wings" stream) are instead a **building of wings**
+(:data:`WING_LAYOUTS`), the walls drawn as in step 1 and doors as in
+step 4:
 
-6. walls of their own thickness: every side of every room and corridor
-   rectangle moves into its wall, or back from it, by a few cells drawn for
-   that side, so an inner wall is 0.1-0.3 m thick (the two sides facing
-   across it drew apart, so a wall steps where the rooms along it change)
-   and an outer wall 0.1-0.35 m (the outline stays where it was);
+- ``double-loaded`` (two in five of them): one straight corridor 1.5-2.5 m
+  wide from end wall to end wall, 24-44 m long, with a row of rooms 3-5 m
+  wide and 3.5-5 m deep on each side;
+- ``L-shaped`` and ``U-shaped`` (three in ten each): such a wing with one
+  arm (L) or two (U) at its ends, each arm a double-loaded corridor of its
+  own reaching 8-18 m beyond the main wing (rooms 3-5 m by 3.5-5 m on both
+  sides) that starts from the main corridor, so the corridors are one
+  network (the main corridor runs on to the outer wall past an arm; an arm
+  may get a fire door). The outside fills the rest of the bounding box
+  (the court of a U is 8-16 m wide; an L's main wing runs 12-26 m past
+  its arm), so the outline is an L or a U.
+
+A building of wings has 10-40 rooms, and three times in ten two neighbours
+make one open-plan area. Then, in order, each from the plan's own "hard"
+random stream:
+
+6. walls of their own thickness: the plan draws the most its inner walls
+   may be and the most its outer walls may be (each 0.1-0.4 m), then every
+   side of every room and corridor rectangle moves into its wall, or back
+   from it, by a few cells drawn for that side, so an inner wall is
+   0.05 m (1 cell at 0.05 m) to that most, 0.05-0.4 m over the plans (the
+   two sides facing across it drew apart, so a wall steps where the rooms
+   along it change), and an outer wall likewise (the outline stays where it
+   was): 1-8 cells at 0.05 m;
 7. doors redrawn in the same walls, anywhere along them: flush against an
    end of the wall (0 m from the corner) a third of the time, 0.6 m wide one
    time in ten, 1.3-1.6 m (double doors) one in five, else 0.7-1.2 m, and
    0.3 m at least from any other door (flush in both walls of one corner,
-   a post stays);
+   a post stays); then a room with a door onto a corridor gets a second
+   door in the same wall one time in five (:data:`SECOND_DOOR_ODDS`; while
+   it has fewer than 3 doors and the wall has room, drawn as the others);
 8. furniture (``furniture``; as above, in the new rooms), then the whole
    building turned about its centre: one plan in five not at all, the
    others by an angle drawn uniformly in +-30 degrees (``rotation``), by
    nearest-neighbour sampling of every image at once (ground truth, doors,
-   furniture). Walls of 2 cells or more stay closed; the turn checks that
-   no two rooms, nor a room and the outside, touch even diagonally, and if
-   they would (1-cell walls, at coarse resolutions) thickens walls and door
-   gaps by one cell first. Room bits the sampling cut off become wall, and
-   the furniture next to any pocket of robot space the turn made (a sliver
-   sampled a cell narrower) is taken out, so the robot space stays one
-   piece (at 0.05 m; at 0.1 m a turned doorway may leave a 1-cell pocket);
+   furniture). Walls of 2 cells or more stay closed; where a wall of 1 cell
+   comes out with two rooms, or a room and the outside, touching (even
+   diagonally), the cell of the room with the smaller label becomes wall
+   (or door gap, in a doorway between the two), so 1-cell walls stay 1
+   cell thick except there, where they are 2. Room bits the sampling cut
+   off become wall, and the furniture next to any pocket of robot space
+   the turn made (a sliver sampled a cell narrower) is taken out, so the
+   robot space stays one piece (as checked at 0.05 m);
 9. map noise: 4-12 occupied specks of 1-2 cells in open space (0.6 m
    from anything occupied, 1 m from door gaps and each other: ``specks``,
    ``rooms`` 0 there) and 8-24 single cells missing from the walls' faces
    (``holes``: free, taken into the room whose face it was, with no other
    room, door gap or unknown cell among their 8 neighbours, so no hole
-   joins two rooms and none is one a robot could pass).
+   joins two rooms and none is one a robot could pass; walls of 1 cell
+   have none).
 
 In a turned plan a door's and a piece of furniture's ``box`` is the
 bounding box of its cells; :meth:`FloorPlan.door_cells` and
 :meth:`FloorPlan.furniture_cells` give the cells.
+
+**SLAM plans** (``slam=True``, which implies ``hard``) are the hard plan
+of the seed as a robot's SLAM scan shows it, each step from the plan's
+own "slam" random stream (so the hard plan is the same with it or without):
+
+10. ragged walls: along 5-15 % of the rooms' edges, in runs of 0.2-1 m,
+    the wall's face moves out a cell (room cells become wall), and along
+    5-15 % of the walls' faces it moves in a cell (wall cells become the
+    room's, only where no other room, door gap or unknown is within 2
+    cells, so a wall never opens); none within 0.3 m of a door gap or 1 m
+    of furniture or specks;
+11. unexplored patches: discs 0.2-1 m across (:data:`SLAM_PATCH`), about
+    one for every two or three rooms, centred in nooks (room cells with
+    mostly walls, furniture or unknown within 0.3 m: the corners of rooms
+    and the spaces behind furniture) at least the radius + 0.5 m from door
+    gaps; the room's, walls' and furniture's cells in the disc become
+    unknown (``unexplored``: their bounding boxes);
+12. unseen walls: 20-50 % of the wall faces (the wall cells next to a
+    room; :data:`SLAM_UNSEEN_SHARE`) read unknown, in runs of 0.5-3 m along
+    them (:data:`SLAM_UNSEEN_RUN`), half the runs through the wall's whole
+    thickness (so a room may border the unknown outside);
+13. anti-aliased edges: 10-30 % of the wall-face cells still occupied read
+    0.55-0.9 (:data:`SLAM_ANTIALIAS`);
+14. speckle: single cells in the rooms, 0.05-0.2 a square metre of floor,
+    each 0.6 m at least from anything not free, from door gaps and from
+    each other; a quarter of them grey (0.25-0.75), the others occupied.
+
+``rooms`` drops every cell that is no longer free (occupancy 0), and bits
+of a room cut off from it become wall. The invariants stay: each room one
+piece, no two rooms touching even diagonally (unknown, grey or occupied
+cells between them), the free cells that are in no room the door gaps, the
+image's border unknown, and the robot space one piece reaching every room
+(each step that changes the free space is undone, per patch or as a whole
+for the ragged walls, if it would break that). The unknown is no longer
+only the outside: it may border free cells, inside the building too.
 
 **Cluttered corridors** (``clutter_corridors=True``, with or without
 ``hard`` and ``furniture``, from their own stream): benches, printers,
@@ -108,6 +171,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -120,7 +184,9 @@ from atlas_rap.maps.frame import GridFrame
 __all__ = [
     "CORRIDOR_CLEAR", "CORRIDOR_WIDTH", "DOOR_WIDTH", "FURNITURE_SIDE", "HARD_DOOR_WIDTH", "HARD_OUTER_THICKNESS",
     "HARD_ROTATION", "HARD_WALL_THICKNESS", "OPEN_PLAN_AREA", "ROBOT_RADIUS", "ROOMS_PER_PLAN",
-    "ROOM_AREA", "SLIVER", "WALL_THICKNESS", "Door", "FloorPlan", "Furniture", "Score", "generate_plan",
+    "ROOM_AREA", "SECOND_DOOR_ODDS", "SLAM_ANTIALIAS", "SLAM_PATCH", "SLAM_UNSEEN_RUN", "SLAM_UNSEEN_SHARE",
+    "SLIVER", "WALL_THICKNESS", "WING_CORRIDOR_WIDTH", "WING_LAYOUTS", "WING_ROOM_DEPTH", "WING_ROOM_WIDTH",
+    "WING_SHARE", "Door", "FloorPlan", "Furniture", "Score", "generate_plan",
     "read_truth", "robot_space", "score", "world_room_names", "world_rooms", "write_plan",
 ]
 
@@ -138,12 +204,28 @@ SLIVER = (0.3, 0.9)
 """The gap some furniture leaves to a wall: too narrow to be a room, wide enough to fool a door detector."""
 ROBOT_RADIUS = 0.2
 ROOMS_PER_PLAN = (10, 40)
-HARD_WALL_THICKNESS = (0.1, 0.3)
-"""Inner walls of a ``hard`` plan, each its own (outer walls: :data:`HARD_OUTER_THICKNESS`)."""
-HARD_OUTER_THICKNESS = (0.1, 0.35)
+HARD_WALL_THICKNESS = (0.05, 0.4)
+"""Inner walls of a ``hard`` plan, each its own (outer walls: :data:`HARD_OUTER_THICKNESS`): 1-8 cells at 0.05 m."""
+HARD_OUTER_THICKNESS = (0.05, 0.4)
 HARD_DOOR_WIDTH = (0.6, 1.6)
 HARD_ROTATION = 30.0
 """Degrees either way a ``hard`` plan's building is turned (when it is turned at all)."""
+SECOND_DOOR_ODDS = 0.2
+"""The share of a ``hard`` plan's rooms with a door onto a corridor that get a second door onto it."""
+WING_LAYOUTS = ("double-loaded", "L-shaped", "U-shaped")
+"""Buildings of wings (double-loaded corridors) that ``hard`` plans draw :data:`WING_SHARE` of the time."""
+WING_SHARE = 0.4
+WING_CORRIDOR_WIDTH = (1.5, 2.5)
+WING_ROOM_WIDTH = (3.0, 5.0)
+"""Metres along the corridor of a wing's room (as drawn: a ``hard`` plan's walls then move its sides)."""
+WING_ROOM_DEPTH = (3.5, 5.0)
+SLAM_UNSEEN_SHARE = (0.2, 0.5)
+"""The share of a ``slam`` plan's wall faces that read unknown, in runs of :data:`SLAM_UNSEEN_RUN` metres."""
+SLAM_UNSEEN_RUN = (0.5, 3.0)
+SLAM_PATCH = (0.2, 1.0)
+"""Metres across an unexplored (unknown) patch of a ``slam`` plan, in a room's corner or behind furniture."""
+SLAM_ANTIALIAS = (0.55, 0.9)
+"""Occupancy of a ``slam`` plan's anti-aliased wall-face cells."""
 CORRIDOR_CLEAR = 1.0
 """Metres of corridor that ``clutter_corridors`` furniture leaves free across it."""
 DEFAULT_SIZE = ((24.0, 40.0), (14.0, 26.0))
@@ -211,7 +293,8 @@ class FloorPlan:
     open-plan) naming label i + 1; corridors come first. Both arrays are
     read-only and have row 0 at the top (``frame`` places them).
 
-    A ``hard`` plan (see the module docstring) may be turned by
+    A ``hard`` plan (see the module docstring) may be a building of wings
+    (``layout`` one of :data:`WING_LAYOUTS`) and may be turned by
     ``rotation`` degrees (counter-clockwise); its doors' and furniture's
     ``box`` are then the bounding boxes of their cells in the image (a
     door's cells are the free cells with ``rooms == 0``) and ``wall`` is the
@@ -219,6 +302,13 @@ class FloorPlan:
     furniture's cells then (see :meth:`furniture_cells`). ``specks`` are
     the 1-2 cell boxes of clutter noise (occupied, ``rooms`` 0), ``holes``
     the wall cells left out (free, in the room whose wall they were in).
+
+    A ``slam`` plan is a hard plan as a robot's scan shows it: its
+    ``occupancy`` also has grey cells (between 0 and 1: anti-aliased wall
+    faces and speckle) and unknown cells inside the building (stretches of
+    wall, and the ``unexplored`` patches, given by their bounding boxes),
+    and ``rooms`` only the cells still free; ``specks`` and ``holes`` are
+    those the scan left as they were. Furniture cells may read unknown.
     """
 
     occupancy: np.ndarray
@@ -235,6 +325,8 @@ class FloorPlan:
     specks: tuple[Rect, ...] = ()
     holes: tuple[tuple[int, int], ...] = ()
     furniture_mask: np.ndarray | None = None
+    slam: bool = False
+    unexplored: tuple[Rect, ...] = ()
 
     @property
     def n_rooms(self) -> int:
@@ -330,14 +422,24 @@ class _Draft:
     # plan's walls moved: the outline, the labels' order and the rooms' kinds go by them (None: as they are)
 
 
-def _split_length(rng: np.random.Generator, total: int, parts: int, minimum: int) -> list[int] | None:
-    """``parts`` whole numbers >= ``minimum`` adding up to ``total``, otherwise random; None if impossible."""
+def _split_length(rng: np.random.Generator, total: int, parts: int, minimum: int,
+                  maximum: int | None = None) -> list[int] | None:
+    """``parts`` whole numbers >= ``minimum`` (and <= ``maximum``) adding up to ``total``, otherwise random;
+    None if impossible. What a part draws above ``maximum`` goes to the parts with the most room left."""
     slack = total - parts * minimum
-    if slack < 0:
+    if slack < 0 or (maximum is not None and total > parts * maximum):
         return None
     weights = rng.uniform(0.6, 1.4, parts)
     extra = np.floor(slack * weights / weights.sum()).astype(int)
     extra[int(rng.integers(parts))] += slack - int(extra.sum())
+    if maximum is not None:
+        room = maximum - minimum
+        over = int(np.maximum(extra - room, 0).sum())
+        extra = np.minimum(extra, room)
+        while over:
+            i = int(np.argmin(extra))
+            extra[i] += 1
+            over -= 1
     return [minimum + int(e) for e in extra]
 
 
@@ -755,6 +857,112 @@ def _draw_building(rng: np.random.Generator, u: _Units, size: tuple[float, float
     return draft, transposed
 
 
+# -- buildings of wings: double-loaded corridors, alone or joined into an L or a U ---------------
+
+def _wing_section(rng: np.random.Generator, u: _Units) -> tuple[int, int, int]:
+    """A wing's cross-section in cells: the depth of the rooms on one side, the corridor's width, the other side's."""
+    return u.draw(rng, *WING_ROOM_DEPTH), u.draw(rng, *WING_CORRIDOR_WIDTH), u.draw(rng, *WING_ROOM_DEPTH)
+
+
+def _row_of_rooms(rng: np.random.Generator, u: _Units, band: Rect, along_cols: bool, wall: int) -> list[Rect]:
+    """The rooms of a band beside a corridor: 3-5 m wide each along it (``along_cols``: the band's columns),
+    side by side with a wall between (wider when no number of rooms of 3-5 m fills the band)."""
+    r0, r1, c0, c1 = band
+    length = (c1 - c0) if along_cols else (r1 - r0)
+    narrow, wide = u.span(*WING_ROOM_WIDTH)
+    fewest = math.ceil((length + wall) / (wide + wall))
+    most = (length + wall) // (narrow + wall)
+    fits = fewest <= most
+    parts = int(rng.integers(fewest, most + 1)) if fits else max(most, 1)
+    widths = _split_length(rng, length - (parts - 1) * wall, parts, min(narrow, length), wide if fits else None)
+    assert widths is not None
+    rooms, x = [], c0 if along_cols else r0
+    for width in widths:
+        rooms.append((r0, r1, x, x + width) if along_cols else (x, x + width, c0, c1))
+        x += width + wall
+    return rooms
+
+
+def _wings_layout(rng: np.random.Generator, u: _Units, layout: str, wall: int) -> tuple[int, int, list[Rect],
+                                                                                        list[Rect]]:
+    """A building of wings in canonical cells: (height, width, corridor pieces, bands of rooms).
+
+    The main wing runs along the columns at the top: rooms, corridor, rooms.
+    An ``L-shaped`` building adds an arm down the left, a ``U-shaped`` one
+    down the right too: each arm is a double-loaded corridor that starts
+    from the main corridor (which runs on to the outer wall past it), its
+    outer rooms below the main corridor's end and its inner rooms below
+    the main wing's inner rooms; the outside fills the rest (a court between
+    the arms of a U).
+    """
+    t = wall
+    top, cw, bottom = _wing_section(rng, u)
+    depth = top + cw + bottom + 2 * t
+    arms = WING_LAYOUTS.index(layout)
+    sections = [_wing_section(rng, u) for _ in range(arms)]  # (outer rooms, corridor, inner rooms)
+    reach = [outer + corridor + inner + 2 * t for outer, corridor, inner in sections]
+    if arms == 0:
+        height, width = depth, u.draw(rng, 24.0, 44.0)
+    else:
+        height = depth + u.draw(rng, 8.0, 18.0)
+        width = sum(reach) + (u.draw(rng, 8.0, 16.0) if arms == 2 else u.draw(rng, 12.0, 26.0))
+    a = top + t  # the main corridor's first row
+    pieces = [(a, a + cw, 0, width)]
+    bands = [(0, top, 0, width)]
+    inner_lo, inner_hi = 0, width  # the main wing's inner rooms, between the arms
+    for k, (outer, corridor, inner) in enumerate(sections):
+        if k == 0:  # the left arm
+            c = outer + t
+            pieces.append((a + cw, height, c, c + corridor))
+            bands += [(a + cw + t, height, 0, outer), (depth + t, height, c + corridor + t, reach[0])]
+            inner_lo = c + corridor + t
+        else:  # the right arm, mirrored
+            c = width - outer - t - corridor
+            pieces.append((a + cw, height, c, c + corridor))
+            bands += [(a + cw + t, height, width - outer, width), (depth + t, height, width - reach[1], c - t)]
+            inner_hi = c - t
+    bands.append((a + cw + t, depth, inner_lo, inner_hi))
+    return height, width, pieces, bands
+
+
+def _draw_wings(rng: np.random.Generator, u: _Units) -> tuple[_Draft, bool]:
+    """A building of wings (:data:`WING_LAYOUTS`, see :func:`_wings_layout`) and whether to show it transposed.
+
+    Walls are drawn as for :func:`_draw_building`; rooms 3-5 m wide and
+    3.5-5 m deep line both sides of each corridor; the arms of an L or a U
+    may get a fire door (:func:`_add_fire_doors`), and three times in ten
+    two neighbours join into an open-plan area.
+    """
+    layout = WING_LAYOUTS[int(rng.choice(len(WING_LAYOUTS), p=[0.4, 0.3, 0.3]))]
+    wall = u.draw(rng, WALL_THICKNESS[0], 0.2)
+    outer = u.draw(rng, max(WALL_THICKNESS[0], wall * u.res), WALL_THICKNESS[1])
+    height, width, pieces, bands = _wings_layout(rng, u, layout, wall)
+    draft = _Draft(height, width, wall, outer, layout, pieces, [], bands)
+    _add_fire_doors(rng, u, draft)
+    rooms = [_Space("room", [rect], block=b) for b, band in enumerate(bands)
+             for rect in _row_of_rooms(rng, u, band, band[3] - band[2] > band[1] - band[0], wall)]
+    if rng.random() < 0.3:
+        _merge_open_plan(rng, u, draft, rooms)
+    draft.spaces = _corridor_spaces(draft) + rooms
+    return draft, bool(rng.random() < 0.5)
+
+
+def _building(rng: np.random.Generator, u: _Units, size: tuple[float, float] | None, seed: int,
+              wings: bool) -> tuple[_Draft, bool]:
+    """A connected building (redrawn until it has 10-40 rooms at the default size) and whether it is transposed."""
+    scale = 1.0
+    for _ in range(_ATTEMPTS):
+        draft, transposed = _draw_wings(rng, u) if wings else _draw_building(rng, u, size, scale)
+        if not _connect(rng, u, draft):
+            continue
+        n = len(draft.spaces)
+        if size is None and not ROOMS_PER_PLAN[0] <= n <= ROOMS_PER_PLAN[1]:
+            scale *= 1.2 if n > ROOMS_PER_PLAN[1] else 1 / 1.2
+            continue
+        return draft, transposed
+    raise RuntimeError(f"no floor plan for seed {seed} after {_ATTEMPTS} attempts")  # pragma: no cover
+
+
 # -- from canonical cells to the image ------------------------------------------------------
 
 @dataclass(frozen=True)
@@ -1069,28 +1277,26 @@ def _hard_door_width(rng: np.random.Generator, u: _Units) -> int:
 def _vary_walls(rng: np.random.Generator, u: _Units, draft: _Draft) -> None:
     """Give each wall its own thickness and redraw the doors (width, anywhere along the wall).
 
-    Every side of every rectangle moves into its wall (or back from it) by
-    a few cells drawn for that side: an inner wall, ``wall`` cells thick in
-    the draft, ends up 0.1-0.3 m thick (the two sides facing across it drew
-    independently, so a wall along a row of rooms steps from room to room),
-    an outer wall 0.1-0.35 m (the building's outline stays: ``drawn``
-    keeps the draft's rectangles). A side never moves back from a
-    rectangle of its own space it touches (a branch from its spine). Then
-    the open-plan connectors are redrawn across their new wall, and each
-    door is redrawn in the wall between the same two rectangles: its width
-    from :func:`_hard_door_width` (at most the wall's length), flush
-    against one end of the wall a third of the time, else anywhere, but at
-    least 0.3 m from the doors before it (so two doors flush in one corner
-    do not meet: the corner keeps a post).
+    The plan draws the most its inner walls may be, and the most its outer
+    walls may be, each 0.1-0.4 m (2-8 cells at 0.05 m); then every side of
+    every rectangle moves into its wall (or back from it) by a few cells
+    drawn for that side (:func:`_move_sides`), so an inner wall ends up
+    0.05 m (one cell) to the plan's most thick, the two sides facing
+    across it drawing independently (a wall along a row of rooms steps
+    from room to room), and an outer wall likewise (the building's outline
+    stays: ``drawn`` keeps the draft's rectangles). Then the open-plan
+    connectors are redrawn across their new wall and the doors redrawn
+    (:func:`_redraw_doors`).
     """
     t, o = draft.wall, draft.outer
     wmin, wmax = u.span(*HARD_WALL_THICKNESS)
     omax = u.span(*HARD_OUTER_THICKNESS)[1]
+    wmax = int(rng.integers(min(wmin + 1, wmax), wmax + 1))
+    omax = int(rng.integers(min(wmin + 1, omax), omax + 1))
     # A wall's two faces are a top (left) side and a bottom (right) side: between them they move t - wmax to
     # t - wmin cells (the latter, bottom and right, taking the odd cell), so any wall can be wmin to wmax thick.
     first_lo, first_hi = (t - wmax) // 2, max(0, (t - wmin) // 2)
     inner = [(first_lo, first_hi), (t - wmax - first_lo, max(0, t - wmin - first_hi))]
-    outer = (min(0, o - omax), max(0, o - wmin))
     spaces = draft.spaces
     pairs = []
     for a, b, gap, kind in draft.doors:
@@ -1098,16 +1304,45 @@ def _vary_walls(rng: np.random.Generator, u: _Units, draft: _Draft) -> None:
         ib = next(i for i, r in enumerate(spaces[b].rects) if _beside(r, gap, kind))
         pairs.append((ia, ib))
     draft.drawn = [(list(space.rects), list(space.connectors)) for space in spaces]
+    _move_sides(rng, draft, inner, (o - omax, o - wmin))
+    boxes = [(s, r) for s, space in enumerate(spaces) for r in space.rects]
+    for i, (s, a) in enumerate(boxes):  # the rooms stay apart, by a wall of a cell at least
+        for q, b in boxes[:i]:
+            gap = max(b[0] - a[1], a[0] - b[1], b[2] - a[3], a[2] - b[3])
+            assert q == s or gap >= wmin, (a, b)
+    for space in spaces:
+        if space.connectors:
+            wall = _facing(space.rects[0], space.rects[1])
+            assert wall is not None
+            space.connectors = [_wall_rect(wall)]
+    _redraw_doors(rng, u, draft, pairs)
+
+
+def _move_sides(rng: np.random.Generator, draft: _Draft, inner: list[tuple[int, int]],
+                outer: tuple[int, int]) -> None:
+    """Move every side of every rectangle of every space outwards by cells drawn in its range (negative: back).
+
+    A side with another space within a wall's thickness of it (or a bit
+    past its ends) is an inner side and draws from ``inner`` (top and left
+    sides from the first range, bottom and right from the second), else an
+    outer side, from ``outer``; the sides across an open-plan connector
+    are inner sides. A side never moves back from a rectangle of its own
+    space it touches (a branch from its spine).
+    """
+    t, o = draft.wall, draft.outer
     h, w = draft.height, draft.width
     owner = np.zeros((h, w), dtype=np.int32)
-    for s, space in enumerate(spaces):
-        for r0, r1, c0, c1 in space.rects + space.connectors:
+    for s, space in enumerate(draft.spaces):
+        for r0, r1, c0, c1 in space.rects:
             owner[max(r0, 0):r1, max(c0, 0):c1] = s + 1
+    for space in draft.spaces:  # an open-plan connector is a wall between two rectangles: their sides are inner
+        for r0, r1, c0, c1 in space.connectors:
+            owner[max(r0, 0):r1, max(c0, 0):c1] = -1
     d, e = max(t, o) + 1, t + 1  # how far beyond a side, and past its ends, a neighbour makes it an inner side
-    for s, space in enumerate(spaces):
+    for s, space in enumerate(draft.spaces):
         grown = []
         for r0, r1, c0, c1 in space.rects:
-            moves = []
+            moves: list[int] = []
             for strip in ((r0 - d, r0, c0 - e, c1 + e), (r1, r1 + d, c0 - e, c1 + e),
                           (r0 - e, r1 + e, c0 - d, c0), (r0 - e, r1 + e, c1, c1 + d)):
                 a0, a1, b0, b1 = strip
@@ -1120,36 +1355,70 @@ def _vary_walls(rng: np.random.Generator, u: _Units, draft: _Draft) -> None:
                 moves.append(int(rng.integers(lo, max(lo, hi) + 1)))
             grown.append((r0 - moves[0], r1 + moves[1], c0 - moves[2], c1 + moves[3]))
         space.rects = grown
-    boxes = [(s, r) for s, space in enumerate(spaces) for r in space.rects]
-    for i, (s, a) in enumerate(boxes):  # the rooms stay apart, by a wall of 0.1 m at least
-        for q, b in boxes[:i]:
-            gap = max(b[0] - a[1], a[0] - b[1], b[2] - a[3], a[2] - b[3])
-            assert q == s or gap >= wmin, (a, b)
-    for space in spaces:
-        if space.connectors:
-            wall = _facing(space.rects[0], space.rects[1])
-            assert wall is not None
-            space.connectors = [_wall_rect(wall)]
-    doors: list[tuple[int, int, Rect, str]] = []
-    apart = u.cells(_DOOR_APART)
+
+
+def _redraw_doors(rng: np.random.Generator, u: _Units, draft: _Draft, pairs: list[tuple[int, int]]) -> None:
+    """Each door redrawn in the wall between the same two rectangles (``pairs``), then some second doors.
+
+    A door's width comes from :func:`_hard_door_width` (at most the wall's
+    length) and its place from :func:`_place_door`. Then a room with a door
+    onto a corridor gets a second door in the same wall one time in five
+    (:data:`SECOND_DOOR_ODDS`) when it has fewer than three doors and the
+    wall has room for it.
+    """
+    spaces, doors = draft.spaces, []
+    walls = []
     for (a, b, _, kind), (ia, ib) in zip(draft.doors, pairs):
         wall = _facing(spaces[a].rects[ia], spaces[b].rects[ib])
         assert wall is not None and wall[0] == kind
-        _, lo, hi, w0, w1 = wall
-        width = min(_hard_door_width(rng, u), hi - lo)
-        if rng.random() < 1 / 3:
-            starts = [lo if rng.random() < 0.5 else hi - width]
-        else:
-            starts = [int(rng.integers(lo, hi - width + 1))]
-        starts += rng.permutation(np.arange(lo, hi - width + 1)).tolist()
-        for d0 in starts:  # two doors never meet (flush in both walls of one corner): 0.3 m of wall between
-            gap = (d0, d0 + width, w0, w1) if kind == "vertical" else (w0, w1, d0, d0 + width)
-            if all(max(g[0] - gap[1], gap[0] - g[1], g[2] - gap[3], gap[2] - g[3]) >= apart for _, _, g, _ in doors):
-                break
+        gap = _place_door(rng, u, draft, wall, doors, strict=False)
+        assert gap is not None
         doors.append((a, b, gap, kind))
-        if d0 in (lo, hi - width):
-            draft.corners.add(gap)
+        walls.append(wall)
+    count = np.bincount(np.array([(a, b) for a, b, _, _ in doors]).ravel(), minlength=len(spaces))
+    seen = set()
+    for (a, b, _, kind), wall in list(zip(doors, walls)):
+        if (spaces[a].kind == "corridor") == (spaces[b].kind == "corridor"):  # two rooms, or two corridors
+            continue
+        room = b if spaces[a].kind == "corridor" else a
+        if room in seen:
+            continue
+        seen.add(room)
+        if rng.random() < SECOND_DOOR_ODDS and count[room] < 3:
+            gap = _place_door(rng, u, draft, wall, doors, strict=True)
+            if gap is not None:
+                doors.append((a, b, gap, kind))
+                count[room] += 1
     draft.doors = doors
+
+
+def _place_door(rng: np.random.Generator, u: _Units, draft: _Draft, wall: tuple[str, int, int, int, int],
+                doors: list[tuple[int, int, Rect, str]], strict: bool) -> Rect | None:
+    """A door gap in ``wall`` (a :func:`_facing` tuple) 0.3 m at least from ``doors``.
+
+    Flush against one end of the wall a third of the time (added to
+    ``draft.corners``), else anywhere; when no place keeps 0.3 m from the
+    other doors (two doors flush in one corner would meet: the corner keeps
+    a post) the last place tried, or None when ``strict``.
+    """
+    kind, lo, hi, w0, w1 = wall
+    width = min(_hard_door_width(rng, u), hi - lo)
+    if rng.random() < 1 / 3:
+        starts = [lo if rng.random() < 0.5 else hi - width]
+    else:
+        starts = [int(rng.integers(lo, hi - width + 1))]
+    starts += rng.permutation(np.arange(lo, hi - width + 1)).tolist()
+    apart = u.cells(_DOOR_APART)
+    for d0 in starts:
+        gap = (d0, d0 + width, w0, w1) if kind == "vertical" else (w0, w1, d0, d0 + width)
+        if all(max(g[0] - gap[1], gap[0] - g[1], g[2] - gap[3], gap[2] - g[3]) >= apart for _, _, g, _ in doors):
+            break
+    else:
+        if strict:
+            return None
+    if d0 in (lo, hi - width):
+        draft.corners.add(gap)
+    return gap
 
 
 _CORRIDOR_PIECES: dict[str, tuple[tuple[float, float], tuple[float, float] | None, float]] = {
@@ -1223,15 +1492,30 @@ def _replace(plan: FloorPlan, **changes: Any) -> FloorPlan:
     return dataclasses.replace(plan, **changes)
 
 
-def _separated(rooms: np.ndarray, outside: np.ndarray) -> bool:
-    """Whether no two room labels, nor a room and the ``outside``, touch, not even diagonally.
+def _part(occ: np.ndarray, rooms: np.ndarray, doors: np.ndarray, door_list: tuple[Door, ...]) -> None:
+    """Part (in place) the rooms that touch, even diagonally, and the free cells that touch the outside.
 
-    (The rooms with the doors closed stay apart, and a wall stands between them and the unknown.)
+    Of two cells of different rooms side by side (or corner to corner) the
+    one of the smaller label leaves its room: it becomes part of the door
+    gap when it is next to the gap of a door between those two rooms
+    (``doors``: a door's number + 1 per cell), else wall; a free cell (of
+    a room or a door gap) next to the outside (unknown) becomes wall. One
+    pass parts them all (the cells of the larger label stay, so a 1-cell
+    wall thickens to 2 cells only there).
     """
-    rooms = np.where(outside, rooms.max(initial=0) + 1, rooms)
-    pieces, count = ndimage.label(rooms > 0, structure=np.ones((3, 3), dtype=bool))
-    index = np.arange(1, count + 1)
-    return bool(np.array_equal(ndimage.minimum(rooms, pieces, index), ndimage.maximum(rooms, pieces, index)))
+    nan = np.isnan(occ)
+    top = ndimage.maximum_filter(rooms, size=3, mode="constant")
+    clash = (rooms > 0) & (top > rooms)
+    outside = (occ == 0) & ndimage.maximum_filter(nan, size=3, mode="constant")
+    if not (clash.any() or outside.any()):
+        return
+    near = ndimage.maximum_filter(doors, size=3, mode="constant")
+    pair_lo = np.array([0] + [d.rooms[0] for d in door_list])
+    pair_hi = np.array([0] + [d.rooms[1] for d in door_list])
+    gap = clash & ~outside & (near > 0) & (pair_lo[near] == rooms) & (pair_hi[near] == top)
+    wall = (clash | outside) & ~gap
+    occ[gap], rooms[gap], doors[gap] = 0.0, 0, near[gap]
+    occ[wall], rooms[wall], doors[wall] = 1.0, 0, 0
 
 
 def _rotate(plan: FloorPlan, degrees: float, u: _Units) -> FloorPlan:
@@ -1240,12 +1524,13 @@ def _rotate(plan: FloorPlan, degrees: float, u: _Units) -> FloorPlan:
     Each cell of the new image takes everything (occupancy, room, door,
     furniture) from the cell of the old one its centre falls in, so walls
     stay at least as thick (across) as they were and, being 2 cells or
-    more, closed. When the rooms would not stay apart (walls of 1 cell, at
-    coarse resolutions) the walls and door gaps are first thickened by one
-    cell into the rooms on either side. Bits of a room that the sampling
-    cut off from it (touching it only diagonally) become wall, or part of
-    the furniture they touch (:func:`_cut_off_bits`), and furniture that
-    walls in a pocket of robot space goes (:func:`_unpocket`).
+    more, closed. A wall of 1 cell may come out with rooms touching across
+    it (even diagonally), or a room touching the outside: there a cell is
+    thickened (:func:`_part`), so such a wall is 2 cells thick only where
+    it needs to be. Bits of a room that the sampling cut off from it
+    (touching it only diagonally) become wall, or part of the furniture
+    they touch (:func:`_cut_off_bits`), and furniture that walls in a
+    pocket of robot space goes (:func:`_unpocket`).
     """
     occ0, rooms0 = plan.occupancy, plan.rooms
     doors0 = np.zeros(rooms0.shape, dtype=np.int32)
@@ -1270,46 +1555,42 @@ def _rotate(plan: FloorPlan, degrees: float, u: _Units) -> FloorPlan:
     src_r = np.floor(sin * dx + cos * dy + cy).astype(np.int64)
     inside = (src_r >= 0) & (src_r < occ0.shape[0]) & (src_c >= 0) & (src_c < occ0.shape[1])
     src_r, src_c = np.where(inside, src_r, 0), np.where(inside, src_c, 0)
-    for thicken in (False, True):
-        occ_s, rooms_s, doors_s, furn_s = occ0, rooms0, doors0, furn0
-        if thicken:  # walls and door gaps one cell deeper into the rooms (and furniture) on each side
-            grow = ndimage.binary_dilation((occ0 == 1) & (furn0 == 0)) & ((rooms0 > 0) | (furn0 > 0))
-            furn_s = np.where(grow, 0, furn0)
-            deeper = ndimage.binary_dilation(doors0 > 0) & (rooms0 > 0) & ~grow
-            cross = ndimage.generate_binary_structure(2, 1)
-            occ_s, rooms_s = np.where(grow, np.float32(1), occ0), np.where(grow | deeper, 0, rooms0)
-            doors_s = np.where(deeper, ndimage.grey_dilation(doors0, footprint=cross), doors0)
-        occ = np.where(inside, occ_s[src_r, src_c], np.float32(np.nan)).astype(np.float32)
-        rooms = np.where(inside, rooms_s[src_r, src_c], 0).astype(np.int32)
-        if _separated(rooms, np.isnan(occ)):
-            break
-    else:  # pragma: no cover - thickened walls have always closed
-        raise RuntimeError(f"turning plan {plan.seed} by {degrees:.1f} degrees opens its walls")
-    doors = np.where(inside, doors_s[src_r, src_c], 0)
-    furn = np.where(inside, furn_s[src_r, src_c], 0)
+    occ = np.where(inside, occ0[src_r, src_c], np.float32(np.nan)).astype(np.float32)
+    rooms = np.where(inside, rooms0[src_r, src_c], 0).astype(np.int32)
+    doors = np.where(inside, doors0[src_r, src_c], 0)
+    furn = np.where(inside, furn0[src_r, src_c], 0)
     kept = [True] * len(plan.furniture)
-    while True:  # cut-off bits of rooms and pockets of robot space, until there are none (or no more to do)
+    while True:  # touching rooms, cut-off bits of rooms and pockets of robot space, until none is left to do
+        _part(occ, rooms, doors, plan.doors)
         _cut_off_bits(occ, rooms, furn, plan.n_rooms)
         gone = _unpocket(occ, rooms, furn, plan.furniture, kept, u)
         if not gone:
             break
     frame = GridFrame(height, width, u.res, (-margin * u.res, -margin * u.res, 0.0))
-
-    def bbox(mask: np.ndarray) -> Rect:
-        rr, cc = np.nonzero(mask)
-        return (int(rr.min()), int(rr.max()) + 1, int(cc.min()), int(cc.max()) + 1)
-
+    door_boxes, furn_boxes = _boxes(doors, len(plan.doors)), _boxes(furn, len(plan.furniture))
     new_doors = []
     for i, door in enumerate(plan.doors):
-        mask = doors == i + 1
-        rr, cc = np.nonzero(mask)
+        box = door_boxes[i]
+        assert box is not None, f"door {door} lost in the turn"
+        rr, cc = _cells_of(doors, i + 1, box)
         x, y = frame.cell_to_world(rr.mean(), cc.mean())
-        new_doors.append(Door((round(x, 6), round(y, 6)), door.width, door.rooms, bbox(mask), door.wall,
-                              door.corner))
-    items = [Furniture(f.kind, bbox(furn == i + 1), f.room, f.placement, f.side, f.gap)
-             for i, f in enumerate(plan.furniture) if kept[i] and (furn == i + 1).any()]
+        new_doors.append(Door((round(x, 6), round(y, 6)), door.width, door.rooms, box, door.wall, door.corner))
+    items = [Furniture(f.kind, furn_boxes[i], f.room, f.placement, f.side, f.gap)
+             for i, f in enumerate(plan.furniture) if kept[i] and furn_boxes[i] is not None]
     return _replace(plan, occupancy=_frozen(occ), rooms=_frozen(rooms), frame=frame, doors=tuple(new_doors),
                     furniture=tuple(items), rotation=float(degrees), furniture_mask=_frozen(furn > 0))
+
+
+def _boxes(numbers: np.ndarray, count: int) -> list[Rect | None]:
+    """The bounding box of the cells of each number 1..count in ``numbers`` (index i for i + 1; None: no cell)."""
+    found = ndimage.find_objects(numbers, max_label=count)
+    return [None if b is None else (b[0].start, b[0].stop, b[1].start, b[1].stop) for b in found]
+
+
+def _cells_of(numbers: np.ndarray, number: int, box: Rect) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols) of the cells of ``number`` in ``numbers``, all inside ``box``."""
+    rr, cc = np.nonzero(numbers[box[0]:box[1], box[2]:box[3]] == number)
+    return rr + box[0], cc + box[2]
 
 
 def _cut_off_bits(occ: np.ndarray, rooms: np.ndarray, furn: np.ndarray, n_rooms: int) -> None:
@@ -1355,7 +1636,9 @@ def _unpocket(occ: np.ndarray, rooms: np.ndarray, furn: np.ndarray, items: tuple
         present = [i for i in range(len(items)) if kept[i]]
         if not present:
             break
-        cells = {i: np.nonzero(furn == i + 1) for i in present}
+        boxes = _boxes(furn, len(items))
+        present = [i for i in present if boxes[i] is not None]
+        cells = {i: _cells_of(furn, i + 1, boxes[i]) for i in present}
         dist = ndimage.distance_transform_edt((pieces == 0) | (pieces == main), return_indices=False)
         pockets = np.zeros(count + 1, dtype=bool)
         pockets[1:] = True
@@ -1443,11 +1726,240 @@ def _add_noise(rng: np.random.Generator, u: _Units, plan: FloorPlan) -> FloorPla
                     holes=tuple(sorted(holes)))
 
 
+# -- slam plans: a robot's scan of a hard plan ---------------------------------------------------
+
+@dataclass
+class _Scan:
+    """The images a SLAM scan changes (copies, changed in place) and what it leaves alone.
+
+    ``others`` are the occupied cells that are not walls (furniture, specks);
+    ``gaps`` the door gaps, ``to_gap`` each cell's distance (metres) to one.
+    """
+
+    occ: np.ndarray
+    rooms: np.ndarray
+    gaps: np.ndarray
+    others: np.ndarray
+    u: _Units
+    to_gap: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.to_gap = ndimage.distance_transform_edt(~self.gaps) * self.u.res
+
+    @property
+    def walls(self) -> np.ndarray:
+        """The wall cells still occupied (1)."""
+        return (self.occ == 1) & ~self.others
+
+    def faces(self, connectivity: int) -> np.ndarray:
+        """Wall cells next to a room cell (``connectivity`` 1: side by side; 2: corners too)."""
+        structure = ndimage.generate_binary_structure(2, connectivity)
+        return self.walls & ndimage.binary_dilation(self.rooms > 0, structure)
+
+    def near(self, mask: np.ndarray, metres: float) -> np.ndarray:
+        """Cells within ``metres`` of a ``mask`` cell."""
+        if not mask.any():
+            return np.zeros(mask.shape, dtype=bool)
+        return ndimage.distance_transform_edt(~mask) * self.u.res <= metres
+
+    def robot(self) -> tuple[np.ndarray, int, set[int]]:
+        """The robot space, its number of pieces and the rooms it reaches."""
+        space = robot_space(self.occ == 0, self.u.res)
+        return space, ndimage.label(space)[1], set(np.unique(self.rooms[space]).tolist()) - {0}
+
+
+def _scan(rng: np.random.Generator, u: _Units, plan: FloorPlan) -> FloorPlan:
+    """The hard ``plan`` as a robot's SLAM scan would show it (``slam``; see the module docstring).
+
+    In order: ragged walls (:func:`_ragged_walls`), unexplored patches
+    (:func:`_unexplored`), wall faces that read unknown
+    (:func:`_unseen_walls`) or grey (:func:`_antialias`), speckle
+    (:func:`_speckle`). None opens a wall or lets two rooms touch; each
+    keeps the robot space in as many pieces as it was, reaching every room
+    it reached. ``rooms`` loses the cells that are no longer free, and a
+    bit of a room cut off from it becomes wall.
+    """
+    others = plan.furniture_cells().copy()
+    for r0, r1, c0, c1 in plan.specks:
+        others[r0:r1, c0:c1] = True
+    scan = _Scan(np.array(plan.occupancy), np.array(plan.rooms), plan.door_cells(), others, u)
+    robot = _ragged_walls(rng, scan)
+    patches = _unexplored(rng, scan, plan.n_rooms, robot)
+    _unseen_walls(rng, scan)
+    _antialias(rng, scan)
+    _speckle(rng, scan)
+    scan.rooms[scan.occ != 0] = 0
+    _cut_off_bits(scan.occ, scan.rooms, np.zeros(scan.rooms.shape, dtype=np.int32), plan.n_rooms)
+    holes = tuple(h for h in plan.holes if scan.rooms[h] > 0)
+    specks = tuple(b for b in plan.specks if (scan.occ[b[0]:b[1], b[2]:b[3]] == 1).all())
+    return _replace(plan, occupancy=_frozen(scan.occ), rooms=_frozen(scan.rooms), slam=True,
+                    unexplored=tuple(patches), holes=holes, specks=specks)
+
+
+def _shuffled(rng: np.random.Generator, mask: np.ndarray) -> Iterator[tuple[int, int]]:
+    """The ``mask`` cells (row, col) in an order drawn with ``rng`` (one permutation, drawn first)."""
+    rows, cols = np.nonzero(mask)
+    order = rng.permutation(rows.size)
+    return ((int(rows[i]), int(cols[i])) for i in order)
+
+
+def _runs(rng: np.random.Generator, u: _Units, cells: np.ndarray, owner: np.ndarray, share: float,
+          length: tuple[float, float], behind: np.ndarray | None = None) -> np.ndarray:
+    """Runs along ``cells`` (a face) that cover ``share`` of them (the last run may take a few more).
+
+    A run starts from a cell drawn from those not yet taken and takes the
+    cells of the same room's face (``owner``) within a square of a drawn
+    ``length`` (metres) about it that are 8-connected to it there; with
+    ``behind`` (the walls), half the runs also take the ``behind`` cells
+    connected to them in the square (the rest of the wall's thickness).
+    """
+    taken = np.zeros(cells.shape, dtype=bool)
+    goal, count = share * int(cells.sum()), 0
+    eight = np.ones((3, 3), dtype=bool)
+    for r, c in _shuffled(rng, cells):
+        if count >= goal:
+            break
+        if taken[r, c]:
+            continue
+        half = max(1, round(rng.uniform(*length) / u.res / 2))
+        window = (slice(max(r - half, 0), r + half + 1), slice(max(c - half, 0), c + half + 1))
+        at = (r - window[0].start, c - window[1].start)
+        pieces, _ = ndimage.label(cells[window] & (owner[window] == owner[r, c]), eight)
+        run = pieces == pieces[at]
+        if behind is not None and rng.random() < 0.5:
+            pieces, _ = ndimage.label(run | behind[window], eight)
+            run = pieces == pieces[at]
+        count += int((run & cells[window] & ~taken[window]).sum())
+        taken[window] |= run
+    return taken
+
+
+def _ragged_walls(rng: np.random.Generator, scan: _Scan) -> tuple[np.ndarray, int, set[int]]:
+    """Move the faces of the walls by a cell, here and there, in runs of 0.2-1 m along them.
+
+    Out (into the room: its cells become wall) along 5-15 % of the rooms'
+    edges, and in along 5-15 % of the walls' faces (the wall's cells become
+    the room's, where no other room, door gap or unknown cell is within 2
+    cells: the wall keeps a cell at least, and rooms stay 2 cells apart).
+    Not within 0.3 m of a door gap, nor within 1 m of furniture or a speck
+    (slivers a robot just fits into). If the robot space would fall into
+    more pieces, or miss a room, the walls stay as they were. Returns
+    :meth:`_Scan.robot` of the walls as they end up.
+    """
+    occ, rooms, u = scan.occ, scan.rooms, scan.u
+    keep_off = (scan.to_gap <= 0.3) | scan.near(scan.others, 1.0)
+    cross = ndimage.generate_binary_structure(2, 1)
+    edge = (rooms > 0) & ndimage.binary_dilation(scan.walls, cross) & ~keep_off
+    big = np.iinfo(np.int32).max
+    top = ndimage.maximum_filter(rooms, size=5, mode="constant")
+    low = ndimage.minimum_filter(np.where(rooms > 0, rooms, big), size=5, mode="constant", cval=big)
+    bad = ndimage.maximum_filter((scan.gaps | np.isnan(occ)).astype(np.uint8), size=5, mode="constant", cval=1) > 0
+    face = scan.faces(1) & (top > 0) & (top == low) & ~bad & ~keep_off
+    robot = scan.robot()
+    saved = occ.copy(), rooms.copy()
+    out = _runs(rng, u, edge, rooms, rng.uniform(0.05, 0.15), (0.2, 1.0))
+    into = _runs(rng, u, face, top, rng.uniform(0.05, 0.15), (0.2, 1.0))
+    occ[out], rooms[out] = 1.0, 0
+    occ[into], rooms[into] = 0.0, top[into]
+    moved = scan.robot()
+    if moved[1] <= robot[1] and moved[2] == robot[2]:
+        return moved
+    occ[...], rooms[...] = saved
+    return robot
+
+
+def _unexplored(rng: np.random.Generator, scan: _Scan, n_rooms: int,
+                robot: tuple[np.ndarray, int, set[int]]) -> list[Rect]:
+    """Unknown patches 0.2-1 m across (discs) in nooks: the corners of rooms and the spaces behind furniture.
+
+    A nook is a room cell with mostly walls, furniture or unknown within
+    0.3 m of it, 1 m at least from a door gap (and the patch's radius +
+    0.5 m). A patch takes in the cells of its room, the walls and the
+    furniture in its disc, and is kept only if the room stays one piece and
+    the robot space keeps its pieces and still reaches the room. About one
+    patch for every two to three rooms; their bounding boxes are returned.
+    ``robot`` is :meth:`_Scan.robot` as the scan stands.
+    """
+    occ, rooms, u = scan.occ, scan.rooms, scan.u
+    k = u.cells(0.3)
+    closed = ndimage.uniform_filter((rooms == 0).astype(np.float32), size=2 * k + 1, mode="constant", cval=1.0)
+    to_gap = scan.to_gap
+    nooks = (rooms > 0) & (closed >= 0.55) & (to_gap >= 1.0)
+    space, pieces = robot[0].copy(), robot[1]
+    reach = ROBOT_RADIUS / u.res + 0.5
+    boxes = ndimage.find_objects(rooms)
+    patches: list[Rect] = []
+    wanted = int(rng.integers(n_rooms // 3, n_rooms // 2 + 2))
+    for r, c in _shuffled(rng, nooks):
+        if len(patches) >= wanted:
+            break
+        radius = rng.uniform(*SLAM_PATCH) / 2 / u.res
+        if not nooks[r, c] or to_gap[r, c] < radius * u.res + 0.5:
+            continue
+        label, n = int(rooms[r, c]), math.ceil(radius) + math.ceil(reach)
+        win = (slice(max(r - n, 0), r + n + 1), slice(max(c - n, 0), c + n + 1))
+        yy, xx = np.ogrid[win[0], win[1]]
+        disc = ((yy - r) ** 2 + (xx - c) ** 2 <= radius ** 2) & ((rooms[win] == label) | (occ[win] == 1))
+        lost = disc & (occ[win] == 0)
+        before = occ[win].copy(), rooms[win].copy(), space[win].copy()
+        occ[win][disc], rooms[win][disc] = np.nan, 0
+        space[win] &= ndimage.distance_transform_edt(~lost) >= reach
+        rs, cs = boxes[label - 1]
+        mine = rooms[rs, cs] == label
+        if ndimage.label(mine)[1] == 1 and space[rs, cs][mine].any() and ndimage.label(space)[1] <= pieces:
+            rr, cc = np.nonzero(disc)
+            patches.append((int(rr.min()) + win[0].start, int(rr.max()) + 1 + win[0].start,
+                            int(cc.min()) + win[1].start, int(cc.max()) + 1 + win[1].start))
+            nooks[win] = False
+        else:
+            occ[win], rooms[win], space[win] = before
+    return patches
+
+
+def _unseen_walls(rng: np.random.Generator, scan: _Scan) -> None:
+    """20-50 % of the wall faces (wall cells next to a room, corners too) read unknown, in runs of 0.5-3 m
+    along them; half the runs through the wall's whole thickness (so a room may border the unknown outside)."""
+    face = scan.faces(2)
+    owner = ndimage.maximum_filter(scan.rooms, size=3, mode="constant")  # the room whose face it is (one of them)
+    unseen = _runs(rng, scan.u, face, owner, rng.uniform(*SLAM_UNSEEN_SHARE), SLAM_UNSEEN_RUN, scan.walls)
+    scan.occ[unseen] = np.nan
+
+
+def _antialias(rng: np.random.Generator, scan: _Scan) -> None:
+    """10-30 % of the wall-face cells still occupied read 0.55-0.9 (:data:`SLAM_ANTIALIAS`), as a scan's edges."""
+    face = scan.faces(2)
+    grey = face & (rng.random(face.shape) < rng.uniform(0.1, 0.3))
+    scan.occ[grey] = rng.uniform(*SLAM_ANTIALIAS, size=int(grey.sum())).astype(np.float32)
+
+
+def _speckle(rng: np.random.Generator, scan: _Scan) -> None:
+    """Single cells of clutter in the rooms, 0.05-0.2 a square metre of floor; a quarter of them grey (0.25-0.75).
+
+    Each at least 0.6 m from anything not free, from each other and from
+    door gaps, so that a robot passes around every one.
+    """
+    occ, rooms, u = scan.occ, scan.rooms, scan.u
+    clear = ndimage.distance_transform_edt(occ == 0) * u.res
+    ok = (rooms > 0) & (clear >= 0.6) & (scan.to_gap > 0.6)
+    wanted = round(float((rooms > 0).sum()) * u.res ** 2 * rng.uniform(0.05, 0.2))
+    space = u.cells(0.6)
+    for r, c in _shuffled(rng, ok):
+        if not wanted:
+            break
+        if not ok[r, c]:
+            continue
+        occ[r, c] = 1.0 if rng.random() >= 0.25 else rng.uniform(0.25, 0.75)
+        rooms[r, c] = 0
+        ok[max(r - space, 0):r + space + 1, max(c - space, 0):c + space + 1] = False
+        wanted -= 1
+
+
 # -- the generator ---------------------------------------------------------------------------
 
 def generate_plan(seed: int, *, furniture: bool = False, hard: bool = False, clutter_corridors: bool = False,
-                  resolution: float = 0.05, size: tuple[float, float] | None = None) -> FloorPlan:
-    """A floor plan drawn from ``seed``: the same seed, resolution and size always give the same plan.
+                  resolution: float = 0.05, size: tuple[float, float] | None = None,
+                  slam: bool = False) -> FloorPlan:
+    """A floor plan drawn from ``seed``: the same seed, resolution, size and options always give the same plan.
 
     ``size`` is the building's (width, height) in metres (its outer wall's
     box; at least 12 x 10 m); by default each seed draws one, 24-40 m by
@@ -1456,41 +1968,40 @@ def generate_plan(seed: int, *, furniture: bool = False, hard: bool = False, clu
     lower-left outer corner at world (0, 0). ``furniture`` adds clutter to
     the same building (see the module docstring).
 
-    ``hard`` makes the same building messier, as real drawn plans and robot
-    maps are: walls of their own thickness, doors anywhere (often flush in
-    a corner), narrow and double doors, the building turned up to 30
-    degrees (the lower-left corner of its bounding box at (0, 0)), specks
-    and missing wall cells. ``clutter_corridors`` puts benches, printers,
-    lockers and plants along the corridors' walls (with or without
-    ``furniture`` in the rooms). Each draws from its own random stream.
+    ``hard`` makes the building messier, as real drawn plans and robot
+    maps are: walls of their own thickness (0.05-0.4 m), doors anywhere
+    (often flush in a corner), narrow, double and second doors, the
+    building turned up to 30 degrees (the lower-left corner of its
+    bounding box at (0, 0)), specks and missing wall cells; at the default
+    size two plans in five are buildings of wings instead of the plain
+    plan's building (a double-loaded corridor, or wings of them joined
+    into an L or a U: :data:`WING_LAYOUTS`). ``slam`` (which implies
+    ``hard``) shows the hard plan as a robot's SLAM scan: ragged walls,
+    speckle and grey cells, stretches of wall and patches of the rooms
+    unknown, anti-aliased wall edges. ``clutter_corridors`` puts benches,
+    printers, lockers and plants along the corridors' walls (with or
+    without ``furniture`` in the rooms). Each draws from its own random
+    stream, so a ``slam`` plan is the ``hard`` plan of its seed, scanned.
     """
     if not resolution > 0 or resolution > 0.2:
         raise ValueError(f"resolution must be in (0, 0.2] metres, not {resolution}")
     if size is not None and (max(size) < MIN_SIZE[0] or min(size) < MIN_SIZE[1]):
         raise ValueError(f"a building is at least {MIN_SIZE[0]:g} x {MIN_SIZE[1]:g} m, not {size}")
     u = _Units(float(resolution))
-    # spawn(4)'s first two streams are spawn(2)'s: the plans of old stay as they were.
-    layout_rng, furniture_rng, hard_rng, clutter_rng = (
-        np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4))
-    scale = 1.0
-    for _ in range(_ATTEMPTS):
-        draft, transposed = _draw_building(layout_rng, u, size, scale)
-        if not _connect(layout_rng, u, draft):
-            continue
-        n = len(draft.spaces)
-        if size is None and not ROOMS_PER_PLAN[0] <= n <= ROOMS_PER_PLAN[1]:
-            scale *= 1.2 if n > ROOMS_PER_PLAN[1] else 1 / 1.2
-            continue
-        break
-    else:  # pragma: no cover - the draws above have always succeeded within a few attempts
-        raise RuntimeError(f"no floor plan for seed {seed} after {_ATTEMPTS} attempts")
+    hard = hard or slam
+    # spawn(6)'s first four streams are spawn(4)'s, whose first two are spawn(2)'s: the plans of old stay.
+    layout_rng, furniture_rng, hard_rng, clutter_rng, wings_rng, slam_rng = (
+        np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(6))
+    wings = hard and size is None and wings_rng.random() < WING_SHARE
+    building_rng = wings_rng if wings else layout_rng
+    draft, transposed = _building(building_rng, u, size, seed, wings)
     turn = 0.0
     if hard:  # the turn first: it stays the seed's whatever the walls and doors draw after it
         if hard_rng.random() >= 0.2:
             turn = round(float(hard_rng.uniform(-HARD_ROTATION, HARD_ROTATION)), 1)
         _vary_walls(hard_rng, u, draft)
     rects: dict[int, list[Rect]] = {}
-    plan = _render(layout_rng, u, draft, transposed, seed, rects)
+    plan = _render(building_rng, u, draft, transposed, seed, rects)
     if furniture:
         plan = _furnish(furniture_rng, u, plan)
     if clutter_corridors:
@@ -1500,7 +2011,8 @@ def generate_plan(seed: int, *, furniture: bool = False, hard: bool = False, clu
     plan = _replace(plan, hard=True)
     if turn:
         plan = _rotate(plan, turn, u)
-    return _add_noise(hard_rng, u, plan)
+    plan = _add_noise(hard_rng, u, plan)
+    return _scan(slam_rng, u, plan) if slam else plan
 
 
 # -- files -----------------------------------------------------------------------------------
@@ -1510,11 +2022,14 @@ def write_plan(plan: FloorPlan, folder: str | Path, name: str) -> Path:
 
     The map is trinary (free 254, occupied 0, unknown 205), so
     :func:`atlas_rap.maps.rosmap.load_ros_map` and ``atlas map abstract
-    folder/name.yaml`` read it back exactly. ``name-rooms.png`` is the
-    ``rooms`` label image as a 16-bit greyscale PNG (row 0 at the top, as
-    the map); ``name-rooms.json`` names the labels and lists the doors and
-    furniture (see :func:`read_truth`), and for a hard plan its rotation,
-    specks and holes.
+    folder/name.yaml`` read it back exactly; a ``slam`` plan's grey cells
+    are written as their occupancy (``round(255 (1 - p))``), so a reader
+    sees them through its thresholds (0.196 and 0.65: unknown between).
+    ``name-rooms.png`` is the ``rooms`` label image as a 16-bit greyscale
+    PNG (row 0 at the top, as the map); ``name-rooms.json`` names the
+    labels and lists the doors and furniture (see :func:`read_truth`), for
+    a hard plan its rotation, specks and holes, and for a slam plan its
+    unexplored patches.
     """
     import imageio.v3 as iio
 
@@ -1524,7 +2039,7 @@ def write_plan(plan: FloorPlan, folder: str | Path, name: str) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     labels = np.select([plan.occupancy == 0, plan.occupancy == 1], [FREE, OCCUPIED], UNKNOWN).astype(np.int8)
     yaml = out / f"{name}.yaml"
-    write_ros_map(yaml, labels, plan.frame.resolution, plan.frame.origin)
+    write_ros_map(yaml, plan.occupancy if plan.slam else labels, plan.frame.resolution, plan.frame.origin)
     if plan.n_rooms > np.iinfo(np.uint16).max:  # pragma: no cover - plans have at most 40 rooms
         raise ValueError("too many rooms for a 16-bit label image")
     iio.imwrite(out / f"{name}-rooms.png", plan.rooms.astype(np.uint16))
@@ -1537,7 +2052,8 @@ def _truth_dict(plan: FloorPlan, image: str, map_yaml: str) -> dict[str, Any]:
     areas = plan.room_areas()
     hard = {"hard": True, "rotation": plan.rotation, "specks": [list(b) for b in plan.specks],
             "holes": [list(c) for c in plan.holes]} if plan.hard else {}
-    return hard | {
+    slam = {"slam": True, "unexplored": [list(b) for b in plan.unexplored]} if plan.slam else {}
+    return hard | slam | {
         "seed": plan.seed, "layout": plan.layout, "map": map_yaml, "image": image,
         "shape": list(plan.rooms.shape), "resolution": plan.frame.resolution, "origin": list(plan.frame.origin),
         "rooms": [{"label": i + 1, "name": n, "kind": k, "area": round(float(a), 4)}

@@ -24,8 +24,9 @@ from atlas_rap.shipped import shipped_worlds
 from atlas_rap.sim.world import load_world
 from floorplans import (CORRIDOR_CLEAR, CORRIDOR_WIDTH, DOOR_WIDTH, FURNITURE_SIDE, HARD_DOOR_WIDTH,
                         HARD_OUTER_THICKNESS, HARD_ROTATION, HARD_WALL_THICKNESS, OPEN_PLAN_AREA, ROBOT_RADIUS,
-                        ROOM_AREA, ROOMS_PER_PLAN, SLIVER, WALL_THICKNESS, FloorPlan, generate_plan, read_truth,
-                        score, world_room_names, world_rooms, write_plan)
+                        ROOM_AREA, ROOMS_PER_PLAN, SLAM_ANTIALIAS, SLAM_PATCH, SLAM_UNSEEN_RUN, SLAM_UNSEEN_SHARE,
+                        SLIVER, WALL_THICKNESS, WING_CORRIDOR_WIDTH, WING_LAYOUTS, WING_ROOM_DEPTH, WING_ROOM_WIDTH,
+                        FloorPlan, generate_plan, read_truth, score, world_room_names, world_rooms, write_plan)
 
 SEEDS = range(12)
 EPS = 1e-6
@@ -74,7 +75,7 @@ def furniture_mask(plan: FloorPlan) -> np.ndarray:
 
 def describe(plan: FloorPlan) -> str:
     areas = ", ".join(f"{n} {a:.1f}" for n, a in zip(plan.room_names, plan.room_areas()))
-    hard = f", hard, turned {plan.rotation:g} deg" if plan.hard else ""
+    hard = f", {'slam' if plan.slam else 'hard'}, turned {plan.rotation:g} deg" if plan.hard else ""
     return f"seed {plan.seed} ({plan.layout}, {plan.rooms.shape}{hard}): {areas}"
 
 
@@ -294,12 +295,19 @@ def test_the_cli_writes_a_plan_and_its_preview(tmp_path: Path) -> None:
 
 # -- hard plans --------------------------------------------------------------------------------
 
-HARD_SEEDS = range(10)  # seeds 3, 4 and 8 are not turned
+HARD_SEEDS = range(10)  # seeds 3, 4 and 8 are not turned; 2, 5, 6 are double-loaded, 8 and 9 L-shaped
+MORE_HARD_SEEDS = range(10, 30)  # 11, 12, 19 and 23 are not turned; 12 and 15 are U-shaped
 
 
 @pytest.fixture(scope="module")
 def hard_plans() -> dict[int, FloorPlan]:
     return {seed: generate_plan(seed, hard=True) for seed in HARD_SEEDS}
+
+
+@pytest.fixture(scope="module")
+def many_hard(hard_plans: dict[int, FloorPlan]) -> dict[int, FloorPlan]:
+    """Thirty hard plans, for the shares of layouts, wall thicknesses and second doors."""
+    return hard_plans | {seed: generate_plan(seed, hard=True) for seed in MORE_HARD_SEEDS}
 
 
 @pytest.fixture(scope="module")
@@ -314,6 +322,52 @@ def straight(plans: dict[int, FloorPlan]) -> list[FloorPlan]:
     return found
 
 
+def assert_rooms_are_the_free_pieces(plan: FloorPlan) -> None:
+    """The room rule on a plan's images, turned or not, SLAM or not.
+
+    Each room is one piece and no two touch, not even diagonally; the free
+    cells in no room are door gaps, each in a door's box between its
+    rooms; the image's border is unknown. Unless the plan is a SLAM scan
+    (whose unknown may border anything), the outside is one piece that
+    never touches a free cell.
+    """
+    rooms, free = plan.rooms, plan.occupancy == 0
+    pieces, count = ndimage.label(rooms > 0)
+    assert count == plan.n_rooms, describe(plan)
+    index = np.arange(1, count + 1)
+    assert np.array_equal(ndimage.minimum(rooms, pieces, index), ndimage.maximum(rooms, pieces, index))
+    for a, b in ((rooms[1:], rooms[:-1]), (rooms[:, 1:], rooms[:, :-1]),
+                 (rooms[1:, 1:], rooms[:-1, :-1]), (rooms[1:, :-1], rooms[:-1, 1:])):
+        assert not ((a != b) & (a > 0) & (b > 0)).any(), describe(plan)
+    assert free[rooms > 0].all()
+    door_cells = plan.door_cells()
+    gaps, n_gaps = ndimage.label(door_cells)
+    assert n_gaps >= len(plan.doors)
+    for i, (rs, cs) in enumerate(ndimage.find_objects(gaps), start=1):
+        window = (slice(rs.start - 1, rs.stop + 1), slice(cs.start - 1, cs.stop + 1))
+        mask = gaps[window] == i
+        beside = set(np.unique(rooms[window][ndimage.binary_dilation(mask) & ~mask]).tolist()) - {0}
+        doors = [d for d in plan.doors if d.box[0] <= rs.start and rs.stop <= d.box[1]
+                 and d.box[2] <= cs.start and cs.stop <= d.box[3]]
+        assert any(beside <= set(d.rooms) for d in doors), (describe(plan), beside)
+    for door in plan.doors:
+        r0, r1, c0, c1 = door.box
+        assert door_cells[r0:r1, c0:c1].any()
+    unknown = np.isnan(plan.occupancy)
+    assert unknown[0].all() and unknown[-1].all() and unknown[:, 0].all() and unknown[:, -1].all()
+    if not plan.slam:
+        assert ndimage.label(unknown)[1] == 1
+        assert not (ndimage.binary_dilation(unknown, structure=np.ones((3, 3))) & free).any()
+
+
+def assert_connected_for_the_robot(plan: FloorPlan) -> None:
+    """The robot's space (radius 0.2 m) is one piece that reaches every room."""
+    space = robot_space(plan.occupancy == 0, plan)
+    _, count = ndimage.label(space)
+    assert count == 1, describe(plan)
+    assert ndimage.maximum(space, plan.rooms, np.arange(1, plan.n_rooms + 1)).all(), describe(plan)
+
+
 def test_plain_plans_are_still_the_plans_of_old() -> None:
     """Benchmarks and tests depend on the plain plans: the same arrays for the same seed as before ``hard``."""
     import hashlib
@@ -324,9 +378,10 @@ def test_plain_plans_are_still_the_plans_of_old() -> None:
         plan = generate_plan(seed, furniture=furniture, hard=False, clutter_corridors=False)
         assert hashlib.sha256(plan.occupancy.tobytes() + plan.rooms.tobytes()).hexdigest() == digest
         assert not plan.hard and plan.rotation == 0.0 and plan.specks == plan.holes == ()
+        assert not plan.slam and plan.layout not in WING_LAYOUTS
 
 
-def test_hard_plans_are_drawn_from_the_seed_and_are_the_plain_plans_building(
+def test_hard_plans_are_drawn_from_the_seed_and_are_the_plain_plans_building_or_one_of_wings(
         hard_plans: dict[int, FloorPlan], hard_cluttered: dict[int, FloorPlan]) -> None:
     a = generate_plan(7, hard=True, furniture=True, clutter_corridors=True)
     b = hard_cluttered[7]
@@ -334,11 +389,16 @@ def test_hard_plans_are_drawn_from_the_seed_and_are_the_plain_plans_building(
     assert (a.doors, a.furniture, a.frame, a.rotation, a.specks, a.holes) == \
         (b.doors, b.furniture, b.frame, b.rotation, b.specks, b.holes)
     assert np.array_equal(a.furniture_cells(), b.furniture_cells())
-    for seed in (3, 7):
+    for seed in (3, 7):  # not wings: the plain plan's building, its doors, and some second doors
         plain, hard = generate_plan(seed), hard_plans[seed]
+        assert hard.layout == plain.layout
         assert hard.hard and hard.room_names == plain.room_names and hard.room_kinds == plain.room_kinds
-        assert sorted(d.rooms for d in hard.doors) == sorted(d.rooms for d in plain.doors)
+        assert {d.rooms for d in hard.doors} == {d.rooms for d in plain.doors}
+        assert len(hard.doors) >= len(plain.doors)
         assert hard.rooms.shape != plain.rooms.shape or not np.array_equal(hard.rooms, plain.rooms)
+    wings = generate_plan(2, hard=True)
+    assert wings.layout == "double-loaded" and generate_plan(2).layout not in WING_LAYOUTS
+    assert generate_plan(2, hard=True, size=(30.0, 20.0)).layout not in WING_LAYOUTS  # a size: no wings
     angles = [p.rotation for p in hard_plans.values()]
     assert 0.0 in angles and sum(a != 0.0 for a in angles) >= len(angles) // 2
     assert all(abs(a) <= HARD_ROTATION for a in angles) and min(angles) < 0 < max(angles)
@@ -348,35 +408,7 @@ def test_hard_plans_are_drawn_from_the_seed_and_are_the_plain_plans_building(
 def test_hard_rooms_are_the_free_space_with_the_doors_closed(
         which: str, hard_plans: dict[int, FloorPlan], hard_cluttered: dict[int, FloorPlan]) -> None:
     for plan in (hard_plans if which == "clean" else hard_cluttered).values():
-        rooms, free = plan.rooms, plan.occupancy == 0
-        pieces, count = ndimage.label(rooms > 0)
-        assert count == plan.n_rooms, describe(plan)
-        index = np.arange(1, count + 1)
-        assert np.array_equal(ndimage.minimum(rooms, pieces, index), ndimage.maximum(rooms, pieces, index))
-        # No two rooms touch, not even diagonally, turned or not: walls (or closed doors) lie between.
-        for a, b in ((rooms[1:], rooms[:-1]), (rooms[:, 1:], rooms[:, :-1]),
-                     (rooms[1:, 1:], rooms[:-1, :-1]), (rooms[1:, :-1], rooms[:-1, 1:])):
-            assert not ((a != b) & (a > 0) & (b > 0)).any(), describe(plan)
-        # The free cells are the rooms' and the door gaps': each gap lies in a door's box, between its rooms.
-        assert free[rooms > 0].all()
-        door_cells = plan.door_cells()
-        gaps, n_gaps = ndimage.label(door_cells)
-        assert n_gaps >= len(plan.doors)
-        for i, (rs, cs) in enumerate(ndimage.find_objects(gaps), start=1):
-            window = (slice(rs.start - 1, rs.stop + 1), slice(cs.start - 1, cs.stop + 1))
-            mask = gaps[window] == i
-            beside = set(np.unique(rooms[window][ndimage.binary_dilation(mask) & ~mask]).tolist()) - {0}
-            doors = [d for d in plan.doors if d.box[0] <= rs.start and rs.stop <= d.box[1]
-                     and d.box[2] <= cs.start and cs.stop <= d.box[3]]
-            assert any(beside <= set(d.rooms) for d in doors), (describe(plan), beside)
-        for door in plan.doors:
-            r0, r1, c0, c1 = door.box
-            assert door_cells[r0:r1, c0:c1].any()
-        # Outside: unknown, one piece, and never next to a free cell, not even diagonally.
-        unknown = np.isnan(plan.occupancy)
-        assert unknown[0].all() and unknown[-1].all() and unknown[:, 0].all() and unknown[:, -1].all()
-        assert ndimage.label(unknown)[1] == 1
-        assert not (ndimage.binary_dilation(unknown, structure=np.ones((3, 3))) & free).any()
+        assert_rooms_are_the_free_pieces(plan)
 
 
 @pytest.mark.parametrize("which", ["clean", "cluttered"])
@@ -385,22 +417,35 @@ def test_hard_plans_are_connected_for_a_robot_of_radius_0_2(
     plans = hard_plans if which == "clean" else hard_cluttered
     assert any(p.rotation != 0 for p in plans.values())
     for plan in plans.values():
-        space = robot_space(plan.occupancy == 0, plan)
-        _, count = ndimage.label(space)
-        assert count == 1, describe(plan)
-        assert ndimage.maximum(space, plan.rooms, np.arange(1, plan.n_rooms + 1)).all(), describe(plan)
+        assert_connected_for_the_robot(plan)
 
 
-def test_hard_walls_are_each_0_1_to_0_3_m_thick_outer_walls_up_to_0_35(hard_plans: dict[int, FloorPlan]) -> None:
+def inner_walls(plan: FloorPlan) -> list[int]:
+    """The thickness (cells) of a straight plan's inner walls: for each two rooms with a door between them
+    (so facing each other across a wall), the shortest run of occupied cells from one to the other along a
+    row or a column (holes put back in their walls first)."""
+    occ, rooms = np.array(plan.occupancy), np.array(plan.rooms)
+    for r, c in plan.holes:
+        occ[r, c], rooms[r, c] = 1.0, 0
+    shortest: dict[tuple[int, int], int] = {}
+    for grid, labels in ((occ, rooms), (occ.T, rooms.T)):
+        steps = np.diff(np.pad(grid == 1, ((0, 0), (1, 1))).astype(np.int8), axis=1)
+        rows, starts = np.nonzero(steps == 1)
+        _, ends = np.nonzero(steps == -1)
+        inside = (starts > 0) & (ends < grid.shape[1])
+        rows, starts, ends = rows[inside], starts[inside], ends[inside]
+        a, b = labels[rows, starts - 1], labels[rows, ends]
+        for x, y, n in zip(np.minimum(a, b).tolist(), np.maximum(a, b).tolist(), (ends - starts).tolist()):
+            if x > 0 and x != y:
+                shortest[x, y] = min(n, shortest.get((x, y), n))
+    return [shortest[d.rooms] for d in plan.doors if d.rooms in shortest]
+
+
+def test_hard_walls_are_each_1_to_8_cells_thick_inner_and_outer(many_hard: dict[int, FloorPlan]) -> None:
     inner, outer = [], []
-    for plan in straight(hard_plans):
+    for plan in straight(many_hard):
         res, rooms = plan.frame.resolution, plan.rooms
-        for door in plan.doors:  # across each door gap: the wall's thickness there
-            r0, r1, c0, c1 = door.box
-            line = rooms[(r0 + r1) // 2, :] if door.wall == "vertical" else rooms[:, (c0 + c1) // 2]
-            lo, hi = (c0, c1) if door.wall == "vertical" else (r0, r1)
-            assert {int(line[lo - 1]), int(line[hi])} == set(door.rooms)
-            inner.append(round((hi - lo) * res, 6))
+        inner += [round(n * res, 6) for n in inner_walls(plan)]
         occ = np.array(plan.occupancy)
         for r, c in plan.holes:
             occ[r, c] = 1.0
@@ -412,12 +457,88 @@ def test_hard_walls_are_each_0_1_to_0_3_m_thick_outer_walls_up_to_0_35(hard_plan
                     run = int(np.argmax(cells[start:] != 1))
                     if names.any() and room[start + run] > 0:
                         outer.append(round(run * res, 6))
-    assert all(within(t, HARD_WALL_THICKNESS) for t in inner) and len(set(inner)) >= 4, sorted(set(inner))
+    assert all(within(t, HARD_WALL_THICKNESS) for t in inner), sorted(set(inner))
+    assert set(np.round(np.array(inner) / 0.05).astype(int).tolist()) == set(range(1, 9))  # 1-8 cells, all seen
     outer = np.array(outer)
     assert outer.min() >= HARD_OUTER_THICKNESS[0] - EPS
     assert np.mean(outer <= HARD_OUTER_THICKNESS[1] + EPS) > 0.95  # (rows along an inner wall run on)
-    assert len(set(outer[outer <= HARD_OUTER_THICKNESS[1] + EPS].tolist())) >= 4
-    assert outer.max() > WALL_THICKNESS[1]  # thicker than a plain plan's
+    assert {0.05, 0.1} <= set(outer.tolist()) and (outer[outer <= HARD_OUTER_THICKNESS[1] + EPS] >= 0.3).any()
+
+
+def test_a_turn_keeps_walls_of_one_cell_where_it_can(hard_plans: dict[int, FloorPlan]) -> None:
+    """Turned plans keep 1-cell walls (a wall cell with two rooms on opposite sides); thickened only where needed."""
+    turned = [p for p in hard_plans.values() if p.rotation != 0.0]
+    thin = []
+    for plan in turned:
+        r = np.pad(plan.rooms, 1)
+        wall = np.pad(plan.occupancy == 1, 1)
+        across = ((r[:-2, 1:-1] > 0) & (r[2:, 1:-1] > 0) & (r[:-2, 1:-1] != r[2:, 1:-1])) | \
+            ((r[1:-1, :-2] > 0) & (r[1:-1, 2:] > 0) & (r[1:-1, :-2] != r[1:-1, 2:]))
+        thin.append(int((across & wall[1:-1, 1:-1]).sum()))
+    assert sum(n > 50 for n in thin) >= len(turned) // 2, thin
+
+
+def test_hard_plans_draw_buildings_of_wings_two_times_in_five(many_hard: dict[int, FloorPlan]) -> None:
+    """Double-loaded corridors, and L and U buildings of them: rooms of 3-5 x 3.5-5 m along one corridor network."""
+    layouts = [p.layout for p in many_hard.values()]
+    assert set(WING_LAYOUTS) <= set(layouts), layouts
+    assert 0.25 <= sum(w in WING_LAYOUTS for w in layouts) / len(layouts) <= 0.6, layouts
+    side = (min(WING_ROOM_WIDTH[0], WING_ROOM_DEPTH[0]) - 0.35, max(WING_ROOM_WIDTH[1], WING_ROOM_DEPTH[1]) + 0.35)
+    for plan in many_hard.values():
+        if plan.layout not in WING_LAYOUTS:
+            continue
+        assert ROOMS_PER_PLAN[0] <= plan.n_rooms <= ROOMS_PER_PLAN[1], describe(plan)
+        corridors = set(plan.corridors)
+        # The corridors are one network: every corridor reaches the first through doors between corridors.
+        joined, todo = {min(corridors)}, [min(corridors)]
+        while todo:
+            here = todo.pop()
+            for door in plan.doors_of(here):
+                other = (set(door.rooms) - {here}).pop()
+                if other in corridors and other not in joined:
+                    joined.add(other)
+                    todo.append(other)
+        assert joined == corridors, describe(plan)
+        areas, onto = plan.room_areas(), 0
+        for label, kind in enumerate(plan.room_kinds, start=1):
+            if kind not in ("corridor", "open-plan"):  # a room of a row: 3-5 m by 3.5-5 m (its sides moved a bit)
+                assert side[0] ** 2 <= areas[label - 1] <= side[1] ** 2, describe(plan)
+            onto += kind != "corridor" and any(corridors & set(d.rooms) for d in plan.doors_of(label))
+        assert onto >= 0.7 * (plan.n_rooms - len(corridors)), describe(plan)  # rows along corridors
+        if plan.rotation != 0.0:
+            continue
+        res = plan.frame.resolution
+        corridor = np.isin(plan.rooms, list(corridors))
+        width = np.minimum(runs(corridor, 0), runs(corridor, 1))[corridor] * res
+        assert within(float(np.median(width)), (WING_CORRIDOR_WIDTH[0] - 0.35, WING_CORRIDOR_WIDTH[1] + 0.35))
+        rows, cols = np.nonzero(~np.isnan(plan.occupancy))
+        box = np.isnan(plan.occupancy[rows.min():rows.max() + 1, cols.min():cols.max() + 1])
+        if plan.layout == "double-loaded":  # a rectangle, its corridor from end wall to end wall
+            length = max(corridor.any(axis=0).sum(), corridor.any(axis=1).sum()) * res
+            assert not box.any() and length >= max(box.shape) * res - 2 * HARD_OUTER_THICKNESS[1] - EPS
+        else:  # an L or a U: outside fills a good part of the bounding box, corridors run both ways
+            assert box.mean() >= 0.15, describe(plan)
+            assert (runs(corridor, 0) * res >= 8.0).any() and (runs(corridor, 1) * res >= 8.0).any()
+        for label, kind in enumerate(plan.room_kinds, start=1):
+            if kind not in ("corridor", "open-plan"):
+                rr, cc = np.nonzero(plan.rooms == label)
+                dims = sorted(((rr.max() - rr.min() + 1) * res, (cc.max() - cc.min() + 1) * res))
+                assert side[0] <= dims[0] and dims[1] <= side[1], (describe(plan), label, dims)
+
+
+def test_some_rooms_have_a_second_door_onto_their_corridor(many_hard: dict[int, FloorPlan]) -> None:
+    with_one = with_two = 0
+    for plan in many_hard.values():
+        corridors = set(plan.corridors)
+        for label, kind in enumerate(plan.room_kinds, start=1):
+            if kind == "corridor":
+                continue
+            doors = plan.doors_of(label)
+            assert 1 <= len(doors) <= 3, describe(plan)
+            onto = [(set(d.rooms) - {label}).pop() for d in doors if corridors & set(d.rooms)]
+            with_one += bool(onto)
+            with_two += len(onto) > len(set(onto))
+    assert 0.07 <= with_two / with_one <= 0.3, (with_two, with_one)  # a fifth of those with room for a second
 
 
 def test_hard_doors_are_anywhere_often_in_a_corner_some_double_some_narrow(hard_plans: dict[int, FloorPlan]) -> None:
@@ -491,7 +612,7 @@ def test_cluttered_corridors_keep_a_metre_free(hard_cluttered: dict[int, FloorPl
 
 
 def test_a_hard_plan_at_0_1_m_keeps_its_walls_closed(tmp_path: Path) -> None:
-    plan = generate_plan(0, hard=True, furniture=True, resolution=0.1)  # 1-cell walls, turned: thickened first
+    plan = generate_plan(0, hard=True, furniture=True, resolution=0.1)  # 1-cell walls, turned: thickened where rooms would touch
     assert plan.rotation != 0.0
     rooms = plan.rooms
     _, count = ndimage.label(rooms > 0, structure=np.ones((3, 3)))
@@ -502,6 +623,130 @@ def test_a_hard_plan_at_0_1_m_keeps_its_walls_closed(tmp_path: Path) -> None:
     truth, info = read_truth(tmp_path, "hard")
     assert np.array_equal(truth, rooms) and info["rotation"] == plan.rotation
     assert [tuple(c) for c in info["holes"]] == list(plan.holes)
+
+
+# -- slam plans --------------------------------------------------------------------------------
+
+SLAM_SEEDS = (0, 2, 3, 5, 8)  # turned L, turned double-loaded, straight T, turned double-loaded, straight L-shaped
+
+
+@pytest.fixture(scope="module")
+def slam_plans() -> dict[int, FloorPlan]:
+    return {seed: generate_plan(seed, slam=True) for seed in SLAM_SEEDS}
+
+
+@pytest.fixture(scope="module")
+def slam_furnished() -> dict[int, FloorPlan]:
+    return {seed: generate_plan(seed, slam=True, furniture=True, clutter_corridors=True) for seed in (0, 5)}
+
+
+def wall_faces(plan: FloorPlan) -> np.ndarray:
+    """The wall cells next to a room cell (corners too) of a plan."""
+    return (plan.occupancy == 1) & ndimage.binary_dilation(plan.rooms > 0, np.ones((3, 3), dtype=bool))
+
+
+def test_a_slam_plan_is_the_hard_plan_of_its_seed_scanned(hard_plans: dict[int, FloorPlan],
+                                                          slam_plans: dict[int, FloorPlan]) -> None:
+    again = generate_plan(3, slam=True)
+    assert np.array_equal(again.occupancy, slam_plans[3].occupancy, equal_nan=True)
+    assert np.array_equal(again.rooms, slam_plans[3].rooms) and again.unexplored == slam_plans[3].unexplored
+    for seed, scan in slam_plans.items():
+        hard = hard_plans[seed]
+        assert scan.slam and scan.hard and not hard.slam and hard.unexplored == ()
+        assert (scan.frame, scan.layout, scan.rotation, scan.doors, scan.room_names, scan.room_kinds) == \
+            (hard.frame, hard.layout, hard.rotation, hard.doors, hard.room_names, hard.room_kinds)
+        # A room's cells in the scan were its cells in the hard plan, or wall cells beside them (a face moved in).
+        rooms = scan.rooms > 0
+        same = rooms & (scan.rooms == hard.rooms)
+        moved_in = rooms & ~same
+        assert (hard.occupancy[moved_in] == 1).all(), describe(scan)
+        beside = np.zeros_like(moved_in)
+        for axis, shift in ((0, 1), (0, -1), (1, 1), (1, -1)):
+            beside |= np.roll(hard.rooms, shift, axis) == scan.rooms
+        assert beside[moved_in].all()
+        assert (scan.rooms[scan.occupancy != 0] == 0).all()
+
+
+@pytest.mark.parametrize("which", ["clean", "furnished"])
+def test_slam_rooms_are_the_free_space_with_the_doors_closed_and_connected(
+        which: str, slam_plans: dict[int, FloorPlan], slam_furnished: dict[int, FloorPlan]) -> None:
+    for plan in (slam_plans if which == "clean" else slam_furnished).values():
+        assert_rooms_are_the_free_pieces(plan)
+        assert_connected_for_the_robot(plan)
+
+
+def test_slam_walls_read_unknown_in_stretches_of_0_5_to_3_m(hard_plans: dict[int, FloorPlan],
+                                                           slam_plans: dict[int, FloorPlan]) -> None:
+    eight = np.ones((3, 3), dtype=bool)
+    for seed, scan in slam_plans.items():
+        res, face = scan.frame.resolution, wall_faces(hard_plans[seed])
+        unseen = face & np.isnan(scan.occupancy)
+        share = unseen.sum() / face.sum()
+        assert SLAM_UNSEEN_SHARE[0] - 0.05 <= share <= SLAM_UNSEEN_SHARE[1] + 0.1, (describe(scan), share)
+        # Runs along the faces: most of the unseen cells lie in stretches of 0.5 m or more, mostly up to 3 m.
+        stretches, _ = ndimage.label(unseen, eight)
+        sizes = np.bincount(stretches.ravel())[1:]
+        extent = np.array([max(a.stop - a.start, b.stop - b.start) * res for a, b in ndimage.find_objects(stretches)])
+        long = extent >= SLAM_UNSEEN_RUN[0] - EPS
+        assert sizes[long].sum() >= 0.85 * sizes.sum() and np.median(extent[long]) <= SLAM_UNSEEN_RUN[1]
+        # Unknown is no longer only the outside: some rooms border it (a wall unseen through), inside too.
+        unknown = np.isnan(scan.occupancy)
+        pieces, count = ndimage.label(unknown)
+        outside = pieces == pieces[0, 0]
+        assert count > 1 and (ndimage.binary_dilation(outside, eight) & (scan.occupancy == 0)).any()
+
+
+def test_slam_plans_have_unexplored_patches_of_0_2_to_1_m_in_nooks(hard_plans: dict[int, FloorPlan],
+                                                                  slam_plans: dict[int, FloorPlan]) -> None:
+    for seed, scan in slam_plans.items():
+        hard, res = hard_plans[seed], scan.frame.resolution
+        assert 1 <= len(scan.unexplored) <= scan.n_rooms // 2 + 2, describe(scan)
+        to_gap = ndimage.distance_transform_edt(~hard.door_cells()) * res
+        for r0, r1, c0, c1 in scan.unexplored:
+            assert max(r1 - r0, c1 - c0) * res <= SLAM_PATCH[1] + res + EPS
+            box = (slice(r0, r1), slice(c0, c1))
+            taken = np.isnan(scan.occupancy[box]) & (hard.rooms[box] > 0)  # floor the scan did not see
+            assert taken.any() and (hard.occupancy[box] == 1).any()  # ... against a wall (or furniture)
+            assert to_gap[box][taken].min() >= 0.5 - EPS  # clear of the doors
+
+
+def test_slam_plans_have_ragged_walls_grey_edges_and_speckle(hard_plans: dict[int, FloorPlan],
+                                                            slam_plans: dict[int, FloorPlan]) -> None:
+    cross = ndimage.generate_binary_structure(2, 1)
+    for seed, scan in slam_plans.items():
+        hard, occ = hard_plans[seed], scan.occupancy
+        known = ~np.isnan(occ)
+        grey = known & (occ > 0) & (occ < 1)
+        blocked = ~known | (occ != 0)
+        alone = ndimage.convolve(blocked.astype(np.int32), np.ones((3, 3), dtype=np.int32), mode="constant") == 1
+        was_room = hard.rooms > 0
+        # Anti-aliased edges: wall faces of 0.55-0.9.
+        edges = grey & wall_faces(hard)
+        assert edges.sum() >= 0.05 * wall_faces(hard).sum(), describe(scan)
+        assert (occ[edges] >= SLAM_ANTIALIAS[0] - EPS).all() and (occ[edges] <= SLAM_ANTIALIAS[1] + EPS).all()
+        # Speckle: single cells on the floor, most occupied, a few grey (0.25-0.75).
+        specks = was_room & blocked & known & alone
+        grey_specks = specks & grey
+        assert specks.sum() >= 10 and 1 <= grey_specks.sum() <= 0.5 * specks.sum(), describe(scan)
+        assert (occ[grey_specks] >= 0.25 - EPS).all() and (occ[grey_specks] <= 0.75 + EPS).all()
+        assert (occ[specks & ~grey] == 1).all()
+        # Ragged walls: faces moved out (floor next to a wall now occupied) and in (wall now floor).
+        moved_out = was_room & blocked & known & ~alone & ndimage.binary_dilation(hard.occupancy == 1, cross)
+        moved_in = (hard.occupancy == 1) & (scan.rooms > 0)
+        assert moved_out.sum() >= 20 and moved_in.sum() >= 20, describe(scan)
+
+
+def test_a_slam_plan_round_trips_through_its_ros_map(slam_plans: dict[int, FloorPlan], tmp_path: Path) -> None:
+    plan = slam_plans[2]
+    yaml = write_plan(plan, tmp_path, "slam-2")
+    rosmap = load_ros_map(yaml)
+    # A trinary reader's view of the 8-bit pixels: unknown between the thresholds.
+    occ = (255 - np.rint(255 * (1 - np.nan_to_num(plan.occupancy, nan=0.5)))) / 255
+    expected = np.select([np.isnan(plan.occupancy), occ < 0.196, occ > 0.65], [UNKNOWN, FREE, OCCUPIED], UNKNOWN)
+    assert np.array_equal(rosmap.labels, expected)
+    rooms, info = read_truth(tmp_path, "slam-2")
+    assert np.array_equal(rooms, plan.rooms) and info["slam"] is True
+    assert [tuple(b) for b in info["unexplored"]] == list(plan.unexplored)
 
 
 # -- the scorer --------------------------------------------------------------------------------
