@@ -1,7 +1,7 @@
 """Write one generated floor plan for people to look at: the ROS map, its ground truth and a PNG preview.
 
 Run ``python benchmarks/floorplans_cli.py --seed 3 --furniture --out DIR`` (``--hard``,
-``--clutter-corridors``: see ``generate_plan``); it
+``--slam``, ``--clutter-corridors``: see ``generate_plan``); it
 writes ``DIR/plan-3.yaml`` + ``.pgm`` (read it with ``atlas map abstract
 DIR/plan-3.yaml --out ...``), ``plan-3-rooms.png`` / ``.json`` (the ground
 truth, see ``tests/floorplans.py``) and ``plan-3-preview.png`` (each room
@@ -50,7 +50,7 @@ def preview(plan: FloorPlan, out_png: Path) -> Path:
             x, y = plan.frame.cell_to_world(rows[inside], cols[inside])
             ax.text(x, y, name, ha="center", va="center", fontsize=6)
     furnished = f", {len(plan.furniture)} pieces of furniture" if plan.furniture else ""
-    hard = f", hard (turned {plan.rotation:g} deg)" if plan.hard else ""
+    hard = f", {'slam' if plan.slam else 'hard'} (turned {plan.rotation:g} deg)" if plan.hard else ""
     ax.set_title(f"seed {plan.seed}: {plan.layout} layout, {plan.n_rooms} rooms, {len(plan.doors)} doors{furnished}"
                  f"{hard}", fontsize=9)
     ax.set_xlabel("x (m)")
@@ -67,6 +67,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--furniture", action="store_true", help="add desks, tables, shelves, cabinets, pillars")
     parser.add_argument("--hard", action="store_true",
                         help="walls of their own thickness, doors anywhere, a turned building, map noise")
+    parser.add_argument("--slam", action="store_true",
+                        help="the hard plan as a SLAM scan: ragged and unseen walls, unexplored patches, speckle")
     parser.add_argument("--clutter-corridors", action="store_true",
                         help="benches, printers, lockers and plants along the corridors")
     parser.add_argument("--resolution", type=float, default=0.05, help="metres per cell (default 0.05)")
@@ -76,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--name", help="file name stem (default plan-SEED)")
     parser.add_argument("--score", action="store_true", help="abstract the map and score its places")
     args = parser.parse_args(argv)
-    plan = generate_plan(args.seed, furniture=args.furniture, hard=args.hard,
+    plan = generate_plan(args.seed, furniture=args.furniture, hard=args.hard, slam=args.slam,
                          clutter_corridors=args.clutter_corridors, resolution=args.resolution,
                          size=tuple(args.size) if args.size else None)
     name = args.name or f"plan-{args.seed}"
