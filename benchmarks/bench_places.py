@@ -117,7 +117,7 @@ def bench_worlds() -> None:
     import json
     import subprocess
 
-    from floorplans import world_room_names, world_rooms
+    from floorplans import best_places, world_room_names, world_rooms
 
     from atlas_rap.maps.frame import GridFrame
     from atlas_rap.sim.world import load_world
@@ -135,15 +135,10 @@ def bench_worlds() -> None:
                 places, frame = data["places"], GridFrame.from_array(data["frame"])
             named = {int(k): v for k, v in json.loads((Path(out) / "topology.json").read_text())["place_names"].items()}
         loaded = load_world(world)
-        rooms = world_rooms(loaded, frame)
-        regions = {}
-        for room, name in enumerate(world_room_names(loaded), start=1):
-            counts = np.bincount(places[rooms == room], minlength=int(places.max()) + 1)
-            counts[0] = 0
-            best = int(np.argmax(counts))
-            iou = counts[best] / ((rooms == room).sum() + ((places == best) & (rooms != room)).sum())
-            regions[name] = {"iou": round(float(iou), 3), "place": named.get(best, ""),
-                             "ok": bool(iou >= 0.5 and named.get(best) == name)}
+        found = best_places(places, world_rooms(loaded, frame))
+        regions = {name: {"iou": round(iou, 3), "place": named.get(best, ""),
+                          "ok": iou >= 0.5 and named.get(best) == name}
+                   for name, (best, iou) in zip(world_room_names(loaded), found)}
         emit({"bench": "places-worlds", "world": world, "places": int(places.max()),
               "named_regions_with_their_place": sum(r["ok"] for r in regions.values()), "regions": len(regions),
               "build_s": round(seconds, 1), "detail": regions})

@@ -186,7 +186,7 @@ __all__ = [
     "HARD_ROTATION", "HARD_WALL_THICKNESS", "OPEN_PLAN_AREA", "ROBOT_RADIUS", "ROOMS_PER_PLAN",
     "ROOM_AREA", "SECOND_DOOR_ODDS", "SLAM_ANTIALIAS", "SLAM_PATCH", "SLAM_UNSEEN_RUN", "SLAM_UNSEEN_SHARE",
     "SLIVER", "WALL_THICKNESS", "WING_CORRIDOR_WIDTH", "WING_LAYOUTS", "WING_ROOM_DEPTH", "WING_ROOM_WIDTH",
-    "WING_SHARE", "Door", "FloorPlan", "Furniture", "Score", "generate_plan",
+    "WING_SHARE", "Door", "FloorPlan", "Furniture", "Score", "best_places", "generate_plan",
     "read_truth", "robot_space", "score", "world_room_names", "world_rooms", "write_plan",
 ]
 
@@ -2102,6 +2102,21 @@ def world_rooms(world: Any, frame: GridFrame, *, free: np.ndarray | None = None)
     if free is not None:
         labels[~np.asarray(free, dtype=bool)] = 0
     return labels
+
+
+def best_places(places: np.ndarray, rooms: np.ndarray) -> list[tuple[int, float]]:
+    """For each room (label 1..max of ``rooms``): the place that covers most of it, and that place's IoU
+    with the room (0 where no place covers it)."""
+    found = []
+    count = int(places.max()) + 1 if places.size else 1
+    for room in range(1, int(rooms.max()) + 1 if rooms.size else 1):
+        region = rooms == room
+        counts = np.bincount(places[region], minlength=count)
+        counts[0] = 0
+        best = int(np.argmax(counts))
+        union = region.sum() + ((places == best) & ~region).sum()
+        found.append((best, float(counts[best] / union) if counts[best] else 0.0))
+    return found
 
 
 def world_room_names(world: Any) -> tuple[str, ...]:

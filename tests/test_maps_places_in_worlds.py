@@ -8,7 +8,7 @@ import json
 
 import numpy as np
 from cli_process import REPO, assert_no_traceback, atlas
-from floorplans import world_room_names, world_rooms
+from floorplans import best_places, world_room_names, world_rooms
 
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.inference import InferenceGrid
@@ -16,18 +16,6 @@ from atlas_rap.maps.grid import OccupancyGrid
 from atlas_rap.sim.world import load_world
 
 SMALL_MAP = REPO / "worlds" / "maps" / "small-office-map.yaml"
-
-
-def ious(places: np.ndarray, rooms: np.ndarray) -> list[float]:
-    """For each ground-truth room, the IoU of the place that covers most of it."""
-    out = []
-    for room in range(1, int(rooms.max()) + 1):
-        region = rooms == room
-        counts = np.bincount(places[region], minlength=int(places.max()) + 1)
-        counts[0] = 0
-        best = int(np.argmax(counts))
-        out.append(counts[best] / (region.sum() + ((places == best) & ~region).sum()))
-    return out
 
 
 def test_places_of_a_world_map_take_the_names_of_its_places(tmp_path):
@@ -49,7 +37,7 @@ def test_a_map_built_from_sonar_has_one_place_per_room_and_no_topology_outside_t
     assert done.returncode == 0, done.stderr
     with np.load(tmp_path / "built" / "grid.npz") as data:
         places, frame = data["places"], GridFrame.from_array(data["frame"])
-    scores = ious(places, world_rooms(load_world(world), frame))
+    scores = [iou for _, iou in best_places(places, world_rooms(load_world(world), frame))]
     assert min(scores) >= 0.5, scores  # lab, corridor, storeroom and office each a place of its own
     topology = json.loads((tmp_path / "built" / "topology.json").read_text(encoding="utf-8"))
     assert set(topology["place_names"].values()) == {"lab", "corridor", "storeroom", "office"}
@@ -68,16 +56,12 @@ def _built_places(world: str, tmp_path) -> tuple[dict[str, float], dict[str, str
     assert done.returncode == 0, done.stderr
     with np.load(tmp_path / "built" / "grid.npz") as data:
         places, frame = data["places"], GridFrame.from_array(data["frame"])
-    loaded = load_world(world)
-    rooms = world_rooms(loaded, frame)
     topology = json.loads((tmp_path / "built" / "topology.json").read_text(encoding="utf-8"))
     named = {int(label): name for label, name in topology["place_names"].items()}
+    loaded = load_world(world)
     scores, names = {}, {}
-    for room, name in enumerate(world_room_names(loaded), start=1):
-        counts = np.bincount(places[rooms == room], minlength=int(places.max()) + 1)
-        counts[0] = 0
-        best = int(np.argmax(counts))
-        scores[name] = float(counts[best] / ((rooms == room).sum() + ((places == best) & (rooms != room)).sum()))
+    for name, (best, iou) in zip(world_room_names(loaded), best_places(places, world_rooms(loaded, frame))):
+        scores[name] = iou
         names[name] = named.get(best, "")
     return scores, names
 
