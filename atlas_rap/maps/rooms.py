@@ -543,9 +543,7 @@ def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: 
     holds no core (it then joins a neighbour, :func:`merge_regions`).
     """
     height, width = clearance.shape
-    padded = np.pad(clearance, ((0, height % 2), (0, width % 2)))
-    blocks = np.minimum(np.minimum(padded[::2, ::2], padded[1::2, ::2]),
-                        np.minimum(padded[::2, 1::2], padded[1::2, 1::2]))
+    blocks = _least_of_2x2(clearance)
     lo, hi = (w / 2 for w in settings.door_width)
     levels = np.linspace(lo, hi, max(2, int(math.ceil((hi - lo) / NARROWING_STEP)) + 1))
     small = narrowing_cores(blocks, levels, 4 * resolution * resolution, settings.core_area, settings.door_ratio)
@@ -567,10 +565,22 @@ def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: 
     block_labels = np.pad(labels, ((0, height % 2), (0, width % 2)))[::2, ::2]
     inside = split[block_labels] & (blocks > 0)
     parts = watershed(-blocks, np.where(inside, small, 0), mask=inside)
-    parts = np.repeat(np.repeat(parts, 2, axis=0), 2, axis=1)[:height, :width]
-    out = np.where(split[labels], 0, labels)
-    np.add(parts, count, out=out, where=parts > 0)
+    keep = np.arange(count + 1, dtype=labels.dtype)
+    keep[split] = 0
+    out = keep[labels]
+    parts[parts > 0] += count
+    for dr in (0, 1):  # each cell of a block that a part covers takes the part
+        for dc in (0, 1):
+            view = out[dr::2, dc::2]
+            block = parts[:view.shape[0], :view.shape[1]]
+            np.copyto(view, block, where=block > 0)
     return out, coreless
+
+
+def _least_of_2x2(values: np.ndarray) -> np.ndarray:
+    """The least value of each block of 2 x 2 cells (an odd last row or column is padded with 0)."""
+    padded = np.pad(values, ((0, values.shape[0] % 2), (0, values.shape[1] % 2)))
+    return np.minimum(np.minimum(padded[::2, ::2], padded[1::2, ::2]), np.minimum(padded[::2, 1::2], padded[1::2, 1::2]))
 
 
 def _walls(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:

@@ -248,7 +248,7 @@ def build_topology(trace: SkeletonTrace, dt: np.ndarray, p_occ: np.ndarray, fram
         graph.add_node(new_id[n], kind=kind, branches=branches, cell=(r, c), xy=(x, y),
                        clearance=float(dt[r, c]), place=int(labels[r, c]))
     # Python values of every edge at once (one conversion each, not one per edge).
-    cell_pairs = list(map(tuple, all_cells.tolist()))
+    cell_pairs = list(zip(all_cells[:, 0].tolist(), all_cells[:, 1].tolist()))
     support_values = support.tolist()
     on_place = labels[all_cells[:, 0], all_cells[:, 1]] if len(all_cells) else np.zeros(0, dtype=labels.dtype)
     place_values = on_place.tolist()
