@@ -1,4 +1,5 @@
-"""Places that are rooms: room segmentation scored against ground truth on generated floor plans,
+"""Places that are rooms: room segmentation scored against ground truth on generated floor plans
+(plain, hard, scanned like SLAM) and on a real building (g4s_y2, when ../shared/data is there),
 and the door rules on small plans drawn here (a door at a corner, wider than its corridor, a gap
 beside a desk, a closet too small to be a room)."""
 
