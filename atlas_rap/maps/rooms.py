@@ -24,21 +24,22 @@ drawn maps, robots' scans and maps built from sonar:
    the other, which a gap between a desk and a wall does not do. On a map
    that draws its walls as unknown, every cell that is not free is wall.
    The configuration space cut along the doorways is labelled; a doorway
-   whose two sides are joined anyway is no door. The other free cells go
-   to the region they touch, and regions merge (:func:`merge_regions`, as
-   ipa_room_segmentation does): one smaller than ``min_room_area`` joins
-   the neighbour it shares the longest border with, one sharing more than
-   ``open_border`` of its perimeter with a neighbour joins it.
+   whose two sides are joined anyway is no door.
 3. **Narrowings between room-sized spaces** (the morphological and distance
    methods of ipa_room_segmentation, as one tree: :func:`narrowing_cores`).
    Within each region, the space where the clearance is above each level
    from half the narrowest door to half the widest falls apart as the level
    passes the half-width of each narrowing. Where a region holds two
-   pieces of at least ``core_area`` at some level, the narrowing between
-   them is a door: the region is divided among its pieces by a watershed
-   of the clearance, so the boundary runs through the narrowing. A region
-   with no such piece (a nook, the gap behind a row of chairs) is not a
-   room and joins a neighbour; then the merging of step 2 runs again.
+   pieces of at least ``core_area``, each with a clearance well above the
+   narrowing's (``door_ratio``), the narrowing between them is a door: the
+   region is divided among its pieces by a watershed of the clearance, so
+   the boundary runs through the narrowing.
+4. **Merging** (:func:`merge_regions`, as ipa_room_segmentation does). The
+   other free cells go to the region they touch; then a region with no
+   piece of step 3 (a nook, the gap behind a row of chairs) or smaller
+   than ``min_room_area`` joins the neighbour it shares the longest border
+   with, and one sharing more than ``open_border`` of its perimeter with a
+   neighbour joins it.
 
 **Why both.** Step 2 reads the walls: on drawn plans it holds where a door
 is as wide as its corridor, and it ignores a gap beside a desk; but it
@@ -48,20 +49,20 @@ doors. Step 3 needs no wall at all (wall thickness, jambs, a door at a
 wall's end, walls read as unknown: none of it matters), but it cannot tell
 a room from a corridor no wider than its door, and a table can leave two
 room-sized halves. Each alone, and both, measured on 2026-12-04
-(``benchmarks/bench_places.py``; hard generated plans, seeds 0-9, rooms
-with a place of IoU >= 0.5, clean / furnished; the real building g4s_y2,
-15 rooms):
+(``benchmarks/bench_places.py``; generated plans ``tests/floorplans.py``,
+seeds 0-49, hard and scanned like SLAM, rooms with a place of IoU >= 0.5,
+clean / furnished; the real building g4s_y2, 15 rooms):
 
-============================  ===============  ===========================
-method                        hard plans       g4s_y2 (rooms, precision)
-============================  ===============  ===========================
-doors in walls (step 2)       0.996 / 0.982    4 / 15, 0.64
-narrowings (step 3) alone     0.972 / 0.876    10 / 15 at best, 0.79
-both                          0.996 / 0.991    9 / 15, 0.86
-============================  ===============  ===========================
+===========================  =============  =============  =====================
+method                       hard plans     SLAM-like      g4s_y2 (rooms, prec.)
+===========================  =============  =============  =====================
+doors in walls (step 2)      0.981 / 0.943  0.461 / 0.420  4 / 15, 0.64
+narrowings (step 3) alone    0.973 / 0.838  0.905 / 0.761  10 / 15 at best, 0.79
+both                         0.993 / 0.959  0.950 / 0.895  9 / 15, 0.88
+===========================  =============  =============  =====================
 
 (Step 3 alone was a prototype: the tree on the whole free space, grown by
-watershed, with the merging of step 2.) What still fails on g4s_y2: the
+watershed, with the merging of step 4.) What still fails on g4s_y2: the
 corridor, which meets the long hall beside it through openings as wide as
 itself, so pieces of it go to the hall's parts, and rooms whose clutter
 leaves two room-sized halves. Telling those apart needs the building's
@@ -110,7 +111,7 @@ class RoomSettings:
       perimeter with one neighbour joins it (it is part of that room).
     - ``core_area``: a narrowing no wider than a door splits a region when
       the space beyond it on each side still holds this much room for the
-      robot's centre at the narrowing's clearance (step 4: a room's core;
+      robot's centre at the narrowing's clearance (step 3: a room's core;
       a nook behind a desk, or a corner between chairs, has less).
     """
 
@@ -193,7 +194,7 @@ def doorways(points: np.ndarray, nearest: np.ndarray, walls: np.ndarray, resolut
     ``nearest`` is the nearest obstacle cell of every cell ((2, H, W) rows
     and columns: the feature transform the distance transform was computed
     with), ``walls`` the cells that count as wall. See the module docstring,
-    step 3: the critical line runs from the point's nearest obstacle to the
+    step 2: the critical line runs from the point's nearest obstacle to the
     nearest obstacle on the other side (within 45 degrees of straight
     across), its free width is a door's, a thin wall goes on in line beyond
     one end and a wall or a corner is at the other. Vectorised over all the
@@ -415,7 +416,7 @@ def region_borders(labels: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarr
 
 def merge_regions(labels: np.ndarray, resolution: float, settings: RoomSettings = RoomSettings(), *,
                   join: np.ndarray | None = None) -> np.ndarray:
-    """Merge regions that are not rooms of their own (module docstring, step 5); labels renumbered 1..N.
+    """Merge regions that are not rooms of their own (module docstring, step 4); labels renumbered 1..N.
 
     ``join`` (one flag per label, 0..max) marks regions that join their
     neighbour whatever their size and shape (those without a room's core).
@@ -528,7 +529,7 @@ NARROWING_STEP = 0.1
 
 def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: float,
                          settings: RoomSettings) -> tuple[np.ndarray, np.ndarray]:
-    """Split the regions that narrowings no wider than a door cut into cores (step 4); which have none.
+    """Split the regions that narrowings no wider than a door cut into cores (step 3); which have none.
 
     The cores (:func:`narrowing_cores`, on blocks of 2 x 2 cells: their
     least clearance, so a doorway's cut line and the border between two
@@ -580,7 +581,8 @@ def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: 
 def _least_of_2x2(values: np.ndarray) -> np.ndarray:
     """The least value of each block of 2 x 2 cells (an odd last row or column is padded with 0)."""
     padded = np.pad(values, ((0, values.shape[0] % 2), (0, values.shape[1] % 2)))
-    return np.minimum(np.minimum(padded[::2, ::2], padded[1::2, ::2]), np.minimum(padded[::2, 1::2], padded[1::2, 1::2]))
+    return np.minimum(np.minimum(padded[::2, ::2], padded[1::2, ::2]),
+                      np.minimum(padded[::2, 1::2], padded[1::2, 1::2]))
 
 
 def _walls(free: np.ndarray, occupied: np.ndarray) -> np.ndarray:
