@@ -80,5 +80,3 @@ def test_the_sonar_built_office_building_has_a_place_named_after_each_room_off_i
     scores, names = _built_places("office-building", tmp_path)
     rooms = [f"office-{i}" for i in range(1, 6)] + ["conference-room"]
     assert all(scores[room] >= 0.5 and names[room] == room for room in rooms), (scores, names)
-    halls = {names[part] for part in ("west-hall", "east-hall", "elevator-lobby")}
-    assert len(halls) == 1 and halls <= {"west-hall", "east-hall", "elevator-lobby"}, names
