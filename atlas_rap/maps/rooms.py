@@ -518,7 +518,7 @@ def segment_rooms(free: np.ndarray, occupied: np.ndarray, dt: np.ndarray, neares
         one, two = _side_cells(door, cspace, cut, reach)
         if one is not None and two is not None and labels[one] and labels[two] and labels[one] != labels[two]:
             separating.append(door)
-    labels, coreless = _split_at_narrowings(labels, np.where(labels > 0, dt, 0.0), resolution, settings)
+    labels, coreless = _split_at_narrowings(labels, dt, resolution, settings)
     _grow(labels, free & (labels == 0), nearest, robot_radius / resolution)
     return merge_regions(labels, resolution, settings, join=coreless), separating
 
@@ -527,29 +527,29 @@ NARROWING_STEP = 0.1
 """Metres between the clearance levels at which :func:`narrowing_cores` looks for splits."""
 
 
-def _split_at_narrowings(labels: np.ndarray, clearance: np.ndarray, resolution: float,
+def _split_at_narrowings(labels: np.ndarray, dt: np.ndarray, resolution: float,
                          settings: RoomSettings) -> tuple[np.ndarray, np.ndarray]:
     """Split the regions that narrowings no wider than a door cut into cores (step 3); which have none.
 
     The cores (:func:`narrowing_cores`, on blocks of 2 x 2 cells: their
-    least clearance, so a doorway's cut line and the border between two
-    regions stay closed) are looked for at the clearances of the doors
-    (half of ``door_width``). A region holding two or more is divided
-    among them by a watershed of the blocks' clearance, so each boundary
-    runs through the narrowing; the other regions keep their labels, and
-    the parts of a split region take labels after them, in the order of
-    their cores. The cells of a split region that no part's blocks cover
-    (within a cell or two of its walls and borders) are left 0 for
+    least clearance ``dt``, and none where a cell of the block is in no
+    region, so a doorway's cut line stays closed) are looked for at the
+    clearances of the doors (half of ``door_width``). A region holding two
+    or more is divided among them by a watershed of the blocks' clearance,
+    so each boundary runs through the narrowing; the other regions keep
+    their labels, and the parts of a split region take labels after them,
+    in the order of their cores. The cells of a split region that no
+    part's blocks cover (within a cell or two of its edges) are left 0 for
     :func:`_grow`. Returns the labels and, per label, whether the region
     holds no core (it then joins a neighbour, :func:`merge_regions`).
     """
-    height, width = clearance.shape
-    blocks = _least_of_2x2(clearance)
+    height, width = dt.shape
+    blocks = np.where(_least_of_2x2(labels) > 0, _least_of_2x2(dt), 0.0)
     lo, hi = (w / 2 for w in settings.door_width)
     levels = np.linspace(lo, hi, max(2, int(math.ceil((hi - lo) / NARROWING_STEP)) + 1))
     small = narrowing_cores(blocks, levels, 4 * resolution * resolution, settings.core_area, settings.door_ratio)
     count = int(labels.max()) if labels.size else 0
-    # Every block of a core lies in one region (the borders between regions have no clearance).
+    # Every block of a core lies in one region (regions are apart: cut lines and walls lie between them).
     rows, cols = np.nonzero(small)
     region_of = np.zeros(int(small.max()) + 1 if small.size else 1, dtype=np.int64)
     region_of[small[rows, cols]] = labels[2 * rows, 2 * cols]
