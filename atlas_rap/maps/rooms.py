@@ -543,16 +543,17 @@ def _split_at_narrowings(labels: np.ndarray, dt: np.ndarray, resolution: float,
     :func:`_grow`. Returns the labels and, per label, whether the region
     holds no core (it then joins a neighbour, :func:`merge_regions`).
     """
-    height, width = dt.shape
-    blocks = np.where(_least_of_2x2(labels) > 0, _least_of_2x2(dt), 0.0)
+    # Regions never touch (cut lines and walls lie between them): a block with a cell in no region gets no
+    # clearance, and every other block lies wholly in one region, whose label is the block's least.
+    block_labels = _least_of_2x2(labels)
+    blocks = np.where(block_labels > 0, _least_of_2x2(dt), 0.0)
     lo, hi = (w / 2 for w in settings.door_width)
     levels = np.linspace(lo, hi, max(2, int(math.ceil((hi - lo) / NARROWING_STEP)) + 1))
     small = narrowing_cores(blocks, levels, 4 * resolution * resolution, settings.core_area, settings.door_ratio)
     count = int(labels.max()) if labels.size else 0
-    # Every block of a core lies in one region (regions are apart: cut lines and walls lie between them).
     rows, cols = np.nonzero(small)
     region_of = np.zeros(int(small.max()) + 1 if small.size else 1, dtype=np.int64)
-    region_of[small[rows, cols]] = labels[2 * rows, 2 * cols]
+    region_of[small[rows, cols]] = block_labels[rows, cols]
     per_region = np.bincount(region_of[1:], minlength=count + 1)
     split = per_region >= 2
     split[0] = False
@@ -562,8 +563,6 @@ def _split_at_narrowings(labels: np.ndarray, dt: np.ndarray, resolution: float,
         return labels, coreless[:count + 1]
     from skimage.segmentation import watershed
 
-    # The blocks with clearance lie wholly in one region: the one of their first cell.
-    block_labels = np.pad(labels, ((0, height % 2), (0, width % 2)))[::2, ::2]
     inside = split[block_labels] & (blocks > 0)
     parts = watershed(-blocks, np.where(inside, small, 0), mask=inside)
     keep = np.arange(count + 1, dtype=labels.dtype)
