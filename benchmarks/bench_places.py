@@ -114,13 +114,9 @@ def bench_real_map() -> None:
 
 
 def bench_worlds() -> None:
-    import json
     import subprocess
 
-    from floorplans import best_places, world_room_names, world_rooms
-
-    from atlas_rap.maps.frame import GridFrame
-    from atlas_rap.sim.world import load_world
+    from floorplans import built_world_scores
 
     for world in ("lab-corridor-office", "office-building", "maze"):
         with tempfile.TemporaryDirectory() as out:
@@ -132,14 +128,11 @@ def bench_worlds() -> None:
                 emit({"bench": "places-worlds", "world": world, "error": done.stderr.strip().splitlines()[-1:]})
                 continue
             with np.load(Path(out) / "grid.npz") as data:
-                places, frame = data["places"], GridFrame.from_array(data["frame"])
-            named = {int(k): v for k, v in json.loads((Path(out) / "topology.json").read_text())["place_names"].items()}
-        loaded = load_world(world)
-        found = best_places(places, world_rooms(loaded, frame))
-        regions = {name: {"iou": round(iou, 3), "place": named.get(best, ""),
-                          "ok": iou >= 0.5 and named.get(best) == name}
-                   for name, (best, iou) in zip(world_room_names(loaded), found)}
-        emit({"bench": "places-worlds", "world": world, "places": int(places.max()),
+                places = int(data["places"].max())
+            found = built_world_scores(out, world)
+        regions = {name: {"iou": round(iou, 3), "place": place, "ok": iou >= 0.5 and place == name}
+                   for name, (iou, place) in found.items()}
+        emit({"bench": "places-worlds", "world": world, "places": places,
               "named_regions_with_their_place": sum(r["ok"] for r in regions.values()), "regions": len(regions),
               "build_s": round(seconds, 1), "detail": regions})
 

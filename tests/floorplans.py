@@ -186,7 +186,7 @@ __all__ = [
     "HARD_ROTATION", "HARD_WALL_THICKNESS", "OPEN_PLAN_AREA", "ROBOT_RADIUS", "ROOMS_PER_PLAN",
     "ROOM_AREA", "SECOND_DOOR_ODDS", "SLAM_ANTIALIAS", "SLAM_PATCH", "SLAM_UNSEEN_RUN", "SLAM_UNSEEN_SHARE",
     "SLIVER", "WALL_THICKNESS", "WING_CORRIDOR_WIDTH", "WING_LAYOUTS", "WING_ROOM_DEPTH", "WING_ROOM_WIDTH",
-    "WING_SHARE", "Door", "FloorPlan", "Furniture", "Score", "best_places", "generate_plan",
+    "WING_SHARE", "Door", "FloorPlan", "Furniture", "Score", "best_places", "built_world_scores", "generate_plan",
     "read_truth", "robot_space", "score", "world_room_names", "world_rooms", "write_plan",
 ]
 
@@ -2117,6 +2117,21 @@ def best_places(places: np.ndarray, rooms: np.ndarray) -> list[tuple[int, float]
         union = region.sum() + ((places == best) & ~region).sum()
         found.append((best, float(counts[best] / union) if counts[best] else 0.0))
     return found
+
+
+def built_world_scores(folder: str | Path, world: Any) -> dict[str, tuple[float, str]]:
+    """Score the levels ``atlas map build`` wrote to ``folder`` against ``world``'s named regions: for each
+    region, the IoU of the place covering most of it and the name that place took ("" for none)."""
+    from atlas_rap.sim.world import load_world
+
+    folder = Path(folder)
+    with np.load(folder / "grid.npz") as data:
+        places, frame = data["places"], GridFrame.from_array(data["frame"])
+    topology = json.loads((folder / "topology.json").read_text(encoding="utf-8"))
+    named = {int(label): name for label, name in topology["place_names"].items()}
+    loaded = load_world(world) if isinstance(world, str) else world
+    return {name: (iou, named.get(best, ""))
+            for name, (best, iou) in zip(world_room_names(loaded), best_places(places, world_rooms(loaded, frame)))}
 
 
 def world_room_names(world: Any) -> tuple[str, ...]:

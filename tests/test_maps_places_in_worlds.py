@@ -8,7 +8,7 @@ import json
 
 import numpy as np
 from cli_process import REPO, assert_no_traceback, atlas
-from floorplans import best_places, world_room_names, world_rooms
+from floorplans import best_places, built_world_scores, world_rooms
 
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.inference import InferenceGrid
@@ -54,16 +54,8 @@ def _built_places(world: str, tmp_path) -> tuple[dict[str, float], dict[str, str
     done = atlas("map", "build", "--world", world, "--out", "built", cwd=tmp_path)
     assert_no_traceback(done)
     assert done.returncode == 0, done.stderr
-    with np.load(tmp_path / "built" / "grid.npz") as data:
-        places, frame = data["places"], GridFrame.from_array(data["frame"])
-    topology = json.loads((tmp_path / "built" / "topology.json").read_text(encoding="utf-8"))
-    named = {int(label): name for label, name in topology["place_names"].items()}
-    loaded = load_world(world)
-    scores, names = {}, {}
-    for name, (best, iou) in zip(world_room_names(loaded), best_places(places, world_rooms(loaded, frame))):
-        scores[name] = iou
-        names[name] = named.get(best, "")
-    return scores, names
+    found = built_world_scores(tmp_path / "built", world)
+    return {name: iou for name, (iou, _) in found.items()}, {name: place for name, (_, place) in found.items()}
 
 
 def test_the_sonar_built_lab_corridor_office_has_a_place_named_after_each_of_its_four_rooms(tmp_path):
