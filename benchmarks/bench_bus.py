@@ -183,13 +183,13 @@ def bus_protocol(events: int, pings: int, rounds: int) -> None:
 
 def run_deliver(bus, trace_path: Path) -> tuple[float, float, bool]:
     """deliver.rap once (``bus``: a BusSettings, or None in one process); (wall seconds, simulated seconds, ok)."""
-    from atlas_rap.layers import MissionEngine
+    from atlas_rap.layers import MissionEngine, RunOptions
     from atlas_rap.sequencer import JsonlSink, Trace
 
     trace = Trace()
     sink = JsonlSink(trace_path)
     trace.add_sink(sink)
-    engine = MissionEngine(trace=trace, bus=bus)
+    engine = MissionEngine(RunOptions(bus=bus), trace=trace)
     engine.load_file(MISSION, require_post=True)
     start = time.perf_counter()
     result = engine.run_mission(600)

@@ -67,10 +67,10 @@ def bench_experiment(runs: int) -> None:
 
 
 def one_errand(mission: Path, **options) -> tuple[float, float]:
-    from atlas_rap.layers import MissionEngine
+    from atlas_rap.layers import MissionEngine, RunOptions
 
     started = time.perf_counter()
-    engine = MissionEngine(None, seed=0, **options)
+    engine = MissionEngine(RunOptions(seed=0, **options))
     engine.load_file(mission, require_post=True)
     result = engine.run_mission(900)
     assert result.ok, result

@@ -38,10 +38,10 @@ def emit(record: dict) -> None:
 
 def run_once(record_to: Path | None, prior_map: bool) -> tuple[float, float, int]:
     """One run of deliver.rap; (wall seconds of the run and the recorder's close, simulated seconds, MCAP bytes)."""
-    from atlas_rap.layers import MissionEngine
+    from atlas_rap.layers import MissionEngine, RunOptions
     from atlas_rap.layers.recording import RunRecorder
 
-    engine = MissionEngine(None, seed=0, prior_map=prior_map)
+    engine = MissionEngine(RunOptions(seed=0, prior_map=prior_map))
     recorder = RunRecorder(engine, path=record_to) if record_to is not None else None
     engine.load_file(MISSION, require_post=True)
     start = time.perf_counter()

@@ -57,9 +57,9 @@ def drive(with_sonar: bool) -> tuple[float, float, int]:
 
 def run_stack() -> tuple[float, float, bool]:
     """Run deliver.rap in-process with the whole stack; (wall seconds, simulated seconds, ok)."""
-    from atlas_rap.layers import MissionEngine
+    from atlas_rap.layers import MissionEngine, RunOptions
 
-    engine = MissionEngine(WORLD, seed=0)
+    engine = MissionEngine(RunOptions(world=WORLD, seed=0))
     engine.load_file(MISSION, require_post=True)
     start = time.perf_counter()
     result = engine.run_mission(600)

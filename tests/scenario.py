@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from atlas_rap.lang import parse_term
-from atlas_rap.layers import MissionEngine
+from atlas_rap.layers import MissionEngine, RunOptions
 from atlas_rap.logic import term_to_str
 from atlas_rap.sequencer import Trace, agenda_tree, tree_text
 
@@ -32,7 +32,7 @@ LAST_RECORDS = 30
 
 def load_mission(path: Path | str, trace: Trace | None = None) -> MissionEngine:
     """A mission loaded as `atlas run --world none` loads it (virtual skills, no world), not yet run."""
-    engine = MissionEngine(default_world="none", trace=trace)
+    engine = MissionEngine(RunOptions(default_world="none"), trace=trace)
     engine.load_file(path, require_post=True)
     return engine
 

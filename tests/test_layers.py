@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from atlas_rap.layers import MissionEngine
+from atlas_rap.layers import MissionEngine, RunOptions
 from atlas_rap.layers.experiment import Settings, errand_file, skill_acquisition
 from atlas_rap.sequencer import Trace
 from atlas_rap.shipped import shipped_root
@@ -37,7 +37,7 @@ def traced_run(world: str, out: Path, map_in: Path | None, **options):
     records: list[dict] = []
     trace = Trace()
     trace.add_sink(lambda record: records.append(record))
-    engine = MissionEngine(world, seed=0, prior_map=False, map_in=map_in, trace=trace, **options)
+    engine = MissionEngine(RunOptions(world=world, seed=0, prior_map=False, map_in=map_in, **options), trace=trace)
     engine.load_file(errand_file(out, Settings()), require_post=True)
     result = engine.run_mission(900)
     return engine, result, records
@@ -155,7 +155,7 @@ def mission_with_layers(layers: tuple[str, ...]):
     records: list[dict] = []
     trace = Trace()
     trace.add_sink(lambda record: records.append(record))
-    engine = MissionEngine(None, layers=layers, trace=trace)
+    engine = MissionEngine(RunOptions(layers=tuple(layers)), trace=trace)
     engine.load_file(REPO / "rap_library" / "missions" / "deliver.rap")
     return engine, engine.run_mission(300), records
 

@@ -309,10 +309,10 @@ def test_driving_lab_office_lab_gives_map_quality_above_0_9(mapped) -> None:
 
 
 def test_layer_iv_fuses_each_new_ring_once_into_the_shared_grid() -> None:
-    from atlas_rap.layers import MissionEngine
+    from atlas_rap.layers import MissionEngine, RunOptions
     from atlas_rap.skills.beliefs import GRID, POSES
 
-    engine = MissionEngine(WORLD, seed=0, prior_map=False)
+    engine = MissionEngine(RunOptions(world=WORLD, seed=0, prior_map=False))
     engine.start()
     beliefs = engine.manager.context.beliefs
     grid = beliefs[GRID]

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from cli_process import ENV, REPO, assert_no_traceback, atlas, atlas_command
 
-from atlas_rap.layers import MissionEngine
+from atlas_rap.layers import MissionEngine, RunOptions
 from atlas_rap.sequencer import Trace
 
 MISSIONS = sorted((REPO / "rap_library" / "missions").glob("*.rap"))
@@ -45,7 +45,7 @@ def test_every_shipped_mission_loads_in_the_repl_and_runs_to_the_same_end_as_atl
 @pytest.mark.parametrize("seed", [0, 1, 2])
 @pytest.mark.parametrize("mission", MISSIONS, ids=lambda path: path.name)
 def test_every_skill_a_task_enabled_is_disabled_before_the_trace_ends(mission, seed):
-    engine = MissionEngine(seed=seed, trace=Trace(keep=True))
+    engine = MissionEngine(RunOptions(seed=seed), trace=Trace(keep=True))
     engine.load_file(mission, require_post=True)
     engine.run_mission(900)
     records = engine.trace.records

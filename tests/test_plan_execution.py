@@ -15,7 +15,7 @@ import pytest
 from cli_process import REPO, assert_no_traceback, atlas
 
 from atlas_rap.lang import load_text, parse_term
-from atlas_rap.layers import MissionEngine
+from atlas_rap.layers import MissionEngine, RunOptions
 from atlas_rap.layers.deliberation import Deliberation, charged_latency, plan_for
 from atlas_rap.planner.problem import PlanningProblem
 from atlas_rap.sequencer import Trace
@@ -272,7 +272,7 @@ def test_on_a_worker_the_clock_keeps_ticking_while_the_planner_works() -> None:
         return plan
 
     program = load_text(PACKING + "(initial (on-shelf cup))\n", "<packing>")
-    engine = MissionEngine(world="none")
+    engine = MissionEngine(RunOptions(world="none"))
     engine.load(program)
     timers = Timers()
     deliberation = Deliberation(engine.planning_problem, timers, worker=True, planner=held_planner)
@@ -296,7 +296,7 @@ def test_on_a_worker_the_clock_keeps_ticking_while_the_planner_works() -> None:
 
 def test_in_simulated_time_the_latency_is_a_count_and_the_clock_is_not_held() -> None:
     program = load_text(PACKING + "(initial (on-shelf cup))\n", "<packing>")
-    engine = MissionEngine(world="none")
+    engine = MissionEngine(RunOptions(world="none"))
     engine.load(program)
     timers = Timers()
     deliberation = Deliberation(engine.planning_problem, timers)

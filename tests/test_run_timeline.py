@@ -247,9 +247,9 @@ def test_atlas_run_render_a_run_without_plans(tmp_path) -> None:
 def test_the_run_picture_keeps_what_the_timeline_needs() -> None:
     """RunPicture keeps tasks at most one level down (first selection, method changes, end) and the plan
     steps' tasks' method changes, not every record."""
-    from atlas_rap.layers import MissionEngine, RunPicture
+    from atlas_rap.layers import MissionEngine, RunOptions, RunPicture
 
-    engine = MissionEngine("none", seed=0)
+    engine = MissionEngine(RunOptions(world="none", seed=0))
     picture = RunPicture(engine)
     engine.load_file(REPO / "rap_library" / "missions" / "evahr.rap", require_post=True)
     assert engine.run_mission().ok
@@ -269,9 +269,9 @@ def test_the_run_picture_keeps_what_the_timeline_needs() -> None:
 
 
 def test_the_run_picture_leaves_out_tasks_two_levels_down() -> None:
-    from atlas_rap.layers import MissionEngine, RunPicture
+    from atlas_rap.layers import MissionEngine, RunOptions, RunPicture
 
-    engine = MissionEngine("none", seed=0)
+    engine = MissionEngine(RunOptions(world="none", seed=0))
     picture = RunPicture(engine)
     engine.load_file(REPO / "rap_library" / "missions" / "site-visit.rap", require_post=True)
     assert engine.run_mission().ok

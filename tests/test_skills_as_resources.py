@@ -254,9 +254,9 @@ def test_always_on_skills_belong_to_no_task(tmp_path):
 
 
 def test_mapping_is_layer_ivs_and_no_task_can_take_it():
-    from atlas_rap.layers import MissionEngine
+    from atlas_rap.layers import MissionEngine, RunOptions
 
-    engine = MissionEngine("lab-corridor-office", mapping=True)
+    engine = MissionEngine(RunOptions(world="lab-corridor-office", mapping=True))
     engine.start()
     assert "map-builder" not in engine.skills.skills()
     engine.advance(1.0)  # no task posted: Layer IV maps all the same

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from atlas_rap.layers import MissionEngine, RunResult
+from atlas_rap.layers import MissionEngine, RunOptions, RunResult
 from atlas_rap.sequencer import Trace, agenda_tree, tree_text
 
 REPO = Path(__file__).resolve().parent.parent
@@ -33,7 +33,7 @@ class WorldRun:
 
 def run_in_world(mission_file: str | Path, world: str | None = None, seed: int = 0, until: float = 600.0) -> WorldRun:
     """Load and run a mission in its world (or ``world``), keeping the whole trace."""
-    engine = MissionEngine(world, seed=seed, trace=Trace(keep=True))
+    engine = MissionEngine(RunOptions(world=world, seed=seed), trace=Trace(keep=True))
     engine.load_file(mission_file, require_post=True)
     return WorldRun(engine, engine.run_mission(until))
 

@@ -65,7 +65,7 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
 
     from atlas_rap.cli.console import console
     from atlas_rap.errors import AtlasError
-    from atlas_rap.layers import MissionEngine
+    from atlas_rap.layers import MissionEngine, RunOptions
     from atlas_rap.maps.inference import InferenceGrid
     from atlas_rap.maps.levels import abstract_map, write_levels
     from atlas_rap.outputs import naming, write_all
@@ -75,7 +75,7 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
     if world == "none":
         raise click.UsageError("atlas map build needs a world to drive in, not 'none'")
     out = Path(out_dir)
-    engine = MissionEngine(world, seed=seed, mapping=True)
+    engine = MissionEngine(RunOptions(world=world, seed=seed, mapping=True))
     path = resolve_user_path(mission_file) if mission_file else _tour_mission(world, out)
     engine.load_file(path)
     check_outputs(click.get_current_context(), engine_inputs(engine))

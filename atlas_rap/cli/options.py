@@ -20,8 +20,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING
 
 import click
+
+if TYPE_CHECKING:  # downward only; imported when a run is built, so every command starts quickly
+    from atlas_rap.layers import RunOptions
+    from atlas_rap.skillbus.remote import BusSettings
 
 
 class FiniteRange(click.FloatRange):
@@ -200,9 +205,18 @@ def parse_layers(value: str) -> tuple[str, ...]:
     return names
 
 
-def layer_engine_options(no_prior_map: bool, map_in: str | None, map_out: str | None, layers: tuple[str, ...],
-                         layer_rules: str | None) -> dict:
-    """The mission engine's keyword arguments for the layer options (``--map-out`` checked)."""
+def run_options(*, world: str | None = None, seed: int = 0, default_world: str | None = None,
+                topology: str | None = None, mapping: bool = False, realtime: bool = False,
+                bus: BusSettings | None = None, no_prior_map: bool = False, map_in: str | None = None,
+                map_out: str | None = None, layers: tuple[str, ...] | None = None,
+                layer_rules: str | None = None) -> RunOptions:
+    """What a run is asked for, from a command's options, built once (``--map-out`` checked)."""
+    from atlas_rap.layers import RunOptions
+
     if map_out and not (no_prior_map or map_in):
         raise click.UsageError("--map-out needs a map built while driving: add --no-prior-map or --map-in")
-    return {"prior_map": not no_prior_map, "map_in": map_in, "layers": layers, "layer_rules": layer_rules}
+    defaults = RunOptions()
+    return RunOptions(world=world, default_world=default_world or defaults.default_world, seed=seed,
+                      topology=topology, mapping=mapping, prior_map=not no_prior_map, map_in=map_in, map_out=map_out,
+                      layers=tuple(layers) if layers is not None else defaults.layers, layer_rules=layer_rules,
+                      realtime=realtime, bus=bus)

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Iterable, Iterator, TextIO
 import click
 
 from atlas_rap.cli.bus_options import bus_options, check_bus_options
-from atlas_rap.cli.options import POSITIVE, SEED, OutputFile, layer_engine_options, layer_options, world_help
+from atlas_rap.cli.options import POSITIVE, SEED, OutputFile, layer_options, run_options, world_help
 
 if TYPE_CHECKING:
     from atlas_rap.skillbus.remote import BusSettings
@@ -59,13 +59,11 @@ def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str |
     interactive = sys.stdin.isatty()
     width = None if interactive else 200
     out, err = console(width=width), console(err=True, width=width)
-    layering = layer_engine_options(no_prior_map, map_in, map_out, layers, layer_rules)
+    options = run_options(world=world, seed=seed, default_world="none", bus=bus, no_prior_map=no_prior_map,
+                          map_in=map_in, map_out=map_out, layers=layers, layer_rules=layer_rules)
     check_bus_options(bus, **{"--world": world, "--no-prior-map": no_prior_map, "--map-in": map_in,
                       "--layers": tuple(layers) != ("I", "II", "III", "IV")})
-    if bus is not None:
-        layering.update(bus=bus)
-    session = Session(world, seed, out=out, err=err, trace_file=trace_file, verbose=verbose, map_out=map_out,
-                      engine_options=layering)
+    session = Session(options, out=out, err=err, trace_file=trace_file, verbose=verbose)
     try:
         for path in files:
             session.load_file(path)

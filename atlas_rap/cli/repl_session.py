@@ -57,7 +57,7 @@ import math
 import shlex
 import threading
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from rich.console import Console
 
@@ -67,6 +67,12 @@ from atlas_rap.lang.reader import Forms, SList, read_text
 from atlas_rap.lang.validator import MAX_SECONDS, to_term
 from atlas_rap.logic import Compound, Term, Var, is_anonymous, substitute, term_to_str, variables
 from atlas_rap.shipped import resolve_user_path
+
+if TYPE_CHECKING:  # downward only
+    from atlas_rap.layers import RunOptions
+    from atlas_rap.sequencer import Sequencer
+    from atlas_rap.skillbus.skill_link import CombinedSkills
+    from atlas_rap.skills.virtual import VirtualSkills
 
 COMMANDS = {
     ":agenda": "the task tree with each task's status",
@@ -92,19 +98,18 @@ _SPECIAL = ("?", "assert", "retract")
 class Session:
     """A mission engine (in a world, or none) ready for typed forms, queries and commands."""
 
-    def __init__(self, world: str | None = None, seed: int = 0, *, out: Console | None = None,
-                 err: Console | None = None, trace_file: str | None = None, verbose: bool = False,
-                 map_out: str | None = None, engine_options: dict | None = None) -> None:
+    def __init__(self, options: RunOptions | None = None, *, out: Console | None = None,
+                 err: Console | None = None, trace_file: str | None = None, verbose: bool = False) -> None:
         from atlas_rap.cli.views import LiveTrace
-        from atlas_rap.layers import MissionEngine, RunPicture
+        from atlas_rap.layers import MissionEngine, RunOptions, RunPicture
         from atlas_rap.sequencer import JsonlSink, Trace
 
         self.out = out or Console(highlight=False, soft_wrap=True)
         self.err = err or self.out
         self.trace = Trace(keep=True)
-        self.engine = MissionEngine(world, default_world="none", seed=seed, trace=self.trace,
-                                    **(engine_options or {}))
-        self.map_out = map_out
+        options = options if options is not None else RunOptions(default_world="none")
+        self.engine = MissionEngine(options, trace=self.trace)
+        self.map_out = options.map_out
         self.sink = JsonlSink(trace_file) if trace_file else None
         if self.sink is not None:
             self.trace.add_sink(self.sink)
@@ -120,13 +125,14 @@ class Session:
         self.failures = 0
 
     @property
-    def sequencer(self):
-        return self.engine.sequencer
+    def sequencer(self) -> Sequencer:
+        """The running sequencer (the session's world is built when first needed)."""
+        return self.engine.ensure_system().sequencer
 
     @property
-    def skills(self):
-        self.engine.sequencer
-        return self.engine.skills
+    def skills(self) -> CombinedSkills | VirtualSkills:
+        """The skills the session's RAPs can enable."""
+        return self.engine.ensure_system().skills
 
     # -- submissions -----------------------------------------------------
 
@@ -522,7 +528,7 @@ def _plan_request(form) -> ast.PlanRequest | None:
 def _is_layer_rule(form, engine) -> bool:
     """A definition read from the layers' switching rules (``--layer-rules``), which come with the world."""
     try:
-        return Path(form.loc.file).resolve() == Path(engine.layer_rules).resolve()
+        return Path(form.loc.file).resolve() == engine.options.rules_file.resolve()
     except (OSError, ValueError):
         return False
 

@@ -9,10 +9,14 @@ from typing import TYPE_CHECKING
 import click
 
 from atlas_rap.cli.bus_options import bus_options, check_bus_options
-from atlas_rap.cli.options import (LIVE_PORT, POSITIVE, SEED, OutputFile, check_outputs, engine_inputs,
-                                   layer_engine_options, layer_options, world_help)
+from atlas_rap.cli.options import (LIVE_PORT, POSITIVE, SEED, OutputFile, check_outputs, engine_inputs, layer_options,
+                                   run_options, world_help)
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # downward only
+    from rich.console import Console
+
+    from atlas_rap.layers import MissionEngine
+    from atlas_rap.layers.recording import RunRecorder
     from atlas_rap.skillbus.remote import BusSettings
 
 
@@ -62,54 +66,36 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     from atlas_rap.cli.console import console
     from atlas_rap.cli.views import LiveTrace, memory_table, summary, task_tree
     from atlas_rap.layers import MissionEngine, RunPicture
-    from atlas_rap.outputs import write_all
+    from atlas_rap.layers.observers import MapFile, PictureFile, observing
     from atlas_rap.sequencer import JsonlSink, agenda_tree
     from atlas_rap.shipped import resolve_user_path
 
     out, err = console(), console(err=True)
-    layering = layer_engine_options(no_prior_map, map_in, map_out, layers, layer_rules)
-    check_bus_options(bus, **{"--world": world, "--map": topology_file, "--render": render,
-                      "--live (the host serves the world live: atlas skills serve --live)": live, "--no-prior-map": no_prior_map, "--map-in": map_in,
-                      "--layers": tuple(layers) != ("I", "II", "III", "IV"), "--seed (the host's: atlas skills serve --seed)": seed})
-    realtime = live if realtime is None else realtime
-    engine = MissionEngine(world, seed=seed, topology=topology_file, realtime=realtime, bus=bus,
-                           **layering)
-    recorder = None
-    if record_file or live:
-        from atlas_rap.layers.recording import RunRecorder
-
-        recorder = RunRecorder(engine, path=record_file, live=live, port=live_port)
-        if recorder.url:
-            out.print(f"live: {recorder.url} (Foxglove: Open connection, Foxglove WebSocket)")
-            sys.stdout.flush()
-    picture = RunPicture(engine) if render else None
+    options = run_options(world=world, seed=seed, topology=topology_file, bus=bus, no_prior_map=no_prior_map,
+                          realtime=live if realtime is None else realtime, map_in=map_in, map_out=map_out,
+                          layers=layers, layer_rules=layer_rules)
+    check_bus_options(bus, **{
+        "--world": world, "--map": topology_file, "--render": render,
+        "--live (the host serves the world live: atlas skills serve --live)": live, "--no-prior-map": no_prior_map,
+        "--map-in": map_in, "--layers": tuple(layers) != ("I", "II", "III", "IV"),
+        "--seed (the host's: atlas skills serve --seed)": seed})
+    engine = MissionEngine(options)
+    recorder = _recorder(engine, record_file, live, live_port, out)
+    name = click.format_filename(mission_file)
+    picture = PictureFile(RunPicture(engine), render, name) if render else None
     sink = JsonlSink(trace_file) if trace_file else None
-    if sink is not None:
-        engine.trace.add_sink(sink)
-    if not quiet:
-        engine.trace.add_sink(LiveTrace(out, verbose=verbose))
-    try:
+    for observer in (sink, None if quiet else LiveTrace(out, verbose=verbose)):
+        if observer is not None:
+            engine.trace.add_sink(observer)
+    with observing({"--trace": sink, "--record": recorder, "--map-out": MapFile(engine, map_out) if map_out else None,
+                    "--render": picture}) as run:
         loaded = engine.load_file(resolve_user_path(mission_file), require_post=True)
         check_outputs(click.get_current_context(), engine_inputs(engine))
-    except BaseException:  # the run never started: every output stays as it was
-        if sink is not None:
-            sink.discard()
-        if recorder is not None:
-            recorder.discard()
-        raise
-    for warning in loaded.warnings:
-        err.print(warning.render(), style="yellow", markup=False)
-    name = click.format_filename(mission_file)
-    started = time.perf_counter()
-    try:
+        run.started()
+        for warning in loaded.warnings:
+            err.print(warning.render(), style="yellow", markup=False)
+        started = time.perf_counter()
         result = engine.run_mission(until, pace=recorder.pace if recorder is not None else None)
-    finally:  # what was asked for is written also when the run fails or is interrupted
-        failed = write_all({
-            "--trace": sink.close if sink is not None else None,
-            "--record": recorder.close if recorder is not None else None,
-            "--map-out": (lambda: engine.save_map(map_out)) if map_out and engine.grid is not None else None,
-            "--render": (lambda: picture.render(render, name)) if picture is not None else None,
-        })
     if show_agenda:
         out.print(task_tree(agenda_tree(engine.sequencer)))
     if show_memory:
@@ -121,11 +107,24 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     for option, path, what in (("--map-out", map_out if engine.grid is not None else None, "map"),
                                ("--trace", trace_file, "trace"), ("--render", render, "picture"),
                                ("--record", record_file, "recording")):
-        if path and option not in failed:
+        if path and option not in run.failed:
             out.print(f"{what} written to {path}", style="dim")
-    for error in failed.values():  # after the summary: the run's outcome is not lost
+    for error in run.failed.values():  # after the summary: the run's outcome is not lost
         err.print(str(error), markup=False)
     if result.ended_by == "interrupted":
         sys.exit(130)
-    sys.exit(1 if failed or not result.ok else 0)
+    sys.exit(1 if run.failed or not result.ok else 0)
 
+
+def _recorder(engine: MissionEngine, record_file: str | None, live: bool, port: int,
+              out: Console) -> RunRecorder | None:
+    """The MCAP recorder and live server of ``--record`` / ``--live`` (None when neither is asked for)."""
+    if not (record_file or live):
+        return None
+    from atlas_rap.layers.recording import RunRecorder
+
+    recorder = RunRecorder(engine, path=record_file, live=live, port=port)
+    if recorder.url:
+        out.print(f"live: {recorder.url} (Foxglove: Open connection, Foxglove WebSocket)")
+        sys.stdout.flush()
+    return recorder

@@ -1,5 +1,10 @@
 """The ATLAS layers: the run of a mission, from a program to a robot moving.
 
+- ``system``: :class:`RunOptions` (what a run is asked for) and :class:`System`
+  (what it is made of, every part typed); ``builders``: the three ways one is
+  built (a world here, none, the skill hosts over the bus; ``remote``).
+- ``observers``: ``with observing(...)``: the outputs of a run (trace,
+  recording, picture, map) opened and closed in one place.
 - ``engine``: :class:`MissionEngine`, the one mission engine that ``atlas run``,
   ``atlas repl``, ``atlas map build`` and ``atlas experiment`` drive: programs
   loaded in one pass into a running world (or none), and time moved until
@@ -19,10 +24,12 @@
 """
 
 from atlas_rap.layers.clock import Clock, WallClock, wall_clock_pacer
-from atlas_rap.layers.engine import DEFAULT_WORLD, Loaded, MissionEngine, RunResult
+from atlas_rap.layers.engine import DEFAULT_WORLD, Loaded, MissionEngine, RunEnd, RunResult
 from atlas_rap.layers.executive import Executive, Rates, VirtualExecutive
 from atlas_rap.layers.layer import LAYER_NAMES, Layer, LayerStack
 from atlas_rap.layers.picture import RunPicture
+from atlas_rap.layers.system import RunOptions, System
 
 __all__ = ["Clock", "DEFAULT_WORLD", "Executive", "LAYER_NAMES", "Layer", "LayerStack", "Loaded", "MissionEngine",
-           "Rates", "RunPicture", "RunResult", "VirtualExecutive", "WallClock", "wall_clock_pacer"]
+           "Rates", "RunEnd", "RunOptions", "RunPicture", "RunResult", "System", "VirtualExecutive", "WallClock",
+           "wall_clock_pacer"]

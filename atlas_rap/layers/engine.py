@@ -33,35 +33,36 @@ skills and the program's virtual skills serve the sequencer side by side.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation
 from atlas_rap.lang import ast, load
 from atlas_rap.lang.loader import Program
-from atlas_rap.layers.clock import Clock, WallClock, wall_clock_pacer
+from atlas_rap.layers.builders import build_system
 from atlas_rap.layers.deliberation import Deliberation
-from atlas_rap.layers.executive import Driver, Executive, Pace, Rates, Stop, VirtualExecutive
-from atlas_rap.layers.layer import LAYER_NAMES, LayerStack
-from atlas_rap.layers.monitoring import MonitoringLayer
-from atlas_rap.layers.operational import OperationalLayer
-from atlas_rap.layers.strategic import StrategicLayer
-from atlas_rap.layers.tactical import TacticalLayer
+from atlas_rap.layers.executive import Pace, Stop
+from atlas_rap.layers.layer import LayerStack
+from atlas_rap.layers.system import DEFAULT_WORLD, NamedWorld, RunOptions, System, WorldChoice, choose_world
 from atlas_rap.logic import Compound, Relation, Term
 from atlas_rap.sequencer import Sequencer, Task, Trace
 from atlas_rap.sequencer.checks import check_program
 from atlas_rap.sequencer.introspect import waiting_for
 from atlas_rap.sequencer.task import SUCCEEDED
-from atlas_rap.shipped import shipped_root
-from atlas_rap.skillbus.remote import BusSettings
 from atlas_rap.skillbus.skill_link import CombinedSkills
-from atlas_rap.skills.beliefs import GRID, TOPOLOGY
+from atlas_rap.skills.manager import SkillManager
 from atlas_rap.skills.virtual import VirtualSkills, skill_names
 
-DEFAULT_WORLD = "lab-corridor-office"
-"""The world of an ``atlas run`` mission that names none: the seed's lab, corridor and office."""
+if TYPE_CHECKING:  # downward only
+    from atlas_rap.maps.grid import OccupancyGrid
+    from atlas_rap.sim.physics import Simulation
+    from atlas_rap.sim.world import World
+    from atlas_rap.skillbus.remote import RemoteSkills
+
+__all__ = ["DEFAULT_TIME_LIMIT", "DEFAULT_WORLD", "Loaded", "MissionEngine", "PLAN_TASK", "RunEnd", "RunOptions",
+           "RunResult"]
 
 DEFAULT_TIME_LIMIT = 3600.0
 """Simulated seconds a mission may run before its remaining tasks fail (``--until``)."""
@@ -72,18 +73,33 @@ PLAN_TASK = "carry-out-plan-{n}"
 _PLANNING_FORMS = (ast.Operator, ast.Agents, ast.RelationDef, ast.Initial, ast.Goals, ast.Deadline)
 
 
+class RunEnd(str, Enum):
+    """How a run stopped. A ``str`` (its value is what traces, JSON and messages have always said)."""
+
+    DONE = "done"
+    """Every posted task ended."""
+    STALLED = "stalled"
+    """Nothing more could happen: no timer is due and no event can arrive."""
+    TIME_LIMIT = "time-limit"
+    """The simulated time limit (``--until``) came."""
+    STOPPED = "stopped"
+    """The caller's ``stop()`` said so (the REPL's Ctrl-C between commands)."""
+    INTERRUPTED = "interrupted"
+    """Ctrl-C during the run; the live tasks were halted."""
+    ERROR = "error"
+    """A memory rule broke; the run's notes say how."""
+
+    __str__ = str.__str__
+    __format__ = str.__format__
+
+
 @dataclass
 class RunResult:
-    """How a run ended: the posted tasks (with their outcomes), the time, and why it stopped.
-
-    ``ended_by``: ``done`` (every posted task ended), ``stalled`` (nothing more
-    could happen), ``time-limit``, ``interrupted`` (Ctrl-C) or ``error`` (a
-    memory rule broke; ``notes`` says how).
-    """
+    """How a run ended: the posted tasks (with their outcomes), the time, and why it stopped (:class:`RunEnd`)."""
 
     tasks: list[Task]
     time: float
-    ended_by: str = "done"
+    ended_by: RunEnd = RunEnd.DONE
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -102,52 +118,20 @@ class Loaded:
 
 
 class MissionEngine:
-    """One running system (world or none, skills, sequencer) that programs are loaded into.
+    """Programs loaded into one running :class:`~atlas_rap.layers.system.System` (world or none, skills,
+    sequencer), and its time moved.
 
-    ``world``: the world flag (a shipped world's name, a world file, or
-    ``none``), which overrides the programs' ``(world ...)`` forms;
-    ``default_world`` is used when neither says (``atlas run``: the lab,
-    ``atlas repl``: none). ``topology`` is a topological map file for
-    ``navigate-to``; ``mapping`` makes Layer IV map the world even with a
-    prior map (``atlas map build``). ``prior_map`` False (``--no-prior-map``)
-    gives the robot only the names and points of the places: Layer IV maps
-    while it drives, from ``map_in`` (an ``occupancy.npz``) if given.
-    ``layers`` are the layers enabled; ``layer_rules`` the file of switching
-    rules (default: the shipped ``rap_library/layers.rap``); ``realtime``
-    paces simulated time to the wall clock. ``bus`` (a
-    :class:`~atlas_rap.skillbus.remote.BusSettings`: endpoints, robots, tokens)
-    uses the robots' skill hosts on the skill bus instead of building
-    the world here (``layers.remote``; what runs where: ``layers.skill_host``).
+    ``options`` are what the run is asked for (:class:`RunOptions`); the
+    System is built when the first program chooses the world
+    (:meth:`ensure_system` builds the options' world before any program).
+    ``trace`` receives every event (a new one by default).
     """
 
-    def __init__(self, world: str | None = None, *, default_world: str = DEFAULT_WORLD, seed: int = 0,
-                 trace: Trace | None = None, topology: str | None = None, mapping: bool = False,
-                 rates: Rates = Rates(), prior_map: bool = True, map_in: str | Path | None = None,
-                 layers: Iterable[str] = LAYER_NAMES, layer_rules: str | Path | None = None,
-                 realtime: bool = False, bus: BusSettings | None = None) -> None:
-        self.world_flag = world
-        self.bus = bus
-        self.remote: Any = None  # the skill bus's RemoteSkills, with --connect
-        self.prior_map = prior_map
-        self.map_in = map_in
-        self.enabled_layers = tuple(layers)
-        self.layer_rules = Path(layer_rules) if layer_rules is not None else shipped_root("rap_library") / "layers.rap"
-        self.realtime = realtime
-        self.stack: LayerStack | None = None
-        self.default_world = default_world
-        self.seed = seed
+    def __init__(self, options: RunOptions | None = None, *, trace: Trace | None = None) -> None:
+        self.options = options if options is not None else RunOptions()
         self.trace = trace if trace is not None else Trace()
-        self.topology = topology
-        self.mapping = mapping
-        self.rates = rates
-        self.world: Any = None
-        self.world_file: Path | None = None
-        self.simulation: Any = None
-        self.manager: Any = None
         self.virtual = VirtualSkills()
-        self.skills: Any = None
-        self._sequencer: Sequencer | None = None
-        self.driver: Driver | None = None
+        self.system: System | None = None
         self.started = False
         self.warnings: list[Problem] = []
         self.definitions: dict[tuple[str, str, int], ast.TopLevel] = {}
@@ -155,155 +139,135 @@ class MissionEngine:
         self.lines: dict[str, list[str]] = {}
         self.files: set[str] = set()
         self.plans_made = 0
-        self.deliberation: Deliberation | None = None
         self.worker_planning = False
 
     # -- the running system ----------------------------------------------------
 
+    def ensure_system(self) -> System:
+        """The System; when no program has chosen the world yet, the options' world is built now."""
+        if self.system is None:
+            self._build(WorldChoice(choose_world(self.options, None)))
+        assert self.system is not None
+        return self.system
+
     @property
     def sequencer(self) -> Sequencer:
-        """The sequencer; asking for it before any program chose a world builds the default one."""
-        if self._sequencer is None:
-            self._build(self.world_flag or self.default_world)
-        return self._sequencer  # type: ignore[return-value]
+        """The sequencer (the System must be built: :meth:`ensure_system`)."""
+        return self._system.sequencer
 
     @property
     def built(self) -> bool:
-        """True once the world (or none) is chosen and the sequencer exists."""
-        return self._sequencer is not None
+        """True once the world (or none) is chosen and the System exists."""
+        return self.system is not None
+
+    @property
+    def _system(self) -> System:
+        if self.system is None:
+            raise AtlasError("the run has no world yet: load a program or call ensure_system() first")
+        return self.system
+
+    @property
+    def world(self) -> World | NamedWorld | None:
+        """The world the robot is in (None: no world, or not built yet)."""
+        return self.system.world if self.system is not None else None
+
+    @property
+    def world_file(self) -> Path | None:
+        """The file of the world simulated here (None: no world, or the hosts')."""
+        return self.system.world_file if self.system is not None else None
+
+    @property
+    def simulation(self) -> Simulation | None:
+        """The simulated world in this process (None without one)."""
+        return self.system.simulation if self.system is not None else None
+
+    @property
+    def manager(self) -> SkillManager | None:
+        """The stock skills' manager in this process (None without a world here)."""
+        return self.system.manager if self.system is not None else None
+
+    @property
+    def skills(self) -> CombinedSkills | VirtualSkills:
+        """The one skill link the sequencer uses."""
+        return self._system.skills
+
+    @property
+    def remote(self) -> RemoteSkills | None:
+        """The skill hosts' skills, with ``--connect`` (None otherwise)."""
+        return self.system.remote if self.system is not None else None
+
+    @property
+    def stack(self) -> LayerStack | None:
+        """The ATLAS layers (None without a world here)."""
+        return self.system.stack if self.system is not None else None
+
+    @property
+    def deliberation(self) -> Deliberation | None:
+        """The planner beside the sequencer (None before the System is built)."""
+        return self.system.deliberation if self.system is not None else None
+
+    @property
+    def seed(self) -> int:
+        """The run's seed."""
+        return self.options.seed
 
     def take_fault(self) -> str | None:
         """Why memory rules stopped the run, if they did since the last call (then forgotten)."""
-        if self._sequencer is None:
+        if self.system is None:
             return None
-        fault, self._sequencer.fault = self._sequencer.fault, None
+        seq = self.system.sequencer
+        fault, seq.fault = seq.fault, None
         return fault
 
     @property
     def world_name(self) -> str:
         """The running world, as people name it (``none`` for virtual skills only)."""
-        if not self.built:
-            self._build(self.world_flag or self.default_world)
-        return self.world.name if self.world is not None else "none"
+        return self.ensure_system().world_name
 
     def start(self) -> None:
         """Start the world once: the prior map (places, doors) goes into memory."""
-        seq = self.sequencer
+        system = self.ensure_system()
         if self.started:
             return
         self.started = True
-        if self.remote is not None:  # the skill hosts' worlds: their prior maps, then (map prior)
-            facts = self.remote.prior_facts()
+        seq = system.sequencer
+        if system.remote is not None:  # the skill hosts' worlds: their prior maps, then (map prior)
+            facts = system.remote.prior_facts()
             seq.change([("assert", fact) for fact in facts if fact.functor != "map"], "world")
             seq.change([("assert", fact) for fact in facts if fact.functor == "map"], "world")
-        elif self.world is not None:
+        elif system.believed is not None:
             from atlas_rap.sim.prior import prior_facts
 
-            seq.change([("assert", fact) for fact in prior_facts(self.stack.world)], "world")
-            if self.prior_map:
+            seq.change([("assert", fact) for fact in prior_facts(system.believed)], "world")
+            if self.options.prior_map:
                 seq.change([("assert", Compound("map", ("prior",)))], "world")
 
-    def _build(self, chosen: str, form: ast.WorldDecl | None = None, line: str | None = None) -> None:
-        """Make the world (unless ``none``), its skills beside the virtual ones, and the sequencer."""
-        if self.bus is not None:
-            from atlas_rap.layers.remote import build_remote
-
-            build_remote(self, chosen, form, line)
-            return
-        if chosen == "none":
-            if self.topology is not None:
-                raise AtlasError("--map needs a world; this run has none (--world none)")
-            self.skills = self.virtual
-            self._sequencer = Sequencer(skills=self.skills, trace=self.trace)
-            self._deliberate()
-            self.driver = VirtualExecutive(self._sequencer, pace=wall_clock_pacer() if self.realtime else None)
-            return
-        from atlas_rap.sim.physics import Simulation
-        from atlas_rap.sim.world import load_world, world_path
-        from atlas_rap.skills.stock import stock_manager
-
-        try:
-            self.world_file = world_path(chosen).resolve()
-            self.world = load_world(chosen)
-        except SourceError:
-            raise
-        except AtlasError as exc:
-            if form is None:
-                raise
-            raise _located(exc, form, line) from None
-        self.simulation = Simulation(self.world, seed=self.seed, dt=1.0 / self.rates.physics)
-        believed = self.world if self.prior_map else self.world.without_map()
-        self.manager = stock_manager(believed, self.simulation, self.simulation.rng)
-        if self.topology is not None:
-            from atlas_rap.maps.topology import Topology
-
-            self.manager.context.beliefs[TOPOLOGY] = Topology.from_json(self.topology)
-        self.skills = CombinedSkills(self.manager, self.virtual)
-        self._sequencer = Sequencer(skills=self.skills, trace=self.trace)
-        self._deliberate()
-        self.stack = self._layer_stack(believed)
-        clock = (WallClock if self.realtime else Clock)(self.rates.physics)
-        self.driver = Executive(self.simulation, self.manager, self._sequencer, self.rates, stack=self.stack,
-                                clock=clock)
-        self._load_layer_rules()
-
-    def _deliberate(self) -> None:
-        """The planner beside the sequencer: in simulated time, or on a worker in real time."""
-        self.deliberation = Deliberation(self.planning_problem, self._sequencer.timers,
-                                         worker=self.realtime or self.worker_planning)
-        self._sequencer.deliberator = self.deliberation
+    def _build(self, choice: WorldChoice) -> None:
+        """Build the System in the world ``choice`` names; in a world (here or the hosts'), load the
+        layer-switching rules."""
+        self.system = build_system(self.options, choice, self.trace, self.virtual, self.planning_problem,
+                                   worker=self.worker_planning)
+        if self.system.world is not None:
+            self._load_layer_rules()
 
     def plan_in_worker(self, worker: bool = True) -> None:
         """Plan on a worker thread (the REPL on a terminal, ``--realtime``) or in simulated time
         (the default: the planner's latency charged by a rule, so runs are reproducible)."""
         self.worker_planning = worker
-        if self.deliberation is not None:
-            self.deliberation.worker = worker or self.realtime
-
-    def _layer_stack(self, believed: Any) -> LayerStack:
-        """The four layers over the robot's beliefs; Layer IV only when there is a map to build."""
-        stack = LayerStack(self._sequencer, self.manager.context.beliefs, believed, enabled=self.enabled_layers,
-                           prior_map=self.prior_map)
-        stack.rules_source = str(self.layer_rules)
-        stack.add(MonitoringLayer(stack))
-        stack.add(OperationalLayer(stack))
-        stack.add(TacticalLayer(stack))
-        if self.mapping or not self.prior_map or self.map_in is not None:
-            stack.add(StrategicLayer(stack, self._map_in(believed) if self.map_in is not None else None))
-        if not stack.active():
-            raise AtlasError(f"--layers {','.join(self.enabled_layers)}: Layer IV maps, so it runs only when the "
-                             f"robot maps (--no-prior-map or --map-in); enable I, II or III as well")
-        return stack
-
-    def _map_in(self, world: Any):
-        """The grid of ``--map-in``, checked: a grid file, and one that covers the world."""
-        from atlas_rap.maps.grid import OccupancyGrid
-
-        try:
-            grid = OccupancyGrid.load_npz(self.map_in)
-        except (OSError, KeyError, ValueError) as exc:
-            raise AtlasError(f"{self.map_in}: not an occupancy grid written by atlas run --map-out or "
-                             f"atlas map build ({exc})") from None
-        xmin, ymin, xmax, ymax = world.bounds
-        frame = grid.frame
-        inset = frame.resolution / 2
-        corners = [frame.world_to_cell(x, y) for x in (xmin + inset, xmax - inset) for y in (ymin + inset, ymax - inset)]
-        if not all(frame.contains_cell(row, col) for row, col in corners):
-            raise AtlasError(f"{self.map_in}: this grid does not cover world {world.name} "
-                             f"(x {xmin:g}..{xmax:g}, y {ymin:g}..{ymax:g}); was it built in another world?")
-        return grid
+        if self.system is not None:
+            self.system.deliberation.worker = worker or self.options.realtime
 
     def _load_layer_rules(self) -> None:
         """The switching rules and their settings (``layer_rules``), before any program."""
-        program = load(self.layer_rules)
+        program = load(self.options.rules_file)
         self._check(program, False)
         self._define(program)
         self._act(program)
 
     @property
-    def grid(self):
+    def grid(self) -> OccupancyGrid | None:
         """The occupancy grid Layer IV has built (None when it does not map)."""
-        return self.manager.context.beliefs.get(GRID) if self.manager is not None else None
+        return self.system.grid if self.system is not None else None
 
     def save_map(self, path: str | Path) -> Path:
         """Write the grid Layer IV built (``--map-out``), as ``atlas run --map-in`` and ``atlas map`` read it."""
@@ -316,12 +280,12 @@ class MissionEngine:
         """Step 1 of :meth:`load`: the program's ``(world ...)`` chooses, or must match, the world."""
         forms = program.of_type(ast.WorldDecl)
         form = forms[-1] if forms else None
-        if self.world_flag is not None or form is None:
-            self.sequencer
+        if self.options.world is not None or form is None:
+            self.ensure_system()
             return
-        chosen = _world_choice(form)
-        if self._sequencer is None:
-            self._build(chosen, form, program.source_line(form.loc))
+        chosen = choose_world(self.options, form)
+        if self.system is None:
+            self._build(WorldChoice(chosen, form, program.source_line(form.loc)))
         elif not self._is_running(chosen):
             raise SourceError(Problem(
                 f"this session runs {'with no world' if self.world is None else 'in ' + self.world.name}; "
@@ -329,14 +293,15 @@ class MissionEngine:
                 f"start a session in that world (atlas repl --world {form.world}), or remove the (world ...) form"))
 
     def _is_running(self, chosen: str) -> bool:
-        if self.remote is not None:
-            return chosen != "none" and Path(chosen).stem == self.world.name
-        if chosen == "none" or self.world is None:
-            return chosen == "none" and self.world is None
+        system = self._system
+        if system.remote is not None:
+            return chosen != "none" and system.world is not None and Path(chosen).stem == system.world.name
+        if chosen == "none" or system.world is None:
+            return chosen == "none" and system.world is None
         from atlas_rap.sim.world import world_path
 
         try:
-            return world_path(chosen).resolve() == self.world_file
+            return world_path(chosen).resolve() == system.world_file
         except AtlasError:
             return False
 
@@ -502,17 +467,16 @@ class MissionEngine:
         """The simulated time, in seconds."""
         return self.sequencer.now()
 
-    def run(self, until: float = DEFAULT_TIME_LIMIT, *, pace: Pace | None = None, stop: Stop | None = None) -> str:
-        """Run until every posted task has ended; how it stopped (see :class:`RunResult`,
-        and ``stopped`` when ``stop()`` said so). Tasks still running are left running."""
+    def run(self, until: float = DEFAULT_TIME_LIMIT, *, pace: Pace | None = None, stop: Stop | None = None) -> RunEnd:
+        """Run until every posted task has ended; how it stopped. Tasks still running are left running."""
         self.start()
-        ended = self.driver.run(until, pace, stop)  # type: ignore[union-attr]
-        return "error" if self.sequencer.fault is not None else ended
+        ended = self._system.driver.run(until, pace, stop)
+        return RunEnd.ERROR if self.sequencer.fault is not None else RunEnd(ended)
 
     def advance(self, seconds: float, *, pace: Pace | None = None, stop: Stop | None = None) -> None:
         """Let ``seconds`` of simulated time pass (world, skills, timers), tasks or not."""
         self.start()
-        self.driver.advance(seconds, pace, stop)  # type: ignore[union-attr]
+        self._system.driver.advance(seconds, pace, stop)
 
     def run_mission(self, until: float = DEFAULT_TIME_LIMIT, *, pace: Pace | None = None) -> RunResult:
         """``atlas run``: run until the posted tasks end, then fail the tasks still running,
@@ -521,14 +485,14 @@ class MissionEngine:
             ended = self.run(until, pace=pace)
         except KeyboardInterrupt:
             self.halt_live("the run was interrupted")
-            ended = "interrupted"
+            ended = RunEnd.INTERRUPTED
         return self.finish(ended, until)
 
-    def finish(self, ended_by: str, until: float = DEFAULT_TIME_LIMIT) -> RunResult:
+    def finish(self, ended_by: RunEnd | str, until: float = DEFAULT_TIME_LIMIT) -> RunResult:
         """The result of a run that ended by ``ended_by``; tasks still live fail, saying why."""
         seq = self.sequencer
         fault = self.take_fault()
-        result = RunResult(list(seq.roots), seq.now(), ended_by, [fault] if fault else [])
+        result = RunResult(list(seq.roots), seq.now(), RunEnd(ended_by), [fault] if fault else [])
         for task in seq.live_roots():
             waits = waiting_for(task)
             waiting = f"; it was waiting for {', '.join(waits)}" if waits else ""
@@ -546,21 +510,6 @@ class MissionEngine:
         for task in live:
             seq.halt(task, why)
         return live
-
-
-def _world_choice(form: ast.WorldDecl) -> str:
-    """The world a ``(world ...)`` form names; a path is relative to the file it is written in."""
-    world = form.world
-    if ("/" in world or world.endswith((".yaml", ".yml"))) and not form.loc.file.startswith("<"):
-        return str(Path(form.loc.file).resolve().parent / world)
-    return world
-
-
-def _located(exc: AtlasError, form: ast.WorldDecl, line: str | None) -> SourceError:
-    """An error about the world a form names, as a problem located at the form."""
-    first, *rest = str(exc).split("\n")
-    hint = "; ".join(text.strip() for text in rest) or None
-    return SourceError(Problem(first, form.loc, line, hint))
 
 
 def _definition_key(form: ast.TopLevel) -> tuple[str, str, int] | None:

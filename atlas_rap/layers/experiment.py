@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from atlas_rap.layers.engine import MissionEngine
+from atlas_rap.layers.system import RunOptions
 from atlas_rap.layers.layer import LayerStack
 from atlas_rap.layers.figures import (
     FIGURE_FILES,
@@ -101,7 +102,8 @@ def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: 
     """One errand with no prior map, from ``map_in``: its figures (the grid written to
     ``map_out``), and the layer stack it ran with (for its settings). Ctrl-C: the grid
     it has is written, then KeyboardInterrupt goes on up (the whole experiment stops)."""
-    engine = MissionEngine(world, seed=seed, prior_map=False, map_in=map_in, layer_rules=layer_rules)
+    engine = MissionEngine(RunOptions(world=world, seed=seed, prior_map=False, map_in=map_in,
+                                       layer_rules=layer_rules))
     engine.load_file(mission, require_post=True)
     try:
         result = engine.run_mission(RUN_LIMIT)

@@ -31,19 +31,20 @@ at every stride.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from atlas_rap.errors import AtlasError, Problem, SourceError
 from atlas_rap.layers.clock import Clock, wall_clock_pacer
 from atlas_rap.layers.executive import Pace, Stop
+from atlas_rap.layers.deliberation import ProblemFor
 from atlas_rap.layers.layer import LAYER_NAMES
-from atlas_rap.sequencer import Sequencer
+from atlas_rap.layers.system import NamedWorld, RunOptions, System, WorldChoice, planning_beside
+from atlas_rap.sequencer import Sequencer, Trace
 from atlas_rap.skillbus.protocol import BEGIN, END, SEQUENCER, SKILLS, Position
 from atlas_rap.skillbus.remote import CONNECT_TIMEOUT, HostLink, HostLost, RemoteSkills
 from atlas_rap.skillbus.skill_link import CombinedSkills
 from atlas_rap.skillbus.zenoh_bus import BusError
+from atlas_rap.skills.virtual import VirtualSkills
 
 STRIDE = 1.0
 """Longest stride (simulated seconds) a host runs without the sequencer looking at ``stop()``."""
@@ -52,7 +53,7 @@ STRIDE = 1.0
 class RemoteExecutive:
     """Drives the skill hosts of a :class:`RemoteSkills` and a sequencer in lock step (module docstring)."""
 
-    def __init__(self, sequencer: Any, fleet: RemoteSkills, *, realtime: bool = False) -> None:
+    def __init__(self, sequencer: Sequencer, fleet: RemoteSkills, *, realtime: bool = False) -> None:
         self.sequencer = sequencer
         self.fleet = fleet
         physics, skills, rate = fleet.rates
@@ -222,31 +223,27 @@ class RemoteExecutive:
             timers.fire_due(now, late=False)
 
 
-@dataclass(frozen=True)
-class RemoteWorld:
-    """The world a skill host runs, as the sequencer's side knows it: by name."""
-
-    name: str
-
-
-def build_remote(engine: Any, chosen: str, form: Any = None, line: str | None = None) -> None:
-    """Set up ``engine`` (a :class:`~atlas_rap.layers.engine.MissionEngine`) on the skill hosts of
-    ``engine.bus``: the remote skills beside the program's virtual ones, the sequencer, the
-    planner and the lock-step executive. ``chosen`` is the world the program names (``form``)."""
+def build_remote(options: RunOptions, choice: WorldChoice, trace: Trace, virtual: VirtualSkills,
+                 problem_for: ProblemFor, worker: bool) -> System:
+    """A run on the robots' skill hosts (``options.bus``): their skills beside the program's virtual
+    ones, the sequencer, the planner and the lock-step executive. The world is the hosts'; a
+    program that names another (``choice.form``) is a located error."""
     unsupported = [flag for flag, used in (
-        ("--map", engine.topology is not None), ("--no-prior-map", not engine.prior_map),
-        ("--map-in", engine.map_in is not None), ("mapping (atlas map build)", engine.mapping),
-        ("--layers", tuple(engine.enabled_layers) != LAYER_NAMES)) if used]
+        ("--map", options.topology is not None), ("--no-prior-map", not options.prior_map),
+        ("--map-in", options.map_in is not None), ("mapping (atlas map build)", options.mapping),
+        ("--layers", tuple(options.layers) != LAYER_NAMES)) if used]
     if unsupported:
         raise AtlasError(f"{', '.join(unsupported)}: not supported with --connect yet (the skill host runs "
                          f"the world and the layers with its prior map)")
-    if form is not None and chosen == "none":
+    form, line = choice.form, choice.line
+    if form is not None and choice.name == "none":
         raise SourceError(Problem("this program runs with no world ((world none)); --connect runs programs on "
                                   "a skill host's world", form.loc, line,
                                   "run it without --connect, or name the host's world"))
-    fleet = RemoteSkills(engine.bus)
+    assert options.bus is not None, "build_remote needs the bus settings (--connect)"
+    fleet = RemoteSkills(options.bus)
     try:
-        if form is not None and Path(chosen).stem != fleet.world:
+        if form is not None and Path(choice.name).stem != fleet.world:
             raise SourceError(Problem(f"this program names the world '{form.world}', but the skill host runs "
                                       f"'{fleet.world}'", form.loc, line,
                                       f"start the host in that world (atlas skills serve --world {form.world}), "
@@ -254,10 +251,9 @@ def build_remote(engine: Any, chosen: str, form: Any = None, line: str | None = 
     except BaseException:
         fleet.close()
         raise
-    engine.remote = fleet
-    engine.world = RemoteWorld(fleet.world)
-    engine.skills = CombinedSkills(fleet, engine.virtual)
-    engine._sequencer = Sequencer(skills=engine.skills, trace=engine.trace)
-    engine._deliberate()
-    engine.driver = RemoteExecutive(engine._sequencer, fleet, realtime=engine.realtime)
-    engine._load_layer_rules()
+    skills = CombinedSkills(fleet, virtual)
+    sequencer = Sequencer(skills=skills, trace=trace)
+    deliberation = planning_beside(sequencer, problem_for, worker or options.realtime)
+    driver = RemoteExecutive(sequencer, fleet, realtime=options.realtime)
+    return System(options, trace, virtual, skills, sequencer, deliberation, driver, world=NamedWorld(fleet.world),
+                  remote=fleet)
