@@ -73,3 +73,33 @@ def test_the_skill_hosts_over_the_bus_are_a_named_world_and_the_lock_step_execut
         assert "navigate-to" in system.skills.skills()
     finally:
         system.remote.close()
+
+
+GREET = """(define-virtual-skill (say ?what) (after 1.0 (assert (said ?what)) (finish :succeed)))
+(define-rap (greet) (succeed (said hello)) (method (task-net (sequence (t1 (say hello))))))
+(initial-memory (awake))
+(post (greet))
+"""
+
+
+def test_checking_defining_and_posting_are_each_callable_alone_over_a_system_and_a_library():
+    from atlas_rap.errors import SourceError
+    from atlas_rap.lang import load_text
+    from atlas_rap.layers import running
+    from atlas_rap.layers.library import Library, act, check, define
+    from atlas_rap.logic import Compound
+
+    options = RunOptions(world="none")
+    system = build_system(options, WorldChoice("none"), Trace(), VirtualSkills(), _no_planning)
+    library = Library()
+    program = load_text(GREET, "<greet>")
+    with pytest.raises(SourceError, match="say"):  # the virtual skill is not defined yet: nothing takes effect
+        check(system, library, load_text("(post (say hello))", "<early>"), require_post=True)
+    assert check(system, library, program, require_post=True) == []
+    assert sorted(define(system, library, program)) == ["greet", "say"]
+    assert ("RapDef", "greet", 0) in library.definitions and "<greet>" in library.files
+    (task,) = act(system, program)
+    assert Compound("awake", ()) in system.sequencer.memory
+    assert running.run(system, 10.0) == running.RunEnd.DONE == "done"
+    result = running.finish(system, running.RunEnd.DONE)
+    assert result.ok and result.tasks == [task] and result.time == pytest.approx(1.0, abs=0.2)

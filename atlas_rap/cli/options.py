@@ -129,7 +129,7 @@ def check_outputs(ctx: click.Context, more: dict | None = None) -> None:
 def engine_inputs(engine) -> dict[str, list]:
     """What a loaded mission engine read besides the command's own arguments (the files its
     programs include, the layer rules, the world file), as :func:`check_outputs` takes them."""
-    return {"a file the mission reads": sorted(engine.files), "the world file": [engine.world_file]}
+    return {"a file the mission reads": sorted(engine.library.files), "the world file": [engine.world_file]}
 
 
 def outputs_checked(command: click.Command) -> None:

@@ -420,13 +420,13 @@ class Session:
             lines.append(f";; The session ran with --seed {engine.seed}.")
         lines += ["", format_node(ast.WorldDecl(_saved_world(engine)))]
         plans = {}  # a plan being carried out is saved as its (plan ...) form, not as the RAP made for it
-        for form in engine.definitions.values():
+        for form in engine.library.definitions.values():
             request = _plan_request(form)
             if request is not None:
                 plans[form.name] = request
             elif not _is_layer_rule(form, engine):
                 lines.append(format_node(form))
-        lines += [format_node(form) for form in engine.planning
+        lines += [format_node(form) for form in engine.library.planning
                   if isinstance(form, (ast.Operator, ast.Agents, ast.Goals, ast.Deadline))]
         facts = [term_to_str(fact) for fact in seq.memory if not self._from_world(fact)]
         if facts:
@@ -514,7 +514,7 @@ def _saved_world(engine) -> str:
 
 def _plan_request(form) -> ast.PlanRequest | None:
     """The ``(plan ...)`` of a RAP the engine made to carry out a top-level plan, or None."""
-    from atlas_rap.layers.engine import PLAN_TASK
+    from atlas_rap.layers.library import PLAN_TASK
 
     made = PLAN_TASK.split("{")[0]
     if not (isinstance(form, ast.RapDef) and form.name.startswith(made) and len(form.methods) == 1):

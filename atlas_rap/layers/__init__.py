@@ -5,6 +5,8 @@
   built (a world here, none, the skill hosts over the bus; ``remote``).
 - ``observers``: ``with observing(...)``: the outputs of a run (trace,
   recording, picture, map) opened and closed in one place.
+- ``library``: what loaded programs define, and the steps that load one;
+  ``running``: moving a System's time (:class:`RunEnd`, :class:`RunResult`).
 - ``engine``: :class:`MissionEngine`, the one mission engine that ``atlas run``,
   ``atlas repl``, ``atlas map build`` and ``atlas experiment`` drive: programs
   loaded in one pass into a running world (or none), and time moved until
@@ -24,11 +26,12 @@
 """
 
 from atlas_rap.layers.clock import Clock, WallClock, wall_clock_pacer
-from atlas_rap.layers.engine import DEFAULT_WORLD, Loaded, MissionEngine, RunEnd, RunResult
+from atlas_rap.layers.engine import Loaded, MissionEngine
 from atlas_rap.layers.executive import Executive, Rates, VirtualExecutive
 from atlas_rap.layers.layer import LAYER_NAMES, Layer, LayerStack
 from atlas_rap.layers.picture import RunPicture
-from atlas_rap.layers.system import RunOptions, System
+from atlas_rap.layers.running import RunEnd, RunResult
+from atlas_rap.layers.system import DEFAULT_WORLD, RunOptions, System
 
 __all__ = ["Clock", "DEFAULT_WORLD", "Executive", "LAYER_NAMES", "Layer", "LayerStack", "Loaded", "MissionEngine",
            "Rates", "RunEnd", "RunOptions", "RunPicture", "RunResult", "System", "VirtualExecutive", "WallClock",
