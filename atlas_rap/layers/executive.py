@@ -30,9 +30,15 @@ early (the REPL's Ctrl-C).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable, Protocol
+from typing import TYPE_CHECKING, Callable, Protocol
 
 from atlas_rap.layers.clock import Clock
+
+if TYPE_CHECKING:  # same tier and below
+    from atlas_rap.layers.layer import Layer, LayerStack
+    from atlas_rap.sequencer import Task
+    from atlas_rap.sim.physics import Simulation
+    from atlas_rap.skills.manager import SkillManager
 
 Pace = Callable[[float], None]
 Stop = Callable[[], bool]
@@ -57,11 +63,31 @@ class Rates:
     sequencer: float = 10.0
 
 
+class DueTimers(Protocol):
+    """The timers of the sequencer's side, as the executive fires them at each skills tick."""
+
+    def fire_due(self, now: float, *, late: bool = True) -> object: ...
+
+
+class SequencerSide(Protocol):
+    """What moving time asks of the sequencer's side: the :class:`~atlas_rap.sequencer.Sequencer`
+    in one process, or, on a skill host, the session that stands for the remote one."""
+
+    @property
+    def timers(self) -> DueTimers: ...
+
+    def live_roots(self) -> list[Task]: ...
+
+    def settle(self) -> None: ...
+
+    def advance_to(self, now: float) -> None: ...
+
+
 class Executive:
     """Runs a simulation, a skill manager, a sequencer and the layers together on one clock."""
 
-    def __init__(self, simulation: Any, manager: Any, sequencer: Any, rates: Rates = Rates(), *,
-                 stack: Any = None, clock: Clock | None = None) -> None:
+    def __init__(self, simulation: Simulation, manager: SkillManager, sequencer: SequencerSide,
+                 rates: Rates = Rates(), *, stack: LayerStack | None = None, clock: Clock | None = None) -> None:
         self.simulation = simulation
         self.manager = manager
         self.sequencer = sequencer
@@ -71,9 +97,9 @@ class Executive:
         self.skill_every = self.clock.every(1.0 / rates.skills)
         self.sequencer_every = self.clock.every(1.0 / rates.sequencer)
         self.started = False
-        self._fast: list[Any] = []
-        self._operational: list[Any] = []
-        self._slow: list[tuple[int, Any]] = []
+        self._fast: list[Layer] = []
+        self._operational: list[Layer] = []
+        self._slow: list[tuple[int, Layer]] = []
 
     @property
     def time(self) -> float:
@@ -151,7 +177,7 @@ class VirtualExecutive:
     ``pace`` (``--realtime``: :func:`~atlas_rap.layers.clock.wall_clock_pacer`) is called
     before every move of the clock, with any ``pace`` given to :meth:`run`."""
 
-    def __init__(self, sequencer: Any, pace: Pace | None = None) -> None:
+    def __init__(self, sequencer: SequencerSide, pace: Pace | None = None) -> None:
         self.sequencer = sequencer
         self.own_pace = pace
 

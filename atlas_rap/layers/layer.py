@@ -42,6 +42,7 @@ from atlas_rap.skills.beliefs import GRID, HOLD, POSE, ROUTES, Beliefs, PlannedR
 
 if TYPE_CHECKING:
     from atlas_rap.sequencer import Sequencer
+    from atlas_rap.sim.world import World
 
 LAYER_NAMES = ("I", "II", "III", "IV")
 BLOCK_RADIUS = 0.3
@@ -95,7 +96,7 @@ class Switch:
 class LayerStack:
     """The layers of one run and what they share; see the module docstring."""
 
-    def __init__(self, sequencer: Sequencer, beliefs: Beliefs, world: Any, *,
+    def __init__(self, sequencer: Sequencer, beliefs: Beliefs, world: World, *,
                  enabled: Iterable[str] = LAYER_NAMES, prior_map: bool = True) -> None:
         self.sequencer = sequencer
         self.beliefs = beliefs

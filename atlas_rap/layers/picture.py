@@ -24,7 +24,10 @@ the plan steps' tasks.
 from __future__ import annotations
 
 from bisect import bisect_left
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the engine does not import its observers
+    from atlas_rap.layers.engine import MissionEngine
 
 _KINDS = {"task-selected": "started", "task-succeeded": "succeeded", "task-failed": "failed"}
 _TIMELINE_TASK_EVENTS = frozenset({"task-selected", "method-selected", "task-succeeded", "task-failed", "task-halted",
@@ -34,7 +37,7 @@ _TIMELINE_TASK_EVENTS = frozenset({"task-selected", "method-selected", "task-suc
 class RunPicture:
     """A trace sink keeping the task marks, and the drawing of the run."""
 
-    def __init__(self, engine: Any) -> None:
+    def __init__(self, engine: MissionEngine) -> None:
         self.engine = engine
         self.events: list[dict] = []
         self.depth: dict[int, int] = {}

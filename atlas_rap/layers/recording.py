@@ -69,11 +69,14 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, Iterable
+from typing import TYPE_CHECKING, Any, Iterable
 
 from atlas_rap.errors import AtlasError
 from atlas_rap.outputs import AtomicFile, OutputError, write_all
 from atlas_rap.skills.beliefs import GRID, ROUTE, SONAR, TOPOLOGY
+
+if TYPE_CHECKING:  # the engine does not import its observers
+    from atlas_rap.layers.engine import MissionEngine
 
 POSE_RATE = 10.0
 """Pose samples per simulated second (at most the sequencer's 10 Hz: samples are taken at its ticks)."""
@@ -401,7 +404,7 @@ class RunRecorder:
     layer are recorded here.
     """
 
-    def __init__(self, engine: Any, *, path: str | Path | None = None, live: bool = False,
+    def __init__(self, engine: MissionEngine, *, path: str | Path | None = None, live: bool = False,
                  host: str = "127.0.0.1", port: int = 8765, pose_rate: float = POSE_RATE,
                  grid_period: float = GRID_PERIOD) -> None:
         fox = require_foxglove()

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from atlas_rap.layers.clock import Clock
 from atlas_rap.layers.executive import Executive, Rates
@@ -54,16 +54,22 @@ from atlas_rap.skillbus.messages import MAX_MESSAGE, Frame, Welcome
 from atlas_rap.skillbus.protocol import BEGIN, END, log
 from atlas_rap.skillbus.zenoh_bus import Conversation, close_session, open_session
 
+if TYPE_CHECKING:  # downward only: the sim is imported when a session starts
+    from atlas_rap.sim.physics import Simulation
+    from atlas_rap.sim.world import World
+    from atlas_rap.skills.manager import SkillManager
+
+
 
 @dataclass
 class SessionWorld:
     """What one session's world is made of, as a recording reads it
     (:class:`~atlas_rap.layers.recording.WorldSampler`'s ``source``)."""
 
-    simulation: Any
-    manager: Any
-    world: Any
-    stack: Any
+    simulation: Simulation
+    manager: SkillManager
+    world: World
+    stack: LayerStack
     clock: Clock
 
     def now(self) -> float:
