@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Protocol
 from atlas_rap.errors import AtlasError, SourceError
 from atlas_rap.layers.clock import Clock, WallClock, wall_clock_pacer
 from atlas_rap.layers.deliberation import ProblemFor
-from atlas_rap.layers.executive import Executive, VirtualExecutive
+from atlas_rap.layers.executive import Executive, Rates, VirtualExecutive
 from atlas_rap.layers.layer import LayerStack
 from atlas_rap.layers.monitoring import MonitoringLayer
 from atlas_rap.layers.operational import OperationalLayer
@@ -39,9 +39,11 @@ from atlas_rap.skills.virtual import VirtualSkills
 
 if TYPE_CHECKING:  # downward only: the sim and the maps are imported when a world is built
     from atlas_rap.maps.grid import OccupancyGrid
+    from atlas_rap.sim.physics import Simulation
     from atlas_rap.sim.world import World
 
-__all__ = ["BUILDERS", "Builder", "backend_for", "build_remote", "build_simulated", "build_system", "build_virtual"]
+__all__ = ["BUILDERS", "Builder", "backend_for", "build_remote", "build_simulated", "build_system", "build_virtual",
+           "simulated_robot"]
 
 
 class Builder(Protocol):
@@ -83,9 +85,7 @@ def build_simulated(options: RunOptions, choice: WorldChoice, trace: Trace, virt
                     problem_for: ProblemFor, worker: bool) -> System:
     """A world in this process: the simulated body, the stock skills, the layers and the executive.
     An error in the world a program names is located at its ``(world ...)`` form."""
-    from atlas_rap.sim.physics import Simulation
     from atlas_rap.sim.world import load_world, world_path
-    from atlas_rap.skills.stock import stock_manager
 
     try:
         world_file = world_path(choice.name).resolve()
@@ -96,9 +96,8 @@ def build_simulated(options: RunOptions, choice: WorldChoice, trace: Trace, virt
         if choice.form is None:
             raise
         raise located(exc, choice.form, choice.line) from None
-    simulation = Simulation(world, seed=options.seed, dt=1.0 / options.rates.physics)
     believed = world if options.prior_map else world.without_map()
-    manager = stock_manager(believed, simulation, simulation.rng)
+    simulation, manager = simulated_robot(world, believed, options.seed, options.rates)
     if options.topology is not None:
         from atlas_rap.maps.topology import Topology
 
@@ -111,6 +110,16 @@ def build_simulated(options: RunOptions, choice: WorldChoice, trace: Trace, virt
     driver = Executive(simulation, manager, sequencer, options.rates, stack=stack, clock=clock)
     return System(options, trace, virtual, skills, sequencer, deliberation, driver, world=world, believed=believed,
                   world_file=world_file, simulation=simulation, robot=simulation, manager=manager, stack=stack)
+
+
+def simulated_robot(world: World, believed: World, seed: int, rates: Rates) -> tuple[Simulation, SkillManager]:
+    """The simulated body in ``world`` and the stock skills on it, which know ``believed`` of the world
+    (``atlas run`` here, and each session of ``atlas skills serve``)."""
+    from atlas_rap.sim.physics import Simulation
+    from atlas_rap.skills.stock import stock_manager
+
+    simulation = Simulation(world, seed=seed, dt=1.0 / rates.physics)
+    return simulation, stock_manager(believed, simulation, simulation.rng)
 
 
 def layer_stack(options: RunOptions, sequencer: Sequencer, manager: SkillManager, believed: World) -> LayerStack:

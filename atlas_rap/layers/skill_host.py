@@ -40,6 +40,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from atlas_rap.layers.builders import simulated_robot
 from atlas_rap.layers.clock import Clock
 from atlas_rap.layers.executive import Executive, Rates
 from atlas_rap.layers.layer import LayerStack
@@ -140,17 +141,14 @@ class SkillHostServer:
 
     def _run(self, hello: tuple[Frame, bytes]) -> None:
         """One sequencer's session: a fresh world at its time, then its ticks until it goes."""
-        from atlas_rap.sim.physics import Simulation
         from atlas_rap.sim.prior import prior_facts
-        from atlas_rap.skills.stock import stock_manager
 
         tick = hello[0].last.tick  # type: ignore[union-attr]
         clock = Clock(self.rates.physics)
         clock.ticks = tick
         session = self.current = HostSession(self.door, hello, tick, lambda: clock.ticks, lease=self.lease)
         session.timers.now = clock.now
-        simulation = Simulation(self.world, seed=self.seed, dt=1.0 / self.rates.physics)
-        manager = stock_manager(self.world, simulation, simulation.rng)
+        simulation, manager = simulated_robot(self.world, self.world, self.seed, self.rates)
         session.manager = manager
         manager.connect(session)
         stack = LayerStack(session, manager.context.beliefs, self.world)  # type: ignore[arg-type]
