@@ -16,6 +16,7 @@ render the offending line with a caret under the column, compiler style::
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Iterable
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,6 +43,26 @@ def source_lines(text: str) -> list[str]:
 def line_of(lines: list[str], line: int) -> str | None:
     """Line ``line`` (1-based) of :func:`source_lines`, or None past the end."""
     return lines[line - 1] if 0 < line <= len(lines) else None
+
+
+def nearest(word: str, choices: Iterable[str]) -> str | None:
+    """The closest of ``choices`` to a misspelt ``word``, or None if none is close."""
+    import difflib  # only when a name is wrong
+
+    found = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    return found[0] if found else None
+
+
+def suggestion(name: str, quote: str = "'") -> str:
+    """The words of every "did you mean" atlas-rap says: ``did you mean 'NAME'?``."""
+    return f"did you mean {quote}{name}{quote}?"
+
+
+def did_you_mean(word: str, choices: Iterable[str], *, quote: str = "'", end: str = "") -> str | None:
+    """The hint for a misspelt ``word``: :func:`suggestion` of the :func:`nearest` of ``choices``,
+    followed by ``end``; None when no choice is close."""
+    near = nearest(word, choices)
+    return None if near is None else suggestion(near, quote) + end
 
 
 class AtlasError(Exception):

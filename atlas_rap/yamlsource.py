@@ -20,7 +20,8 @@ import yaml
 from yaml.constructor import SafeConstructor
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation, decode_source, line_of, source_lines
+from atlas_rap.errors import (Problem, SourceError, SourceLocation, decode_source, line_of, nearest, source_lines,
+                              suggestion)
 
 MAX_YAML_BYTES = 4 * 1024 * 1024
 
@@ -30,13 +31,6 @@ is far smaller, and past it a simulated robot's metres lose their millimetres.""
 
 # --------------------------------------------------------------------------
 # YAML with locations
-
-
-def _nearest(word: str, choices: list[str]) -> str | None:
-    # Imported here: atlas_rap.lang pulls in the grammar, which map readers do not need.
-    from atlas_rap.lang.validator import nearest
-
-    return nearest(word, choices)
 
 
 @dataclass
@@ -197,9 +191,9 @@ class YamlSource:
                                      f"(first at line {first.line})", "keep one of them")
                 continue
             if allowed is not None and key not in allowed:
-                near = _nearest(key, list(allowed))
+                near = nearest(key, allowed)
                 misspelt.add(near)
-                hint = f"did you mean '{near}'?" if near else None
+                hint = suggestion(near) if near else None
                 known = ", ".join(allowed)
                 hint = f"{hint} (known keys: {known})" if hint else f"known keys: {known}"
                 self.error(key_node, f"unknown key '{key}' in {path or 'the file'}", hint)
@@ -208,7 +202,7 @@ class YamlSource:
         for key in required:
             if key not in entries and key not in misspelt:
                 unknown = [k.value for k, _ in node.value if isinstance(k, ScalarNode) and k.value not in entries]
-                near = _nearest(key, [str(k) for k in unknown]) if unknown else None
+                near = nearest(key, [str(k) for k in unknown]) if unknown else None
                 hint = f"is '{near}' a misspelling of it?" if near else f"add '{key}: ...'"
                 self.error(node, f"{path or 'the file'} is missing the key '{key}'", hint)
         return entries

@@ -61,7 +61,7 @@ from typing import Callable
 
 from rich.console import Console
 
-from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation, did_you_mean, line_of, source_lines
 from atlas_rap.lang import ast, format_node, load_text
 from atlas_rap.lang.reader import Forms, SList, read_text
 from atlas_rap.lang.validator import MAX_SECONDS, to_term
@@ -282,10 +282,8 @@ class Session:
         rest = rest.strip()
         handler = _COMMAND_HANDLERS.get(name)
         if handler is None:
-            from atlas_rap.lang.guesses import nearest
-
-            close = nearest(name, list(COMMANDS))
-            hint = f"; did you mean {close}?" if close else ""
+            close = did_you_mean(name, COMMANDS, quote="")
+            hint = f"; {close}" if close else ""
             raise AtlasError(f"unknown command {name}{hint} (:help lists them)")
         handler(self, rest)
 

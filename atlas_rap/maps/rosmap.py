@@ -42,10 +42,10 @@ from typing import Any
 import numpy as np
 from yaml.nodes import MappingNode, ScalarNode
 
-from atlas_rap.errors import Problem, line_of
+from atlas_rap.errors import Problem, did_you_mean, line_of
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.geometry import outlines
-from atlas_rap.yamlsource import YamlSource, _kind, _nearest
+from atlas_rap.yamlsource import YamlSource, _kind
 from atlas_rap.model import Point, Segment
 from atlas_rap.outputs import atomic_write, write_bytes, write_text
 
@@ -193,9 +193,8 @@ def load_ros_map(path_yaml: str | Path, shown_as: str | None = None) -> RosMap:
     if "mode" in node:
         given = src.string(node["mode"], "mode")
         if given is not None and given not in MODES:
-            near = _nearest(given, list(MODES))
             src.error(node["mode"], f"unknown mode '{given}'",
-                      (f"did you mean '{near}'? " if near else "") + "modes: trinary, scale, raw")
+                      (did_you_mean(given, MODES, end=" ") or "") + "modes: trinary, scale, raw")
         elif given is not None:
             mode = given
     image_path = None

@@ -78,9 +78,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.errors import Problem, SourceError, SourceLocation, did_you_mean, line_of, source_lines
 from atlas_rap.lang import ast
-from atlas_rap.lang.guesses import nearest
 from atlas_rap.lang.reader import SList, read_file, read_text
 from atlas_rap.logic.terms import Compound, Term, Var, term_to_str
 from atlas_rap.planner.problem import PlanningProblem
@@ -233,10 +232,7 @@ def _head(form: SList):
 
 
 def _suggest(name: str, known, what: str) -> str:
-    close = nearest(name, list(known))
-    if close:
-        return f"did you mean '{close}'?"
-    return f"declared {what}: {', '.join(sorted(known)) or 'none'}"
+    return did_you_mean(name, known) or f"declared {what}: {', '.join(sorted(known)) or 'none'}"
 
 
 class _Loader:
