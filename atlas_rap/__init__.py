@@ -2,7 +2,12 @@
 
 The pieces (see DESIGN.md): ``lang`` reads RAP and AP files, ``logic`` holds
 terms, unification, memory and queries shared by the sequencer and the
-planner, ``cli`` is the ``atlas`` command.
+planner, ``cli`` is the ``atlas`` command. Every error a user can see is an
+:class:`AtlasError` (``atlas_rap.errors``).
 """
 
+from atlas_rap.errors import AtlasError, SourceError
+
 __version__ = "0.1.0"
+
+__all__ = ["AtlasError", "SourceError", "__version__"]
