@@ -41,13 +41,14 @@ class YamlSource:
     node and the dotted *key path* that names it (``doors.office-door.between``)
     and return the Python value, or None after recording a located
     :class:`Problem` so that reading can go on and report every problem.
-    :meth:`check` raises them all as one :class:`SourceError`.
+    :meth:`check` raises them all as one ``error_class`` (a :class:`SourceError` of the reader's area).
     """
 
     file: str
     text: str
     root: Node | None = None
     problems: list[Problem] = field(default_factory=list)
+    error_class: type[SourceError] = SourceError
 
     def __post_init__(self) -> None:
         self.lines = source_lines(self.text)
@@ -56,29 +57,31 @@ class YamlSource:
     # -- reading ------------------------------------------------------------
 
     @classmethod
-    def read(cls, path: Path, shown_as: str | None = None, what: str = "YAML file") -> YamlSource:
-        """Read and compose ``path``; a missing, unreadable or ill-formed file raises SourceError."""
+    def read(cls, path: Path, shown_as: str | None = None, what: str = "YAML file",
+             error_class: type[SourceError] = SourceError) -> YamlSource:
+        """Read and compose ``path``; a missing, unreadable or ill-formed file raises ``error_class``."""
         name = shown_as or str(path)
         where = SourceLocation(name, 1, 1)
         try:
             with path.open("rb") as stream:  # at most the limit: a device such as /dev/zero never ends
                 data = stream.read(MAX_YAML_BYTES + 1)
             if len(data) > MAX_YAML_BYTES:
-                raise SourceError(Problem(f"file is too large for a {what}", where))
+                raise error_class(Problem(f"file is too large for a {what}", where))
         except IsADirectoryError:
-            raise SourceError(Problem("is a directory, not a file", where, None,
+            raise error_class(Problem("is a directory, not a file", where, None,
                                       f"name the {what} inside it")) from None
         except FileNotFoundError:
-            raise SourceError(Problem("no such file", where, None, "check the path")) from None
+            raise error_class(Problem("no such file", where, None, "check the path")) from None
         except OSError as exc:
-            raise SourceError(Problem(f"cannot read file: {exc.strerror}", where)) from None
-        text = decode_source(data, name, f"a {what} is YAML text, saved as UTF-8; is this a binary file?")
-        return cls.parse(text, name, what)
+            raise error_class(Problem(f"cannot read file: {exc.strerror}", where)) from None
+        text = decode_source(data, name, f"a {what} is YAML text, saved as UTF-8; is this a binary file?", error_class)
+        return cls.parse(text, name, what, error_class)
 
     @classmethod
-    def parse(cls, text: str, file: str, what: str = "YAML file") -> YamlSource:
-        """Compose ``text``; a YAML syntax error becomes a located SourceError."""
-        source = cls(file, text)
+    def parse(cls, text: str, file: str, what: str = "YAML file",
+              error_class: type[SourceError] = SourceError) -> YamlSource:
+        """Compose ``text``; a YAML syntax error becomes a located ``error_class``."""
+        source = cls(file, text, error_class=error_class)
         try:
             source.root = yaml.compose(text, Loader=yaml.SafeLoader)
         except yaml.MarkedYAMLError as exc:
@@ -152,7 +155,7 @@ class YamlSource:
             other = [p for p in self.problems if p.location.file != self.file]
             own = sorted((p for p in self.problems if p.location.file == self.file),
                          key=lambda p: (p.location.line, p.location.column))
-            raise SourceError(other + own)
+            raise self.error_class(other + own)
 
     # -- typed readers ------------------------------------------------------
 

@@ -2,7 +2,7 @@
 
 Use :func:`validate` on the reader's forms of one file. It does not stop at
 the first problem: it skips the bad clause or form, goes on, and raises one
-:class:`~atlas_rap.errors.SourceError` with all of them at the end. A
+:class:`~atlas_rap.errors.LanguageError` with all of them at the end. A
 misspelt clause or form name gets the nearest valid name as a hint, and a
 name from another language the name atlas uses (``lang/guesses.py``).
 
@@ -42,7 +42,7 @@ from __future__ import annotations
 
 from typing import Callable
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation, did_you_mean, line_of, source_lines
+from atlas_rap.errors import LanguageError, Problem, SourceLocation, did_you_mean, line_of, source_lines
 from atlas_rap.lang import ast
 from atlas_rap.lang.guesses import QUERY_OPERATORS, hint_for
 from atlas_rap.lang.reader import Datum, Forms, SList
@@ -914,8 +914,8 @@ def validate_partial(forms: Forms, filename: str, text: str) -> tuple[ast.Source
 
 
 def validate(forms: Forms, filename: str, text: str) -> ast.SourceFile:
-    """Turn one file's forms into AST nodes; raise SourceError listing every problem."""
+    """Turn one file's forms into AST nodes; raise LanguageError listing every problem."""
     source, problems = validate_partial(forms, filename, text)
     if problems:
-        raise SourceError(problems)
+        raise LanguageError(problems)
     return source

@@ -79,7 +79,7 @@ from pathlib import Path
 import numpy as np
 from yaml.nodes import MappingNode, Node, ScalarNode
 
-from atlas_rap.errors import AtlasError, SourceError, did_you_mean
+from atlas_rap.errors import AtlasError, SourceError, WorldError, WorldFileError, did_you_mean
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, RosMap, load_ros_map, wall_segments
 from atlas_rap.yamlsource import YamlSource
 from atlas_rap.shipped import resolve_user_path, shipped_root, shipped_worlds
@@ -125,12 +125,12 @@ NAME_PATTERN = re.compile(r"[a-z][a-z0-9_-]*\Z")
 def world_path(name_or_path: str | Path) -> Path:
     """The file a world name or path means: a bare name is a shipped world, anything else a path.
 
-    An unknown bare name raises :class:`AtlasError` listing the shipped worlds.
+    An unknown bare name raises :class:`WorldError` listing the shipped worlds.
     """
     text = str(name_or_path)
     given = Path(text)
     if given.is_dir():
-        raise AtlasError(f"{text}: is a directory, not a world file; give a world's .yaml file or a shipped "
+        raise WorldError(f"{text}: is a directory, not a world file; give a world's .yaml file or a shipped "
                          f"world's name")
     if given.suffix or len(given.parts) != 1:
         return resolve_user_path(given)
@@ -147,17 +147,17 @@ def world_path(name_or_path: str | Path) -> Path:
     message += f"; {near}" if near else ""
     message += f"\n  shipped worlds: {', '.join(names) if names else '(none found)'}"
     message += "\n  or give the path of a world file, e.g. my-world.yaml"
-    raise AtlasError(message)
+    raise WorldError(message)
 
 
 def load_world(name_or_path: str | Path) -> World:
     """Read a world: a shipped one by name (``maze``) or a YAML file by path.
 
-    Raises :class:`SourceError` with every problem found in the file (and in
-    the ROS map it names), or :class:`AtlasError` for an unknown name.
+    Raises :class:`WorldFileError` with every problem found in the file (and in
+    the ROS map it names), or :class:`WorldError` for an unknown name.
     """
     path = world_path(name_or_path)
-    return _WorldReader(YamlSource.read(path, _shown(path), "world file"), path).read()
+    return _WorldReader(YamlSource.read(path, _shown(path), "world file", WorldFileError), path).read()
 
 
 def _shown(path: Path) -> str:
@@ -274,7 +274,7 @@ class _WorldReader:
         except AtlasError as error:  # an unknown shipped world's name
             first, *rest = str(error).split("\n")
             src.error(node, first, "; ".join(line.strip() for line in rest) or None)
-        raise SourceError(src.problems)  # the base's problems, then this file's base: line
+        raise WorldFileError(src.problems)  # the base's problems, then this file's base: line
 
     # -- geometry -------------------------------------------------------------
 
