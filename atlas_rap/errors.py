@@ -11,11 +11,33 @@ render the offending line with a caret under the column, compiler style::
         (sucede (docked ?thesite))
          ^
       hint: did you mean 'succeed'?
+
+Each area has its class (lark's manner: catch the area, or all of atlas-rap)::
+
+    AtlasError
+    ├── SourceError                  problems located in files, each with its caret
+    │   ├── LanguageError            RAP and AP text: reader, validator, loader, REPL input
+    │   ├── WorldFileError           (also a WorldError)
+    │   ├── MapFileError             (also a MapError)
+    │   ├── PlanFileError            (also a PlanError)
+    │   └── RunFileError             (also a RunError)
+    ├── WorldError                   a world that cannot be had (an unknown shipped name ...)
+    ├── MapError                     a grid or topology that cannot be read or built
+    ├── PlanError                    a planning problem or plan that cannot be had
+    ├── RunError                     a run, experiment or recording that cannot start or go on
+    ├── SkillBusError                the skill bus: BusError, DecodeError, TokenError
+    └── LogicError                   memory, queries and rules (``atlas_rap.logic.errors``)
+
+An area's error shows its context with the one machinery of :class:`Problem`:
+raise the area's ``...FileError`` with located problems, the area's ``...Error``
+with a message. The located ones are :class:`SourceError` too, so code that
+catches source errors catches them, and plain ones are not, as before.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Iterable
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,6 +64,26 @@ def source_lines(text: str) -> list[str]:
 def line_of(lines: list[str], line: int) -> str | None:
     """Line ``line`` (1-based) of :func:`source_lines`, or None past the end."""
     return lines[line - 1] if 0 < line <= len(lines) else None
+
+
+def nearest(word: str, choices: Iterable[str]) -> str | None:
+    """The closest of ``choices`` to a misspelt ``word``, or None if none is close."""
+    import difflib  # only when a name is wrong
+
+    found = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    return found[0] if found else None
+
+
+def suggestion(name: str, quote: str = "'") -> str:
+    """The words of every "did you mean" atlas-rap says: ``did you mean 'NAME'?``."""
+    return f"did you mean {quote}{name}{quote}?"
+
+
+def did_you_mean(word: str, choices: Iterable[str], *, quote: str = "'", end: str = "") -> str | None:
+    """The hint for a misspelt ``word``: :func:`suggestion` of the :func:`nearest` of ``choices``,
+    followed by ``end``; None when no choice is close."""
+    near = nearest(word, choices)
+    return None if near is None else suggestion(near, quote) + end
 
 
 class AtlasError(Exception):
@@ -111,9 +153,51 @@ class SourceError(AtlasError):
         return self.problems[0].location
 
 
-def decode_source(data: bytes, name: str, hint: str = "save the file as UTF-8") -> str:
-    """Decode a source file's bytes as UTF-8 (a BOM is allowed); bytes that are not UTF-8 are a
-    :class:`SourceError` at their line and column, with the line up to them."""
+class LanguageError(SourceError):
+    """RAP or AP text that does not read or validate: the reader, the validator, the loader, the REPL's input."""
+
+
+class WorldError(AtlasError):
+    """A world that cannot be had: an unknown shipped world, a directory given for a world file."""
+
+
+class WorldFileError(WorldError, SourceError):
+    """Problems located in a world file (and in the ROS map it names)."""
+
+
+class MapError(AtlasError):
+    """A map that cannot be read or built: a grid or topology file of another kind, a grid too large."""
+
+
+class MapFileError(MapError, SourceError):
+    """Problems located in a map file (a ROS map_server YAML)."""
+
+
+class PlanError(AtlasError):
+    """A planning problem or a plan that cannot be had."""
+
+
+class PlanFileError(PlanError, SourceError):
+    """Problems located in a planning problem or a plan: a PDDL file, an IPC plan file, goals no plan reaches."""
+
+
+class RunError(AtlasError):
+    """A run that cannot start or go on: a mission's needs the world does not meet, a recording not written."""
+
+
+class RunFileError(RunError, SourceError):
+    """Problems located in what a run was given (a mission's forms that do not fit the run)."""
+
+
+class SkillBusError(AtlasError):
+    """The skill bus cannot be used: the transport (``BusError``), a message (``DecodeError``), a token
+    (``TokenError``)."""
+
+
+def decode_source(data: bytes, name: str, hint: str = "save the file as UTF-8",
+                  error: type[SourceError] = SourceError) -> str:
+    """Decode a source file's bytes as UTF-8 (a BOM is allowed); bytes that are not UTF-8 are an
+    ``error`` (a :class:`SourceError`) at their line and column, with the line up to them."""
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -121,7 +205,7 @@ def decode_source(data: bytes, name: str, hint: str = "save the file as UTF-8") 
         line = good.count(b"\n") + 1
         column = exc.start - (good.rfind(b"\n") + 1) + 1
         shown = good[good.rfind(b"\n") + 1:].decode("utf-8", "replace")
-        raise SourceError(Problem(
+        raise error(Problem(
             f"file is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})",
             SourceLocation(name, line, column), shown + "\N{REPLACEMENT CHARACTER}", hint)) from None
     return text.removeprefix("\ufeff")

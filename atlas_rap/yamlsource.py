@@ -20,7 +20,8 @@ import yaml
 from yaml.constructor import SafeConstructor
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation, decode_source, line_of, source_lines
+from atlas_rap.errors import (Problem, SourceError, SourceLocation, decode_source, line_of, nearest, source_lines,
+                              suggestion)
 
 MAX_YAML_BYTES = 4 * 1024 * 1024
 
@@ -32,13 +33,6 @@ is far smaller, and past it a simulated robot's metres lose their millimetres.""
 # YAML with locations
 
 
-def _nearest(word: str, choices: list[str]) -> str | None:
-    # Imported here: atlas_rap.lang pulls in the grammar, which map readers do not need.
-    from atlas_rap.lang.validator import nearest
-
-    return nearest(word, choices)
-
-
 @dataclass
 class YamlSource:
     """A YAML file parsed into PyYAML nodes, with the problems found in it so far.
@@ -47,13 +41,14 @@ class YamlSource:
     node and the dotted *key path* that names it (``doors.office-door.between``)
     and return the Python value, or None after recording a located
     :class:`Problem` so that reading can go on and report every problem.
-    :meth:`check` raises them all as one :class:`SourceError`.
+    :meth:`check` raises them all as one ``error_class`` (a :class:`SourceError` of the reader's area).
     """
 
     file: str
     text: str
     root: Node | None = None
     problems: list[Problem] = field(default_factory=list)
+    error_class: type[SourceError] = SourceError
 
     def __post_init__(self) -> None:
         self.lines = source_lines(self.text)
@@ -62,29 +57,31 @@ class YamlSource:
     # -- reading ------------------------------------------------------------
 
     @classmethod
-    def read(cls, path: Path, shown_as: str | None = None, what: str = "YAML file") -> YamlSource:
-        """Read and compose ``path``; a missing, unreadable or ill-formed file raises SourceError."""
+    def read(cls, path: Path, shown_as: str | None = None, what: str = "YAML file",
+             error_class: type[SourceError] = SourceError) -> YamlSource:
+        """Read and compose ``path``; a missing, unreadable or ill-formed file raises ``error_class``."""
         name = shown_as or str(path)
         where = SourceLocation(name, 1, 1)
         try:
             with path.open("rb") as stream:  # at most the limit: a device such as /dev/zero never ends
                 data = stream.read(MAX_YAML_BYTES + 1)
             if len(data) > MAX_YAML_BYTES:
-                raise SourceError(Problem(f"file is too large for a {what}", where))
+                raise error_class(Problem(f"file is too large for a {what}", where))
         except IsADirectoryError:
-            raise SourceError(Problem("is a directory, not a file", where, None,
+            raise error_class(Problem("is a directory, not a file", where, None,
                                       f"name the {what} inside it")) from None
         except FileNotFoundError:
-            raise SourceError(Problem("no such file", where, None, "check the path")) from None
+            raise error_class(Problem("no such file", where, None, "check the path")) from None
         except OSError as exc:
-            raise SourceError(Problem(f"cannot read file: {exc.strerror}", where)) from None
-        text = decode_source(data, name, f"a {what} is YAML text, saved as UTF-8; is this a binary file?")
-        return cls.parse(text, name, what)
+            raise error_class(Problem(f"cannot read file: {exc.strerror}", where)) from None
+        text = decode_source(data, name, f"a {what} is YAML text, saved as UTF-8; is this a binary file?", error_class)
+        return cls.parse(text, name, what, error_class)
 
     @classmethod
-    def parse(cls, text: str, file: str, what: str = "YAML file") -> YamlSource:
-        """Compose ``text``; a YAML syntax error becomes a located SourceError."""
-        source = cls(file, text)
+    def parse(cls, text: str, file: str, what: str = "YAML file",
+              error_class: type[SourceError] = SourceError) -> YamlSource:
+        """Compose ``text``; a YAML syntax error becomes a located ``error_class``."""
+        source = cls(file, text, error_class=error_class)
         try:
             source.root = yaml.compose(text, Loader=yaml.SafeLoader)
         except yaml.MarkedYAMLError as exc:
@@ -158,7 +155,7 @@ class YamlSource:
             other = [p for p in self.problems if p.location.file != self.file]
             own = sorted((p for p in self.problems if p.location.file == self.file),
                          key=lambda p: (p.location.line, p.location.column))
-            raise SourceError(other + own)
+            raise self.error_class(other + own)
 
     # -- typed readers ------------------------------------------------------
 
@@ -197,9 +194,9 @@ class YamlSource:
                                      f"(first at line {first.line})", "keep one of them")
                 continue
             if allowed is not None and key not in allowed:
-                near = _nearest(key, list(allowed))
+                near = nearest(key, allowed)
                 misspelt.add(near)
-                hint = f"did you mean '{near}'?" if near else None
+                hint = suggestion(near) if near else None
                 known = ", ".join(allowed)
                 hint = f"{hint} (known keys: {known})" if hint else f"known keys: {known}"
                 self.error(key_node, f"unknown key '{key}' in {path or 'the file'}", hint)
@@ -208,7 +205,7 @@ class YamlSource:
         for key in required:
             if key not in entries and key not in misspelt:
                 unknown = [k.value for k, _ in node.value if isinstance(k, ScalarNode) and k.value not in entries]
-                near = _nearest(key, [str(k) for k in unknown]) if unknown else None
+                near = nearest(key, [str(k) for k in unknown]) if unknown else None
                 hint = f"is '{near}' a misspelling of it?" if near else f"add '{key}: ...'"
                 self.error(node, f"{path or 'the file'} is missing the key '{key}'", hint)
         return entries

@@ -144,7 +144,25 @@ def test_halting_a_task_disables_every_skill_its_primitive_enabled():
 
 
 def test_the_catalog_that_atlas_check_uses_matches_the_stock_skills():
-    from atlas_rap.skills.stock import stock_events, stock_skill_names
+    from atlas_rap.skills.stock import stock_skills
 
-    assert stock_skill_names() == STOCK_SKILLS
-    assert stock_events() == STOCK_EVENTS
+    manager = SkillManager(stock_skills())
+    assert manager.skills() == STOCK_SKILLS
+    assert manager.produces() == STOCK_EVENTS
+
+
+def test_each_stock_skill_class_has_the_interface_it_is_registered_with():
+    from atlas_rap.skills.catalog import STOCK, stock_classes
+
+    for entry, skill_class in zip(STOCK, stock_classes(), strict=True):
+        assert (skill_class.name, skill_class.params, skill_class.events, skill_class.always_on) == \
+            (entry.name, entry.params, entry.events, entry.always_on), entry.code
+
+
+def test_a_class_registered_under_another_skills_name_is_refused():
+    from atlas_rap.skills.catalog import registered
+
+    with pytest.raises(TypeError, match="stock skill move-to is registered as atlas_rap.skills.motion:MoveTo"):
+        @registered("move-to")
+        class Elsewhere(Skill):
+            """Not the class the catalog names."""

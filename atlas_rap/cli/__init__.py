@@ -12,12 +12,22 @@ moments it cannot see:
   compiled library, where Python can only print "Exception ignored") is
   delivered again a moment later, so the command still stops (unless it is
   already ending).
+
+Its public name, :data:`cli` (the click group of the ``atlas`` command, which
+``cli.main.main`` runs), is imported from ``cli.main`` at first use (``atlas_rap.exports``).
 """
 
 import atexit
 import signal
 import sys
 import threading
+
+from atlas_rap.exports import lazy_exports, public_names
+
+_EXPORTS = {"main": ("cli",)}
+
+__all__ = public_names(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 
 def _interrupted_quietly(kind, value, traceback, previous=sys.excepthook):

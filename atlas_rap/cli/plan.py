@@ -209,23 +209,23 @@ def _with_goals(problem, file: str, hint: str):
     """``problem``, if it has goals; else an error naming ``file`` as the user typed it
     (an operators file without its goals file would otherwise be 'solved: 0 steps', or
     fail checks that are about the goals file it lacks, such as declared agents)."""
-    from atlas_rap.errors import Problem, SourceError, SourceLocation
+    from atlas_rap.errors import PlanFileError, Problem, SourceLocation
 
     if not problem.goals:
-        raise SourceError(Problem(f"no goals in {file}", SourceLocation(file, 1, 1), None, hint))
+        raise PlanFileError(Problem(f"no goals in {file}", SourceLocation(file, 1, 1), None, hint))
     return problem
 
 
 def _raps_cover(result, folder: str) -> bool:
     """Print the steps no RAP in ``folder`` can execute; True when there are none."""
     from atlas_rap.cli.console import secho
-    from atlas_rap.errors import AtlasError
+    from atlas_rap.errors import PlanError
     from atlas_rap.planner.dispatch import load_raps, match_steps
     from atlas_rap.shipped import resolve_user_path
 
     found = resolve_user_path(folder)
     if not found.is_dir():
-        raise AtlasError(f"--check-raps {folder}: no such folder")
+        raise PlanError(f"--check-raps {folder}: no such folder")
     missing = [d for d in match_steps(result, load_raps(found)) if d.rap is None]
     for d in missing:
         secho(f"step {d.step.id} {d.step.action}: no RAP in {folder} can execute it ({d.how})",

@@ -61,7 +61,8 @@ from typing import TYPE_CHECKING, Callable
 
 from rich.console import Console
 
-from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.errors import (AtlasError, LanguageError, Problem, SourceError, SourceLocation, did_you_mean, line_of,
+                              source_lines)
 from atlas_rap.lang import ast, format_node, load_text
 from atlas_rap.lang.reader import Forms, SList, read_text
 from atlas_rap.lang.validator import MAX_SECONDS, to_term
@@ -211,12 +212,13 @@ class Session:
     def _special(self, datum: SList, where: SourceLocation, head: str) -> Term:
         if len(datum.items) != 2:
             what = "a query, e.g. (? (at robot ?where))" if head == "?" else "one fact, e.g. (assert (at robot lab))"
-            raise SourceError(Problem(f"({head} ...) takes {what}", where, self._line(where)))
+            raise LanguageError(Problem(f"({head} ...) takes {what}", where, self._line(where)))
         term = to_term(datum.items[1])
         if head != "?" and (type(term) is not Compound or variables(term)):
             line, column = datum.locs[1]
             loc = SourceLocation(where.file, line, column)
-            raise SourceError(Problem(f"({head} ...) needs a ground fact such as (at robot lab)", loc, self._line(loc)))
+            raise LanguageError(Problem(f"({head} ...) needs a ground fact such as (at robot lab)", loc,
+                                        self._line(loc)))
         return term
 
     def _line(self, loc: SourceLocation) -> str | None:
@@ -288,10 +290,8 @@ class Session:
         rest = rest.strip()
         handler = _COMMAND_HANDLERS.get(name)
         if handler is None:
-            from atlas_rap.lang.guesses import nearest
-
-            close = nearest(name, list(COMMANDS))
-            hint = f"; did you mean {close}?" if close else ""
+            close = did_you_mean(name, COMMANDS, quote="")
+            hint = f"; {close}" if close else ""
             raise AtlasError(f"unknown command {name}{hint} (:help lists them)")
         handler(self, rest)
 

@@ -6,14 +6,14 @@ name a PDDL, Lisp or robot-language user is likely to write for something
 atlas calls otherwise (``define-operator`` is ``operator``, PDDL's
 ``:precondition`` is ``:preconditions``, a script's ``(done ...)`` is
 ``(finish ...)``), with what the right form looks like; else the nearest
-valid name (:func:`nearest`, for misspellings); else the valid names.
+valid name (:func:`~atlas_rap.errors.did_you_mean`, for misspellings); else the valid names.
 Difflib alone would answer ``define-relation`` to ``define-operator``: it
 is closer in letters and wrong in meaning.
 """
 
 from __future__ import annotations
 
-import difflib
+from atlas_rap.errors import nearest, suggestion
 
 _PDDL = ("this looks like PDDL: atlas plan --pddl DOMAIN.pddl PROBLEM.pddl reads PDDL files; "
          "an .ap file writes (operator NAME :preconditions (...) :effects (...)), (initial ...) and (goals ...)")
@@ -149,14 +149,8 @@ def net_hint(word: str) -> str | None:
     known = NET_GUESSES.get(word)
     if known is None:
         return None
-    return known[1:] if known.startswith("!") else f"did you mean ({known} ...)? a task net's forms are " \
-        "sequence, parallel, wait-for, assert, retract and plan"
-
-
-def nearest(word: str, choices: tuple[str, ...] | list[str]) -> str | None:
-    """The closest valid name to a misspelt ``word``, or None if none is close."""
-    found = difflib.get_close_matches(word, choices, n=1, cutoff=0.6)
-    return found[0] if found else None
+    return known[1:] if known.startswith("!") else suggestion(f"({known} ...)", quote="") + \
+        " a task net's forms are sequence, parallel, wait-for, assert, retract and plan"
 
 
 def hint_for(what: str, word: str, choices: tuple[str, ...] | list[str]) -> str:
@@ -167,8 +161,8 @@ def hint_for(what: str, word: str, choices: tuple[str, ...] | list[str]) -> str:
     guess = nearest(word, choices)
     if known is not None and known in choices and known != guess:  # not a misspelling: show the form
         example = EXAMPLES.get(known)
-        return f"did you mean '{known}'?" + (f" e.g. {example}" if example else "")
-    return f"did you mean '{guess}'?" if guess else "expected one of: " + ", ".join(choices)
+        return suggestion(known) + (f" e.g. {example}" if example else "")
+    return suggestion(guess) if guess else "expected one of: " + ", ".join(choices)
 
 
 EXAMPLES = {

@@ -4,7 +4,7 @@ Use :func:`load` to read a mission or a planning problem as the sequencer or
 the planner will see it: each file read and validated once, ``include``
 resolved relative to the including file, cycles reported with the chain
 that makes them, and every problem of every file collected into one
-:class:`~atlas_rap.errors.SourceError`.
+:class:`~atlas_rap.errors.LanguageError` (a :class:`~atlas_rap.errors.SourceError`).
 
 The forms of an included file stand where its ``include`` stands (depth
 first), so definitions read in the order a person reads the files. A second
@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.errors import LanguageError, Problem, SourceError, SourceLocation, line_of, source_lines
 from atlas_rap.lang import ast
 from atlas_rap.lang.reader import Forms, read_file, read_text
 from atlas_rap.lang.validator import to_term, validate, validate_partial
@@ -79,7 +79,7 @@ def parse_term(text: str, filename: str = "<input>") -> Term:
     forms = read_text(text, filename)
     if len(forms) != 1:
         line, column = (forms.locs[1] if len(forms) > 1 else (1, 1))
-        raise SourceError(Problem(f"expected one term, found {len(forms)}",
+        raise LanguageError(Problem(f"expected one term, found {len(forms)}",
                                   SourceLocation(filename, line, column), line_of(source_lines(text), line)))
     return to_term(forms[0])
 
@@ -139,12 +139,12 @@ class _Loader:
     def program(self, root: str) -> Program:
         """The loaded program rooted at ``root``; raises every problem found."""
         if self.problems:
-            raise SourceError(self.problems)
+            raise LanguageError(self.problems)
         files = tuple(self.files[key] for key in self.order)
         program = Program(root=root, files=files, forms=_expand(root, self.files), lines=self.lines)
         _check_unique_definitions(program, self)
         if self.problems:
-            raise SourceError(self.problems)
+            raise LanguageError(self.problems)
         return program
 
     def visit_text(self, text: str, name: str, forms: Forms | None = None) -> None:

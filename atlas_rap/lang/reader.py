@@ -44,7 +44,7 @@ from typing import Union
 from lark import Lark, Token, Transformer
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation, decode_source, line_of, source_lines
+from atlas_rap.errors import LanguageError, Problem, SourceLocation, decode_source, line_of, source_lines
 from atlas_rap.logic.terms import String, Term, Var
 
 MAX_FILE_BYTES = 8 * 1024 * 1024
@@ -225,7 +225,7 @@ def _parser() -> Lark:
 def read_text(text: str, filename: str = "<input>") -> Forms:
     """Read every top-level form of ``text``.
 
-    Raises :class:`~atlas_rap.errors.SourceError` (never a Lark exception) for
+    Raises :class:`~atlas_rap.errors.LanguageError` (never a Lark exception) for
     unbalanced parentheses, an unterminated string or block comment, a bad
     variable name, or nesting deeper than :data:`MAX_DEPTH`.
     """
@@ -234,7 +234,7 @@ def read_text(text: str, filename: str = "<input>") -> Forms:
         start = undecoded.start()
         line = text.count("\n", 0, start) + 1
         column = start - (text.rfind("\n", 0, start) + 1) + 1
-        raise SourceError(Problem(
+        raise LanguageError(Problem(
             f"not UTF-8 text (byte 0x{ord(undecoded.group()) - 0xDC00:02x})", SourceLocation(filename, line, column),
             _line(text, line).encode("utf-8", "replace").decode("utf-8"), "type or save the text as UTF-8"))
     atoms = _AtomReader()
@@ -244,22 +244,22 @@ def read_text(text: str, filename: str = "<input>") -> Forms:
         try:
             children = _parser().parse(text)
         except UnexpectedInput as exc:
-            raise SourceError(_syntax_problem(exc, text, filename)) from None
+            raise LanguageError(_syntax_problem(exc, text, filename)) from None
         finally:
             _BUILDER.atoms = None
 
     items, locs, depth = atoms.convert(children)
     if atoms.bad_numbers:
-        raise SourceError([_too_large(tok, text, filename) for tok in atoms.bad_numbers])
+        raise LanguageError([_too_large(tok, text, filename) for tok in atoms.bad_numbers])
     if atoms.bad_variables:
         tok = atoms.bad_variables[0]
-        raise SourceError(Problem(
+        raise LanguageError(Problem(
             f"bad variable name '{tok}'", SourceLocation(filename, tok.line, tok.column),
             _line(text, tok.line),
             "a variable is '?' followed by a letter or digit, e.g. ?site; '?' alone is anonymous"))
     if depth > MAX_DEPTH:
         line, column = _deepest_open(text, MAX_DEPTH)
-        raise SourceError(Problem(
+        raise LanguageError(Problem(
             f"lists nested more than {MAX_DEPTH} deep", SourceLocation(filename, line, column),
             _line(text, line), "flatten the form; no RAP or operator needs this depth"))
     return Forms(items, locs)
@@ -280,10 +280,10 @@ def read_file(path: str | Path, display_name: str | None = None) -> tuple[Forms,
     ``display_name`` is how errors name the file (default: the path as given).
     """
     name = display_name or str(path)
-    text = decode_source(_read_bytes(Path(path), name), name)
+    text = decode_source(_read_bytes(Path(path), name), name, error=LanguageError)
     forms = read_text(text, name)
     if not forms:
-        raise SourceError(Problem(
+        raise LanguageError(Problem(
             "file has no forms (only white space and comments)",
             SourceLocation(name, 1, 1), None,
             "a .rap file holds (define-rap ...) and mission forms; an .ap file holds operators"))
@@ -299,20 +299,20 @@ def _read_bytes(path: Path, name: str) -> bytes:
                 data = stream.read(MAX_FILE_BYTES + 1)
             size = max(size, len(data))
         if size > MAX_FILE_BYTES:
-            raise SourceError(Problem(
+            raise LanguageError(Problem(
                 f"file is too large ({size / 1e6:.1f} MB; the limit is {MAX_FILE_BYTES // (1024 * 1024)} MiB)",
                 where, None, "split it into smaller files joined with (include \"part.rap\")"))
     except IsADirectoryError:
-        raise SourceError(Problem("is a directory, not a file", where, None,
+        raise LanguageError(Problem("is a directory, not a file", where, None,
                                   "name the .rap or .ap files inside it")) from None
     except FileNotFoundError:
-        raise SourceError(Problem("no such file", where, None, "check the path")) from None
+        raise LanguageError(Problem("no such file", where, None, "check the path")) from None
     except PermissionError:
-        raise SourceError(Problem("permission denied", where)) from None
+        raise LanguageError(Problem("permission denied", where)) from None
     except OSError as exc:
-        raise SourceError(Problem(f"cannot read file: {exc.strerror}", where)) from None
+        raise LanguageError(Problem(f"cannot read file: {exc.strerror}", where)) from None
     if not data.strip():
-        raise SourceError(Problem("file is empty", where, None,
+        raise LanguageError(Problem("file is empty", where, None,
                                   "write at least one form, e.g. (define-rap (my-task) ...)"))
     return data
 

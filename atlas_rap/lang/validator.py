@@ -2,7 +2,7 @@
 
 Use :func:`validate` on the reader's forms of one file. It does not stop at
 the first problem: it skips the bad clause or form, goes on, and raises one
-:class:`~atlas_rap.errors.SourceError` with all of them at the end. A
+:class:`~atlas_rap.errors.LanguageError` with all of them at the end. A
 misspelt clause or form name gets the nearest valid name as a hint, and a
 name from another language the name atlas uses (``lang/guesses.py``).
 
@@ -42,9 +42,9 @@ from __future__ import annotations
 
 from typing import Callable
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.errors import LanguageError, Problem, SourceLocation, did_you_mean, line_of, source_lines
 from atlas_rap.lang import ast
-from atlas_rap.lang.guesses import QUERY_OPERATORS, hint_for, nearest
+from atlas_rap.lang.guesses import QUERY_OPERATORS, hint_for
 from atlas_rap.lang.reader import Datum, Forms, SList
 from atlas_rap.logic import Compound, MemoryRule, String, Term, Var, is_anonymous, is_ground, term_to_str, variables
 
@@ -458,13 +458,8 @@ class Validator:
         for step in steps:
             for ref in step.before + ((step.until_end,) if step.until_end else ()):
                 if ref not in labels:
-                    guess = nearest(ref, list(labels))
-                    if guess:
-                        hint = f"did you mean '{guess}'?"
-                    elif labels:
-                        hint = "the labels in this method are " + ", ".join(labels)
-                    else:
-                        hint = f"label the step, e.g. ({ref} (task ...))"
+                    hint = did_you_mean(ref, labels) or ("the labels in this method are " + ", ".join(labels)
+                                                         if labels else f"label the step, e.g. ({ref} (task ...))")
                     self.report(f"no step labelled '{ref}' in this method", (step.loc.line, step.loc.column), hint)
 
     def wait_for(self, form: SList) -> ast.WaitFor:
@@ -685,8 +680,7 @@ class Validator:
             key, loc = items[i], locs[i]
             if key not in allowed:
                 if type(key) is str and key.startswith(":"):
-                    guess = nearest(key, list(allowed))
-                    self.fail(f"unknown option {key}", loc, f"did you mean '{guess}'?" if guess else
+                    self.fail(f"unknown option {key}", loc, did_you_mean(key, allowed) or
                               "expected one of: " + ", ".join(allowed))
                 self.fail(f"expected an option ({', '.join(allowed)}), found {_describe(key)}", loc)
             if key in options:
@@ -920,8 +914,8 @@ def validate_partial(forms: Forms, filename: str, text: str) -> tuple[ast.Source
 
 
 def validate(forms: Forms, filename: str, text: str) -> ast.SourceFile:
-    """Turn one file's forms into AST nodes; raise SourceError listing every problem."""
+    """Turn one file's forms into AST nodes; raise LanguageError listing every problem."""
     source, problems = validate_partial(forms, filename, text)
     if problems:
-        raise SourceError(problems)
+        raise LanguageError(problems)
     return source

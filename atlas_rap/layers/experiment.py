@@ -199,19 +199,19 @@ def write_results(data: dict[str, Any], out: str | Path) -> list[Path]:
 
 
 def _check_worlds(settings: Settings) -> None:
-    """Both worlds exist and have the errand's places (an AtlasError that says which is missing)."""
-    from atlas_rap.errors import AtlasError
+    """Both worlds exist and have the errand's places (a RunError that says which is missing)."""
+    from atlas_rap.errors import RunError
     from atlas_rap.sim.world import load_world
 
     for name in (settings.world, settings.obstacles):
         if name is None:
             continue
         if name == "none":
-            raise AtlasError("the experiment needs a world to drive in, not 'none'")
+            raise RunError("the experiment needs a world to drive in, not 'none'")
         world = load_world(name)
         missing = [place for place in (settings.home, settings.goal) if place not in world.places]
         if missing:
-            raise AtlasError(f"world {world.name} has no place named {' or '.join(missing)}: the errand goes "
+            raise RunError(f"world {world.name} has no place named {' or '.join(missing)}: the errand goes "
                              f"from {settings.home} to {settings.goal} and back "
                              f"(its places: {', '.join(world.places) or 'none'})")
 

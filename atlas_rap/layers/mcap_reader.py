@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from atlas_rap.errors import AtlasError
+from atlas_rap.errors import RunError
 
 # FieldDescriptorProto.type values, by how they are read off the wire
 _VARINT = {3, 4, 5, 8, 13, 14}  # int64 uint64 int32 bool uint32 enum
@@ -199,13 +199,13 @@ class Recording:
 def read_recording(path: str | Path) -> Recording:
     """Read an MCAP file: every channel's schema and every message, sorted by log time per topic.
 
-    Raises :class:`AtlasError` (one line) when the ``mcap`` package is missing
+    Raises :class:`RunError` (one line) when the ``mcap`` package is missing
     or the file is not an MCAP file.
     """
     try:
         from mcap.reader import make_reader
     except ImportError:
-        raise AtlasError("reading a recording needs the mcap package: pip install 'atlas-rap[foxglove]'") from None
+        raise RunError("reading a recording needs the mcap package: pip install 'atlas-rap[foxglove]'") from None
     recording = Recording(Path(path))
     try:
         with open(path, "rb") as stream:
@@ -215,7 +215,7 @@ def read_recording(path: str | Path) -> Recording:
                                                         schema.data if schema else b"")
                 recording.raw.setdefault(channel.topic, []).append((message.log_time, message.data))
     except OSError as exc:
-        raise AtlasError(f"{path}: cannot read it ({exc.strerror or exc})") from None
+        raise RunError(f"{path}: cannot read it ({exc.strerror or exc})") from None
     except Exception as exc:  # the mcap reader's own errors: not an MCAP file, a truncated one
-        raise AtlasError(f"{path}: not a readable MCAP recording ({type(exc).__name__})") from None
+        raise RunError(f"{path}: not a readable MCAP recording ({type(exc).__name__})") from None
     return recording

@@ -71,7 +71,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable
 
-from atlas_rap.errors import AtlasError
+from atlas_rap.errors import AtlasError, RunError
 from atlas_rap.outputs import AtomicFile, OutputError, write_all
 from atlas_rap.skills.beliefs import GRID, ROUTE, SONAR, TOPOLOGY
 
@@ -123,13 +123,13 @@ FOXGLOVE_MISSING = ("recording for Foxglove needs the Foxglove SDK, which is not
 
 def require_foxglove() -> Any:
     """The ``foxglove`` module (the SDK, ``foxglove-sdk`` on PyPI); a one-line
-    :class:`AtlasError` saying how to install it when it is missing."""
+    :class:`RunError` saying how to install it when it is missing."""
     try:
         import foxglove
         import foxglove.channels  # noqa: F401
         import foxglove.messages  # noqa: F401
     except ImportError:
-        raise AtlasError(FOXGLOVE_MISSING) from None
+        raise RunError(FOXGLOVE_MISSING) from None
     return foxglove
 
 
@@ -207,7 +207,7 @@ def _subscriptions(fox: Any, output: _Output) -> Any:
 
 def _open_file(fox: Any, path: str | Path, topics: Iterable[str], flag: str = "--record") -> _Output:
     """An MCAP file's output, written beside ``path`` and renamed into place when closed
-    (``atlas_rap.outputs``; an :class:`AtlasError` when it cannot be written)."""
+    (``atlas_rap.outputs``; a :class:`RunError` when it cannot be written)."""
     output = _Output(fox, live=False, topics=topics)
     file = AtomicFile(path, flag, stream=None)
     try:
@@ -216,20 +216,20 @@ def _open_file(fox: Any, path: str | Path, topics: Iterable[str], flag: str = "-
         file.discard()
         if not isinstance(exc, Exception):
             raise
-        raise AtlasError(f"{flag} {path}: cannot write it ({exc})") from None
+        raise RunError(f"{flag} {path}: cannot write it ({exc})") from None
     output.file = file
     return output
 
 
 def _open_live(fox: Any, host: str, port: int, topics: Iterable[str]) -> _Output:
-    """A live WebSocket server's output (:class:`AtlasError` when the port cannot be had)."""
+    """A live WebSocket server's output (:class:`RunError` when the port cannot be had)."""
     output = _Output(fox, live=True, topics=topics)
     try:
         output.server = fox.start_server(name="atlas-rap", host=host, port=port, context=output.context,
                                          capabilities=[fox.websocket.Capability.Time],
                                          server_listener=_subscriptions(fox, output))
     except Exception as exc:  # the port is taken, the host is not this machine's
-        raise AtlasError(f"--live: cannot serve on {host}:{port} ({exc})") from None
+        raise RunError(f"--live: cannot serve on {host}:{port} ({exc})") from None
     return output
 
 
@@ -397,7 +397,7 @@ class RunRecorder:
 
     ``host``/``port``: where the live WebSocket server listens (port 0: any
     free port; :attr:`url` says which). ``pose_rate``, ``grid_period``: see
-    :data:`POSE_RATE`, :data:`GRID_PERIOD`. Raises :class:`AtlasError` when
+    :data:`POSE_RATE`, :data:`GRID_PERIOD`. Raises :class:`RunError` when
     the SDK is missing, the file cannot be made or the port cannot be had.
     With ``atlas run --connect`` the engine has no world of its own (the skill
     host records it: :class:`HostRecorder`), so only the trace and the primary

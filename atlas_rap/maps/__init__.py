@@ -1,1 +1,32 @@
-"""Maps: map files (ROS map_server) now; occupancy grids and their abstractions next."""
+"""Maps: occupancy grids from sonar and their abstractions (DESIGN.md §5), and map files.
+
+- ``grid``: :class:`OccupancyGrid` (Bayesian sonar updates, entropy, quality);
+  ``inference``: :class:`InferenceGrid` (reachability, what has been explored);
+  ``frame``: :class:`GridFrame`, where a grid lies in the world.
+- ``geometry``, ``sdt``, ``topology``, ``abstraction``: edges and polygons, the
+  (stochastic) skeleton of the distance transform, the topological graph, and
+  all of them from a grid (:func:`abstract`); ``levels``: written as files.
+- ``rooms``: rooms and doorways; ``gridpath``: shortest paths on a grid.
+- ``rosmap``: ROS map_server files; ``render``: the PNGs.
+
+The names below are imported from their modules at first use (``atlas_rap.exports``).
+"""
+
+from atlas_rap.exports import lazy_exports, public_names
+
+_EXPORTS = {
+    "abstraction": ("Abstraction", "abstract"),
+    "frame": ("GridFrame",),
+    "geometry": ("GeometricMap", "geometric_map", "outlines"),
+    "grid": ("OccupancyGrid", "SonarModel"),
+    "gridpath": ("GridPlanner", "shortest_route_length"),
+    "inference": ("InferenceGrid", "explored_quality"),
+    "levels": ("abstract_map", "write_levels"),
+    "render": ("render_grid",),
+    "rooms": ("RoomSettings", "segment_rooms"),
+    "rosmap": ("FREE", "OCCUPIED", "UNKNOWN", "RosMap", "load_ros_map", "write_ros_map"),
+    "topology": ("Topology", "build_topology"),
+}
+
+__all__ = public_names(_EXPORTS)
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

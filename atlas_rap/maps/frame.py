@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from atlas_rap.errors import AtlasError
+from atlas_rap.errors import MapError
 
 MAX_CELLS = 16_000_000
 """The most cells of a grid made to cover a world (:meth:`GridFrame.covering`): 64 MB a float32 layer, a
@@ -39,7 +39,7 @@ class GridFrame:
         width = max(1, math.ceil((xmax - xmin) / resolution))
         height = max(1, math.ceil((ymax - ymin) / resolution))
         if width * height > MAX_CELLS:
-            raise AtlasError(f"a grid over this world ({xmax - xmin:g} m x {ymax - ymin:g} m at {resolution:g} m a "
+            raise MapError(f"a grid over this world ({xmax - xmin:g} m x {ymax - ymin:g} m at {resolution:g} m a "
                              f"cell) would have {width * height:,} cells; the most is {MAX_CELLS:,}: "
                              f"is a coordinate in the world file far off?")
         return cls(height, width, resolution, (xmin, ymin, 0.0))

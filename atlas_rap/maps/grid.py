@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from atlas_rap.errors import AtlasError
+from atlas_rap.errors import MapError
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, RosMap, write_ros_map
 from atlas_rap.model import SonarConfig
@@ -195,16 +195,16 @@ class SonarModel:
 def load_grid_arrays(path: str | Path) -> tuple[np.ndarray, GridFrame]:
     """The occupancy probabilities and frame of a grid file: the levels' ``grid.npz`` or a run's
     ``occupancy.npz``. Anything else (empty, not an archive, arrays missing, of the wrong shape or
-    not numbers) raises :class:`~atlas_rap.errors.AtlasError` naming the file."""
+    not numbers) raises :class:`~atlas_rap.errors.MapError` naming the file."""
     try:
         with _open_npz(path) as data:
             frame = GridFrame.from_array(data["frame"])
             p_occ = np.asarray(data["p_occ"], dtype=np.float32)
     except (KeyError, TypeError, ValueError) as exc:
-        raise AtlasError(f"{path}: not a grid written by atlas map or atlas run --map-out "
+        raise MapError(f"{path}: not a grid written by atlas map or atlas run --map-out "
                          f"({str(exc).strip(chr(39))})") from None
     if p_occ.shape != frame.shape:
-        raise AtlasError(f"{path}: not a grid written by atlas map or atlas run --map-out (p_occ has shape "
+        raise MapError(f"{path}: not a grid written by atlas map or atlas run --map-out (p_occ has shape "
                          f"{p_occ.shape}, not the frame's {frame.shape})")
     return p_occ, frame
 

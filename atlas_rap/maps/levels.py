@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from atlas_rap.errors import AtlasError
+from atlas_rap.errors import MapError
 from atlas_rap.maps.abstraction import Abstraction, abstract
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.rooms import RoomSettings
@@ -63,15 +63,15 @@ def abstract_map(p_occ: np.ndarray, frame: GridFrame, robot_radius: float = 0.2,
     """
     free = np.asarray(p_occ) < 0.5
     if not free.any():
-        raise AtlasError(f"{source} has no free space (no cell with an occupancy below 0.5): "
+        raise MapError(f"{source} has no free space (no cell with an occupancy below 0.5): "
                          f"is it a map, and is its negate setting right?")
     if robot_radius > max(free.shape) * frame.resolution:  # wider than the map: not even its disc fits
-        raise AtlasError(f"{source} has no free space wide enough for a robot of radius {robot_radius:g} m")
+        raise MapError(f"{source} has no free space wide enough for a robot of radius {robot_radius:g} m")
     result = abstract(p_occ, frame, robot_radius, geometry=geometry, rooms=rooms, reachable=reachable)
     if places:
         result.topology.name_places(places)
     if result.topology.graph.number_of_nodes() == 0:
-        raise AtlasError(f"{source} has no free space wide enough for a robot of radius {robot_radius:g} m")
+        raise MapError(f"{source} has no free space wide enough for a robot of radius {robot_radius:g} m")
     return result
 
 

@@ -42,10 +42,10 @@ from typing import Any
 import numpy as np
 from yaml.nodes import MappingNode, ScalarNode
 
-from atlas_rap.errors import Problem, line_of
+from atlas_rap.errors import MapFileError, Problem, did_you_mean, line_of
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.geometry import outlines
-from atlas_rap.yamlsource import YamlSource, _kind, _nearest
+from atlas_rap.yamlsource import YamlSource, _kind
 from atlas_rap.model import Point, Segment
 from atlas_rap.outputs import atomic_write, write_bytes, write_text
 
@@ -155,14 +155,14 @@ class RosMap:
 def load_ros_map(path_yaml: str | Path, shown_as: str | None = None) -> RosMap:
     """Read a map_server YAML and its image into a :class:`RosMap`.
 
-    A file that is not a map raises :class:`SourceError` with every problem
+    A file that is not a map raises :class:`MapFileError` with every problem
     located at its key in the YAML (``shown_as`` is the name used in those
     reports; the path by default). A world file, or a YAML with none of a
     map's keys, gets one problem that says so: where the world's map is, how
     to build one, or which keys a map needs.
     """
     path = Path(path_yaml)
-    src = YamlSource.read(path, shown_as, "ROS map YAML")
+    src = YamlSource.read(path, shown_as, "ROS map YAML", MapFileError)
     _check_is_a_map(src, path)
     entries = src.keys(src.root, "", None, MAP_REQUIRED, what=" (a ROS map_server map)")
     if entries is None:
@@ -193,9 +193,8 @@ def load_ros_map(path_yaml: str | Path, shown_as: str | None = None) -> RosMap:
     if "mode" in node:
         given = src.string(node["mode"], "mode")
         if given is not None and given not in MODES:
-            near = _nearest(given, list(MODES))
             src.error(node["mode"], f"unknown mode '{given}'",
-                      (f"did you mean '{near}'? " if near else "") + "modes: trinary, scale, raw")
+                      (did_you_mean(given, MODES, end=" ") or "") + "modes: trinary, scale, raw")
         elif given is not None:
             mode = given
     image_path = None

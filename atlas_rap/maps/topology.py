@@ -51,7 +51,7 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
-from atlas_rap.errors import AtlasError
+from atlas_rap.errors import MapError
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.outputs import write_text
 from atlas_rap.maps.rooms import RoomSettings, segment_rooms
@@ -718,7 +718,7 @@ class Topology:
 
     @classmethod
     def from_json(cls, path: str | Path) -> Topology:
-        """Read a topology written by :meth:`to_json`; anything else is an :class:`AtlasError` saying so."""
+        """Read a topology written by :meth:`to_json`; anything else is a :class:`MapError` saying so."""
         try:
             with open(path, "rb") as stream:  # at most the limit: a device such as /dev/zero never ends
                 text = stream.read(MAX_JSON_BYTES + 1)
@@ -729,9 +729,9 @@ class Topology:
                 raise ValueError(f"it holds {type(data).__name__}, not an object")
             return cls.from_dict(data)
         except RecursionError:
-            raise AtlasError(f"{path}: not a topological map written by atlas map (nested too deeply)") from None
+            raise MapError(f"{path}: not a topological map written by atlas map (nested too deeply)") from None
         except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError) as exc:
-            raise AtlasError(f"{path}: not a topological map written by atlas map ({exc}); make one with "
+            raise MapError(f"{path}: not a topological map written by atlas map ({exc}); make one with "
                              f"atlas map build --out DIR, then use DIR/topology.json") from None
 
     def to_graphml(self, path: str | Path) -> Path:

@@ -24,7 +24,7 @@ Warnings (``severity`` ``"warning"``) do not stop the planner:
 
 from __future__ import annotations
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation
+from atlas_rap.errors import PlanFileError, Problem, SourceLocation
 from atlas_rap.lang import ast
 from atlas_rap.logic import Compound, Term, term_to_str, unify, variables
 from atlas_rap.planner.ground import agent_variables, operator_purposes, plot_steps
@@ -33,7 +33,7 @@ from atlas_rap.planner.problem import PlanningProblem
 _NOT_FACTS = frozenset({"not", "and", "or", "=", "/=", "<", "<=", ">", ">="})
 
 
-class UnreachableGoals(SourceError):
+class UnreachableGoals(PlanFileError):
     """The only problems are goals that no operator can achieve: the problem is
     well formed, and unsolvable (``atlas plan --json`` says ``unsolvable``)."""
 
@@ -44,13 +44,13 @@ def check_problem(problem: PlanningProblem) -> list[Problem]:
 
 
 def raise_problems(problem: PlanningProblem) -> list[Problem]:
-    """Raise a :class:`SourceError` with every error :func:`check_problem` finds
+    """Raise a :class:`PlanFileError` with every error :func:`check_problem` finds
     (an :class:`UnreachableGoals` when they are all goals no operator achieves);
     else return the warnings, for the caller to show."""
     arity, goals, agents, cycles = _check_parts(problem)
     problems = arity + goals + agents + cycles
     if problems:
-        raise (SourceError if arity or agents or cycles else UnreachableGoals)(problems)
+        raise (PlanFileError if arity or agents or cycles else UnreachableGoals)(problems)
     return _deadline_warnings(problem)
 
 

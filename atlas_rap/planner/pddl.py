@@ -5,7 +5,7 @@ should work on a PDDL benchmark instead of ``.ap`` files. The s-expressions
 come from the RAP reader (:func:`atlas_rap.lang.reader.read_file`): PDDL's
 ``-``, ``:keywords`` and ``?variables`` are plain atoms to it, it folds case
 (PDDL is case-insensitive) and it keeps positions, so every error below is a
-:class:`~atlas_rap.errors.SourceError` with ``file:line:column``, the line,
+:class:`~atlas_rap.errors.PlanFileError` with ``file:line:column``, the line,
 a caret and a hint.
 
 Supported: STRIPS with ``:typing`` (hierarchy and ``either``),
@@ -78,9 +78,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.errors import PlanFileError, Problem, SourceLocation, did_you_mean, line_of, source_lines
 from atlas_rap.lang import ast
-from atlas_rap.lang.guesses import nearest
 from atlas_rap.lang.reader import SList, read_file, read_text
 from atlas_rap.logic.terms import Compound, Term, Var, term_to_str
 from atlas_rap.planner.problem import PlanningProblem
@@ -166,7 +165,7 @@ def formula_text(term: Term) -> str:
 def load_pddl(domain_path: str | Path, problem_path: str | Path) -> PlanningProblem:
     """The planning problem of a PDDL domain file and problem file.
 
-    Raises :class:`~atlas_rap.errors.SourceError` for anything it cannot
+    Raises :class:`~atlas_rap.errors.PlanFileError` for anything it cannot
     read or does not support (a missing file included), located in the file.
     """
     domain = _Source.from_file(domain_path)
@@ -197,8 +196,8 @@ class _Source:
     def loc(self, where: Where) -> SourceLocation:
         return SourceLocation(self.name, where[0], where[1])
 
-    def error(self, message: str, where: Where, hint: str | None = None) -> SourceError:
-        return SourceError(Problem(message, self.loc(where), line_of(self.lines, where[0]), hint))
+    def error(self, message: str, where: Where, hint: str | None = None) -> PlanFileError:
+        return PlanFileError(Problem(message, self.loc(where), line_of(self.lines, where[0]), hint))
 
 
 def _unglued(datum):
@@ -233,10 +232,7 @@ def _head(form: SList):
 
 
 def _suggest(name: str, known, what: str) -> str:
-    close = nearest(name, list(known))
-    if close:
-        return f"did you mean '{close}'?"
-    return f"declared {what}: {', '.join(sorted(known)) or 'none'}"
+    return did_you_mean(name, known) or f"declared {what}: {', '.join(sorted(known)) or 'none'}"
 
 
 class _Loader:
@@ -551,7 +547,7 @@ class _Loader:
 
     # ------------------------------------------------------------ formulas and effects
 
-    def _unsupported(self, form: SList) -> SourceError:
+    def _unsupported(self, form: SList) -> PlanFileError:
         return self.src.error(f"{_UNSUPPORTED_HEADS[form.items[0]]} are not supported", _at(form), _SUPPORTED)
 
     def _condition(self, form: SList, params: frozenset | None, out: list[tuple[Term, Where]]) -> None:

@@ -41,7 +41,7 @@ from itertools import product
 from pathlib import Path
 from typing import Iterable, Sequence
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation
+from atlas_rap.errors import PlanFileError, Problem, SourceLocation
 from atlas_rap.lang import ast
 from atlas_rap.outputs import write_text
 from atlas_rap.logic.terms import Compound, Term, substitute, term_to_str
@@ -79,17 +79,17 @@ def write_plan_file(path: str | Path, actions: Iterable[Compound]) -> None:
 def read_plan_file(path: str | Path) -> list[Compound]:
     """The actions of a plan file; blank lines and ``;`` comments are skipped.
 
-    Raises :class:`~atlas_rap.errors.SourceError` for a missing or unreadable
+    Raises :class:`~atlas_rap.errors.PlanFileError` for a missing or unreadable
     file and, located with a caret, for a line that is not one action.
     """
     name = str(path)
     try:
         text = Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise SourceError(Problem("no such file", SourceLocation(name, 1, 1), None, "check the path")) from None
+        raise PlanFileError(Problem("no such file", SourceLocation(name, 1, 1), None, "check the path")) from None
     except (OSError, UnicodeDecodeError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) else "not UTF-8 text"
-        raise SourceError(Problem(f"cannot read plan file: {reason}", SourceLocation(name, 1, 1))) from None
+        raise PlanFileError(Problem(f"cannot read plan file: {reason}", SourceLocation(name, 1, 1))) from None
     actions = []
     for number, line in enumerate(text.split("\n"), 1):
         stripped = line.strip()
@@ -98,7 +98,7 @@ def read_plan_file(path: str | Path) -> list[Compound]:
         match = _PLAN_LINE.fullmatch(stripped)
         if match is None:
             column = len(line) - len(line.lstrip()) + 1
-            raise SourceError(Problem("not a plan action", SourceLocation(name, number, column), line, _PLAN_HINT))
+            raise PlanFileError(Problem("not a plan action", SourceLocation(name, number, column), line, _PLAN_HINT))
         actions.append(Compound(match.group(1).lower(), tuple(match.group(2).lower().split())))
     return actions
 

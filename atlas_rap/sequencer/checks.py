@@ -34,10 +34,10 @@ from __future__ import annotations
 
 from typing import Iterable, Iterator
 
-from atlas_rap.errors import AtlasError, Problem, SourceLocation
+from atlas_rap.errors import AtlasError, Problem, SourceLocation, did_you_mean
 from atlas_rap.lang import ast
 from atlas_rap.lang.reader import SList, read_text
-from atlas_rap.lang.guesses import net_hint, nearest
+from atlas_rap.lang.guesses import net_hint
 from atlas_rap.logic import COMPARISONS, Compound, FactError, Term, evaluated_fact, is_ground, rule_cycles, term_to_str
 
 
@@ -135,11 +135,10 @@ class _Checker:
             self.report(f"{name} takes {_arities(known)}, not {arity}", loc,
                         f"call it as ({name}{' ?x' * min(known)})")
             return
-        guess = nearest(name, sorted(set(self.raps) | set(self.skills)))
         # (wait-until (ready)) reads as the step labelled wait-until: its label is the wrong guess
         hint = net_hint(name) or (net_hint(label) if label else None)
-        hint = hint or (f"did you mean '{guess}'?" if guess else
-                        "define it with define-rap, or as a skill (define-virtual-skill for runs without a world)")
+        hint = hint or did_you_mean(name, sorted(set(self.raps) | set(self.skills))) or \
+            "define it with define-rap, or as a skill (define-virtual-skill for runs without a world)"
         self.report(f"'{name}' is neither a RAP nor a skill", loc, hint)
 
     def skill(self, skill: Compound, loc: SourceLocation, verb: str) -> None:
@@ -152,9 +151,8 @@ class _Checker:
             self.report(f"cannot {verb} {name}: it is a RAP, not a skill", loc,
                         "call a RAP as a step of a task-net")
         else:
-            guess = nearest(name, sorted(self.skills))
             known = ", ".join(sorted(self.skills))
-            hint = (f"did you mean '{guess}'?" if guess else f"the skills here are: {known}" if known else
+            hint = (did_you_mean(name, sorted(self.skills)) or f"the skills here are: {known}" if known else
                     "no skills are known here; for a run without a world, define it with define-virtual-skill")
             self.report(f"cannot {verb} unknown skill '{name}'", loc, hint)
 

@@ -79,8 +79,7 @@ from pathlib import Path
 import numpy as np
 from yaml.nodes import MappingNode, Node, ScalarNode
 
-from atlas_rap.errors import AtlasError, SourceError
-from atlas_rap.lang.validator import nearest
+from atlas_rap.errors import AtlasError, SourceError, WorldError, WorldFileError, did_you_mean
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, RosMap, load_ros_map, wall_segments
 from atlas_rap.yamlsource import YamlSource
 from atlas_rap.shipped import resolve_user_path, shipped_root, shipped_worlds
@@ -126,12 +125,12 @@ NAME_PATTERN = re.compile(r"[a-z][a-z0-9_-]*\Z")
 def world_path(name_or_path: str | Path) -> Path:
     """The file a world name or path means: a bare name is a shipped world, anything else a path.
 
-    An unknown bare name raises :class:`AtlasError` listing the shipped worlds.
+    An unknown bare name raises :class:`WorldError` listing the shipped worlds.
     """
     text = str(name_or_path)
     given = Path(text)
     if given.is_dir():
-        raise AtlasError(f"{text}: is a directory, not a world file; give a world's .yaml file or a shipped "
+        raise WorldError(f"{text}: is a directory, not a world file; give a world's .yaml file or a shipped "
                          f"world's name")
     if given.suffix or len(given.parts) != 1:
         return resolve_user_path(given)
@@ -143,22 +142,22 @@ def world_path(name_or_path: str | Path) -> Path:
         return given
     names = shipped_worlds()
 
-    near = nearest(text.lower(), names)  # shipped names are lower-case: MAZE means maze
+    near = did_you_mean(text.lower(), names)  # shipped names are lower-case: MAZE means maze
     message = f"no shipped world named '{text}'"
-    message += f"; did you mean '{near}'?" if near else ""
+    message += f"; {near}" if near else ""
     message += f"\n  shipped worlds: {', '.join(names) if names else '(none found)'}"
     message += "\n  or give the path of a world file, e.g. my-world.yaml"
-    raise AtlasError(message)
+    raise WorldError(message)
 
 
 def load_world(name_or_path: str | Path) -> World:
     """Read a world: a shipped one by name (``maze``) or a YAML file by path.
 
-    Raises :class:`SourceError` with every problem found in the file (and in
-    the ROS map it names), or :class:`AtlasError` for an unknown name.
+    Raises :class:`WorldFileError` with every problem found in the file (and in
+    the ROS map it names), or :class:`WorldError` for an unknown name.
     """
     path = world_path(name_or_path)
-    return _WorldReader(YamlSource.read(path, _shown(path), "world file"), path).read()
+    return _WorldReader(YamlSource.read(path, _shown(path), "world file", WorldFileError), path).read()
 
 
 def _shown(path: Path) -> str:
@@ -233,9 +232,8 @@ class _WorldReader:
         for name, (key, value) in (entries or {}).items():
             path = f"doors.{name}"
             if name not in doors:
-                guess = nearest(name, list(doors))
                 src.error(key, f"the base world {world.name} has no door '{name}'",
-                          f"did you mean '{guess}'?" if guess else "the doors are: " + ", ".join(doors))
+                          did_you_mean(name, doors) or "the doors are: " + ", ".join(doors))
                 continue
             fields = src.keys(value, path, VARIANT_DOOR_KEYS, what=" such as {open: false}")
             if not fields:
@@ -276,7 +274,7 @@ class _WorldReader:
         except AtlasError as error:  # an unknown shipped world's name
             first, *rest = str(error).split("\n")
             src.error(node, first, "; ".join(line.strip() for line in rest) or None)
-        raise SourceError(src.problems)  # the base's problems, then this file's base: line
+        raise WorldFileError(src.problems)  # the base's problems, then this file's base: line
 
     # -- geometry -------------------------------------------------------------
 
@@ -438,10 +436,9 @@ class _WorldReader:
                 ok = False  # a place with problems of its own, reported there
             elif place is not None and place not in places:
             
-                near = nearest(place, list(places))
                 known = ", ".join(places) or "none yet"
                 src.error(item, f"no place named '{place}'",
-                          (f"did you mean '{near}'? " if near else "") + f"places: {known}")
+                          (did_you_mean(place, places, end=" ") or "") + f"places: {known}")
                 ok = False
         if names[0] is not None and names[0] == names[1]:
             src.error(items[1], f"a door joins two different places, not '{names[0]}' with itself")
@@ -547,9 +544,8 @@ class _WorldReader:
             if "kind" in fields:
                 kind = src.string(fields["kind"][1], f"{path}.kind", "kinds: " + ", ".join(OBJECT_KINDS))
                 if kind is not None and kind not in OBJECT_KINDS:
-                    guess = nearest(kind, list(OBJECT_KINDS))
                     src.error(fields["kind"][1], f"unknown object kind '{kind}'",
-                              (f"did you mean '{guess}'? " if guess else "") + "kinds: " + ", ".join(OBJECT_KINDS))
+                              (did_you_mean(kind, OBJECT_KINDS, end=" ") or "") + "kinds: " + ", ".join(OBJECT_KINDS))
                     kind = None
             size = src.number(fields["size"][1], f"{path}.size", above=0.0, maximum=2.0) if "size" in fields else 0.25
             at = src.point(fields["at"][1], f"{path}.at") if "at" in fields else None

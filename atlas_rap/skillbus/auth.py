@@ -55,7 +55,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from atlas_rap.errors import AtlasError
+from atlas_rap.errors import SkillBusError
 from atlas_rap.outputs import output_file
 
 TOKEN_ENV = "ATLAS_BUS_TOKEN"
@@ -83,7 +83,7 @@ TO_HOST, TO_SEQUENCER = b">", b"<"
 """The directions a tag covers, so a frame cannot be reflected back to its sender."""
 
 
-class TokenError(AtlasError):
+class TokenError(SkillBusError):
     """A token file or secret that cannot be used: missing, unreadable, of another robot, too short."""
 
 

@@ -49,7 +49,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Iterable
 
-from atlas_rap.errors import AtlasError
+from atlas_rap.errors import SkillBusError
 from atlas_rap.logic import Compound, String, Term, Var
 
 VERSION = 1
@@ -67,7 +67,7 @@ PHASES = 4
 """Phases of a tick (``skillbus.protocol``: SKILLS, SEQUENCER, END, BEGIN): a phase is 0-3."""
 
 
-class DecodeError(AtlasError):
+class DecodeError(SkillBusError):
     """A message on the bus that cannot be decoded: not JSON, an unknown type, a bad field."""
 
 

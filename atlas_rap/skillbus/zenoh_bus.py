@@ -47,7 +47,7 @@ import time
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
-from atlas_rap.errors import AtlasError
+from atlas_rap.errors import SkillBusError
 from atlas_rap.skillbus.messages import MAX_MESSAGE
 
 log = logging.getLogger("atlas_rap.skillbus")
@@ -62,7 +62,7 @@ SECURE = ("tls", "quic")
 """Endpoint protocols that encrypt and authenticate the link itself."""
 
 
-class BusError(AtlasError):
+class BusError(SkillBusError):
     """The bus cannot be used: Zenoh is not installed, an endpoint is bad or taken, nobody answers."""
 
 

@@ -2,9 +2,10 @@
 
 - ``skill``: the :class:`Skill` base class and its lifecycle.
 - ``manager``: the :class:`SkillManager` (routing by name, rates, events).
-- ``sensing``, ``safety``, ``motion``, ``navigation``, ``events``: the stock
-  skills; ``stock`` builds them all. ``avoidance`` and ``routes`` are the
-  steering and route-planning functions they share.
+- ``sensing``, ``safety``, ``motion``, ``navigation``, ``events``, ``camera``,
+  ``handling``: the stock skills; ``catalog`` registers them once (name,
+  parameters, events, class) and ``stock`` builds them all. ``avoidance`` and
+  ``routes`` are the steering and route-planning functions they share.
 - ``virtual``: scripted skills for runs without physics.
 """
 

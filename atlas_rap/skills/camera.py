@@ -45,6 +45,7 @@ from typing import Any, Mapping
 from atlas_rap.logic import Compound, Var
 from atlas_rap.skills.avoidance import angle_difference, steer
 from atlas_rap.skills.beliefs import HOLD, OBJECTS, SIGHTINGS, SPEED_LIMIT, Sighting
+from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.motion import _Driving
 from atlas_rap.skills.routes import where_is
 from atlas_rap.skills.skill import Skill
@@ -59,15 +60,13 @@ FRESH = 0.35
 """Seconds within which a sighting counts as seeing the object now."""
 
 
+@registered("colour-camera")
 class ColourCamera(Skill):
     """The colour camera: sightings in, facts out when something changes; see the module docstring."""
 
-    name = "colour-camera"
     inputs = ("pose",)
     outputs = ("sightings",)
-    always_on = True
     rate = 10.0
-    events = ("in-view", "seen", "is-a")
     fov = math.radians(60.0)
     max_range = 5.0
     out_of_view_after = 1.0
@@ -116,10 +115,10 @@ class ColourCamera(Skill):
         return {"sightings": tuple(seen)}
 
 
+@registered("look-around")
 class LookAround(Skill):
     """``(look-around)``: turn on the spot once all the way round, so the camera sees the whole place."""
 
-    name = "look-around"
     inputs = ("pose",)
     outputs = ("command",)
     turn_rate = 1.2  # rad/s: about 5 s a turn, 0.12 rad between camera frames
@@ -142,12 +141,10 @@ class LookAround(Skill):
         return {"command": (0.0, self.turn_rate)}
 
 
+@registered("approach")
 class Approach(_Driving):
     """``(approach OBJ)``: drive up to an object by its sightings; see the module docstring."""
 
-    name = "approach"
-    params = ("object",)
-    events = ("blocked", "lost")
     lost_after = 3.0
 
     def enable(self, args: tuple[Any, ...]) -> None:

@@ -22,17 +22,16 @@ import numpy as np
 from atlas_rap.logic import Compound
 from atlas_rap.skills.avoidance import angle_wrap
 from atlas_rap.skills.beliefs import CLOSED_DOORS
+from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.skill import Skill
 
 
+@registered("place-monitor")
 class PlaceMonitor(Skill):
     """Asserts ``(at robot PLACE)`` on entering a place."""
 
-    name = "place-monitor"
     inputs = ("pose",)
-    always_on = True
     rate = 10.0
-    events = ("at",)
 
     def init(self, context) -> None:
         super().init(context)
@@ -49,14 +48,12 @@ class PlaceMonitor(Skill):
         return {}
 
 
+@registered("door-monitor")
 class DoorMonitor(Skill):
     """Watches doorways within ``sensing_range`` with the sonar; asserts their state when it changes."""
 
-    name = "door-monitor"
     inputs = ("pose", "sonar")
-    always_on = True
     rate = 10.0
-    events = ("door-open", "door-closed", "edge-blocked")
     sensing_range = 3.0
     nearest = 0.4  # closer, the robot is in the doorway and its beams see the frame
     tolerance = 0.3
@@ -119,13 +116,11 @@ class DoorMonitor(Skill):
                 context.assert_fact(Compound("edge-blocked", pair))
 
 
+@registered("bump-monitor")
 class BumpMonitor(Skill):
     """Asserts ``(bumped robot)`` on contact; retracts it ``hold`` seconds after the last one."""
 
-    name = "bump-monitor"
     inputs = ("bump",)
-    always_on = True
-    events = ("bumped",)
     hold = 1.0
 
     def init(self, context) -> None:

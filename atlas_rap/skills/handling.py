@@ -27,6 +27,7 @@ from typing import Any, Mapping
 
 from atlas_rap.logic import Compound, Var
 from atlas_rap.skills.beliefs import OBJECTS, SIGHTINGS
+from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.skill import Skill
 
 NO_GRIPPER = "this robot has no gripper: its world has no objects"
@@ -72,12 +73,10 @@ class _Handling(Skill):
         raise NotImplementedError
 
 
+@registered("pick-up")
 class PickUp(_Handling):
     """``(pick-up ITEM)``: take a piece of trash within reach into the empty gripper."""
 
-    name = "pick-up"
-    params = ("item",)
-    events = ("holding",)
     duration = 1.0  # seconds the gripper takes to close on the item
     reach = 0.6
 
@@ -96,12 +95,10 @@ class PickUp(_Handling):
         return why
 
 
+@registered("drop")
 class Drop(_Handling):
     """``(drop ITEM BIN)``: drop the item in the gripper into a bin within reach."""
 
-    name = "drop"
-    params = ("item", "bin")
-    events = ("in-bin",)
     duration = 1.0  # seconds the gripper takes to let go over the bin
     reach = 0.8
 

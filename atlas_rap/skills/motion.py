@@ -17,6 +17,7 @@ import numpy as np
 from atlas_rap.logic import Compound
 from atlas_rap.skills.avoidance import angle_difference, angle_wrap, steer
 from atlas_rap.skills.beliefs import HOLD, SPEED_LIMIT
+from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.skill import Skill
 
 ARRIVED = 0.2  # metres from a final goal that count as there
@@ -49,7 +50,6 @@ class _Driving(Skill):
 
     inputs = ("pose", "sonar")
     outputs = ("command",)
-    events = ("blocked",)
     rate = 20.0
 
     def init(self, context) -> None:
@@ -80,11 +80,9 @@ class _Driving(Skill):
         return {"command": (v, omega)}, False
 
 
+@registered("follow-route")
 class FollowRoute(_Driving):
     """``(follow-route ((X1 Y1) (X2 Y2) ...))``: pass each waypoint in turn, stop at the last."""
-
-    name = "follow-route"
-    params = ("waypoints",)
 
     def enable(self, args: tuple[Any, ...]) -> None:
         super().enable(args)
@@ -120,11 +118,9 @@ class FollowRoute(_Driving):
         return out
 
 
+@registered("move-to")
 class MoveTo(FollowRoute):
     """``(move-to X Y)``: go to the point (X, Y) around obstacles (a route of one waypoint)."""
-
-    name = "move-to"
-    params = ("x", "y")
 
     def enable(self, args: tuple[Any, ...]) -> None:
         _Driving.enable(self, args)
@@ -132,11 +128,10 @@ class MoveTo(FollowRoute):
         self.index = 0
 
 
+@registered("turn-to")
 class TurnTo(Skill):
     """``(turn-to HEADING-DEGREES)``: turn on the spot to face a heading."""
 
-    name = "turn-to"
-    params = ("heading",)
     inputs = ("pose",)
     outputs = ("command",)
 
@@ -152,10 +147,10 @@ class TurnTo(Skill):
         return {"command": (0.0, max(-turn, min(turn, 2.0 * error)))}
 
 
+@registered("stop")
 class Stop(Skill):
     """``(stop)``: command zero velocity, and finish once the command is out."""
 
-    name = "stop"
     outputs = ("command",)
 
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
@@ -163,10 +158,10 @@ class Stop(Skill):
         return {"command": (0.0, 0.0)}
 
 
+@registered("wander")
 class Wander(Skill):
     """``(wander)``: drive ahead, turning away from echoes, with a random drift (never finishes)."""
 
-    name = "wander"
     inputs = ("sonar",)
     outputs = ("command",)
 
@@ -186,11 +181,10 @@ class Wander(Skill):
         return {"command": (speed, 1.5 * heading + self.drift)}
 
 
+@registered("wall-follow")
 class WallFollow(Skill):
     """``(wall-follow SIDE)``: keep a wall at ``distance`` on the left or right (never finishes)."""
 
-    name = "wall-follow"
-    params = ("side",)
     inputs = ("sonar",)
     outputs = ("command",)
     distance = 0.5

@@ -22,16 +22,14 @@ from typing import Any, Mapping
 
 from atlas_rap.logic import Compound, Var
 from atlas_rap.skills.beliefs import CLOSED_DOORS, GOAL, ROUTE, ROUTES, TOPOLOGY, FollowedRoute, Goal, PlannedRoute
+from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.motion import FollowRoute, _Driving
 from atlas_rap.skills.routes import PriorMapRoutes, TopologyRoutes
 
 
+@registered("navigate-to")
 class NavigateTo(FollowRoute):
     """``(navigate-to PLACE)``: drive to a named place by the route its route source gives."""
-
-    name = "navigate-to"
-    params = ("place",)
-    events = ("blocked",)
 
     def enable(self, args: tuple[Any, ...]) -> None:
         _Driving.enable(self, args)
@@ -97,12 +95,10 @@ class NavigateTo(FollowRoute):
         return out
 
 
+@registered("open-door")
 class OpenDoor(_Driving):
     """``(open-door DOOR)``: drive up to a door the robot can open, press, and wait until it is open."""
 
-    name = "open-door"
-    params = ("door",)
-    events = ("door-open",)
     press_time = 1.5
 
     def enable(self, args: tuple[Any, ...]) -> None:

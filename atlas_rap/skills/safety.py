@@ -16,11 +16,13 @@ from typing import Any, Mapping
 import numpy as np
 
 from atlas_rap.skills.beliefs import HOLD, REFLEXES
+from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.skill import Skill
 
 FRONT_HALF_ANGLE = math.radians(50)
 
 
+@registered("safety-reflex")
 class SafetyReflex(Skill):
     """``command`` + ``sonar`` + ``bump`` → ``safe-command``.
 
@@ -31,10 +33,8 @@ class SafetyReflex(Skill):
     belief) it stands still; with Layer I not enabled the reflex is off.
     """
 
-    name = "safety-reflex"
     inputs = ("command", "sonar", "bump")
     outputs = ("safe-command",)
-    always_on = True
     rate = 20.0
 
     slow_range = 0.6

@@ -14,15 +14,15 @@ from typing import Any, Mapping
 import numpy as np
 
 from atlas_rap.skills.beliefs import POSE, SONAR
+from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.skill import Skill
 
 
+@registered("sonar-ring")
 class SonarSensor(Skill):
     """The sonar ring at its own rate: ``sonar`` = (ranges, angles), ranges from the robot's rim."""
 
-    name = "sonar-ring"
     outputs = ("sonar",)
-    always_on = True
 
     def init(self, context) -> None:
         super().init(context)
@@ -35,12 +35,11 @@ class SonarSensor(Skill):
         return {"sonar": reading}
 
 
+@registered("odometry")
 class Odometry(Skill):
     """Where the robot believes it is: ``pose`` = (x, y, heading) from odometry."""
 
-    name = "odometry"
     outputs = ("pose",)
-    always_on = True
 
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
         pose = self.context.robot.odometry
@@ -48,24 +47,22 @@ class Odometry(Skill):
         return {"pose": pose}
 
 
+@registered("bumper")
 class Bumper(Skill):
     """The bumper: ``bump`` = the body-frame angle of a contact this period, or None."""
 
-    name = "bumper"
     outputs = ("bump",)
-    always_on = True
 
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
         robot = self.context.robot
         return {"bump": robot.bump_angle if robot.bumped else None}
 
 
+@registered("drive")
 class Drive(Skill):
     """The wheels: sends ``safe-command`` (v, ω) to the robot; no command means stop."""
 
-    name = "drive"
     inputs = ("safe-command",)
-    always_on = True
 
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
         command = inputs["safe-command"]

@@ -5,25 +5,15 @@ from __future__ import annotations
 from typing import Any
 
 from atlas_rap.skills.beliefs import OBJECTS
-from atlas_rap.skills.camera import Approach, ColourCamera, LookAround
-from atlas_rap.skills.events import BumpMonitor, DoorMonitor, PlaceMonitor
-from atlas_rap.skills.handling import Drop, PickUp
+from atlas_rap.skills.catalog import STOCK_EVENTS, STOCK_SKILLS, stock_classes
 from atlas_rap.skills.manager import SkillManager
-from atlas_rap.skills.motion import FollowRoute, MoveTo, Stop, TurnTo, Wander, WallFollow
-from atlas_rap.skills.navigation import NavigateTo, OpenDoor
-from atlas_rap.skills.safety import SafetyReflex
-from atlas_rap.skills.sensing import Bumper, Drive, Odometry, SonarSensor
 from atlas_rap.skills.skill import Skill
 
 
 def stock_skills() -> list[Skill]:
-    """One fresh instance of each stock skill: sensors, reflex, events, motion, navigation,
-    the colour camera and what it serves, the gripper."""
-    return [SonarSensor(), Odometry(), Bumper(), SafetyReflex(), Drive(),
-            PlaceMonitor(), DoorMonitor(), BumpMonitor(),
-            MoveTo(), FollowRoute(), TurnTo(), Wander(), WallFollow(), Stop(),
-            NavigateTo(), OpenDoor(),
-            ColourCamera(), LookAround(), Approach(), PickUp(), Drop()]
+    """One fresh instance of each stock skill, in the catalog's order: sensors, reflex, events, motion,
+    navigation, the colour camera and what it serves, the gripper."""
+    return [skill_class() for skill_class in stock_classes()]
 
 
 def stock_manager(world: Any, robot: Any, rng: Any = None) -> SkillManager:
@@ -45,9 +35,9 @@ def stock_manager(world: Any, robot: Any, rng: Any = None) -> SkillManager:
 
 def stock_skill_names() -> dict[str, set[int]]:
     """The stock skills RAPs can enable: name → arity (for checking files without a world)."""
-    return SkillManager(stock_skills()).skills()
+    return {name: set(arities) for name, arities in STOCK_SKILLS.items()}
 
 
 def stock_events() -> set[str]:
     """Predicates the stock skills may assert."""
-    return SkillManager(stock_skills()).produces()
+    return set(STOCK_EVENTS)
