@@ -20,7 +20,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
-from atlas_rap.errors import AtlasError, SourceError
+from atlas_rap.errors import AtlasError, MapError, RunError, SourceError
 from atlas_rap.layers.clock import Clock, WallClock, wall_clock_pacer
 from atlas_rap.layers.deliberation import ProblemFor
 from atlas_rap.layers.executive import Executive, Rates, VirtualExecutive
@@ -74,7 +74,7 @@ def build_virtual(options: RunOptions, choice: WorldChoice, trace: Trace, virtua
                   problem_for: ProblemFor, worker: bool) -> System:
     """No world: the program's virtual skills and the timers (``--world none``)."""
     if options.topology is not None:
-        raise AtlasError("--map needs a world; this run has none (--world none)")
+        raise RunError("--map needs a world; this run has none (--world none)")
     sequencer = Sequencer(skills=virtual, trace=trace)
     deliberation = planning_beside(sequencer, problem_for, worker or options.realtime)
     driver = VirtualExecutive(sequencer, pace=wall_clock_pacer() if options.realtime else None)
@@ -133,7 +133,7 @@ def layer_stack(options: RunOptions, sequencer: Sequencer, manager: SkillManager
     if options.maps_while_driving:
         stack.add(StrategicLayer(stack, map_in(options.map_in, believed) if options.map_in is not None else None))
     if not stack.active():
-        raise AtlasError(f"--layers {','.join(options.layers)}: Layer IV maps, so it runs only when the "
+        raise RunError(f"--layers {','.join(options.layers)}: Layer IV maps, so it runs only when the "
                          f"robot maps (--no-prior-map or --map-in); enable I, II or III as well")
     return stack
 
@@ -145,14 +145,14 @@ def map_in(path: str | Path, world: World) -> OccupancyGrid:
     try:
         grid = OccupancyGrid.load_npz(path)
     except (OSError, KeyError, ValueError) as exc:
-        raise AtlasError(f"{path}: not an occupancy grid written by atlas run --map-out or "
+        raise MapError(f"{path}: not an occupancy grid written by atlas run --map-out or "
                          f"atlas map build ({exc})") from None
     xmin, ymin, xmax, ymax = world.bounds
     frame = grid.frame
     inset = frame.resolution / 2
     corners = [frame.world_to_cell(x, y) for x in (xmin + inset, xmax - inset) for y in (ymin + inset, ymax - inset)]
     if not all(frame.contains_cell(row, col) for row, col in corners):
-        raise AtlasError(f"{path}: this grid does not cover world {world.name} "
+        raise MapError(f"{path}: this grid does not cover world {world.name} "
                          f"(x {xmin:g}..{xmax:g}, y {ymin:g}..{ymax:g}); was it built in another world?")
     return grid
 

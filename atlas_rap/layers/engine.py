@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation
+from atlas_rap.errors import AtlasError, Problem, RunError, SourceLocation, WorldFileError
 from atlas_rap.lang import ast, load
 from atlas_rap.lang.loader import Program
 from atlas_rap.layers.builders import build_system
@@ -118,7 +118,7 @@ class MissionEngine:
     @property
     def _system(self) -> System:
         if self.system is None:
-            raise AtlasError("the run has no world yet: load a program or call ensure_system() first")
+            raise RunError("the run has no world yet: load a program or call ensure_system() first")
         return self.system
 
     @property
@@ -224,7 +224,7 @@ class MissionEngine:
         """Write the grid Layer IV built (``--map-out``), as ``atlas run --map-in`` and ``atlas map`` read it."""
         grid = self.grid
         if grid is None:
-            raise AtlasError("this run built no map: give --no-prior-map or --map-in to map while driving")
+            raise RunError("this run built no map: give --no-prior-map or --map-in to map while driving")
         return grid.save_npz(path)
 
     def _choose_world(self, program: Program) -> None:
@@ -238,7 +238,7 @@ class MissionEngine:
         if self.system is None:
             self._build(WorldChoice(chosen, form, program.source_line(form.loc)))
         elif not self._is_running(chosen):
-            raise SourceError(Problem(
+            raise WorldFileError(Problem(
                 f"this session runs {'with no world' if self.world is None else 'in ' + self.world.name}; "
                 f"this file names the world '{form.world}'", form.loc, program.source_line(form.loc),
                 f"start a session in that world (atlas repl --world {form.world}), or remove the (world ...) form"))

@@ -21,7 +21,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation
+from atlas_rap.errors import LanguageError, PlanFileError, Problem, RunError, SourceError, SourceLocation
 from atlas_rap.lang import ast
 from atlas_rap.lang.loader import Program
 from atlas_rap.layers.running import take_fault
@@ -84,7 +84,7 @@ def check(system: System, library: Library, program: Program, require_post: bool
                                     event.loc, program.source_line(event.loc),
                                     "at-time takes an absolute simulated time; give a later one"))
     if any(problem.severity == "error" for problem in problems):
-        raise SourceError(sorted(problems, key=lambda p: p.severity != "error"))
+        raise LanguageError(sorted(problems, key=lambda p: p.severity != "error"))
     return problems
 
 
@@ -134,7 +134,7 @@ def act(system: System, program: Program) -> list[Task]:
             seq.change([("assert", fact) for fact in facts], source)
         fault = take_fault(system)
         if fault is not None:
-            raise AtlasError(f"{program.root}: the {source} facts broke a memory rule: {fault}")
+            raise RunError(f"{program.root}: the {source} facts broke a memory rule: {fault}")
     for event in program.of_type(ast.AtTime):
         changes = [(op.kind, op.fact) for op in event.actions]
         seq.timers.at(event.time, lambda changes=changes, t=event.time: seq.change(changes, f"at-time {t:g}"))
@@ -189,7 +189,7 @@ def carry_out_plans(system: System, library: Library, program: Program) -> Progr
                                              loc=request.loc),))
         replaced[id(request)] = [rap, ast.Post(task=Compound(name, ()), loc=request.loc)]
     if problems:
-        raise SourceError(problems)
+        raise PlanFileError(problems)
     forms = tuple(new for form in program.forms for new in replaced.get(id(form), [form]))
     return dataclasses.replace(program, forms=forms)
 

@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from atlas_rap.errors import AtlasError, Problem, SourceError
+from atlas_rap.errors import Problem, RunError, WorldFileError
 from atlas_rap.layers.clock import Clock, wall_clock_pacer
 from atlas_rap.layers.executive import Pace, Stop
 from atlas_rap.layers.deliberation import ProblemFor
@@ -233,18 +233,18 @@ def build_remote(options: RunOptions, choice: WorldChoice, trace: Trace, virtual
         ("--map-in", options.map_in is not None), ("mapping (atlas map build)", options.mapping),
         ("--layers", tuple(options.layers) != LAYER_NAMES)) if used]
     if unsupported:
-        raise AtlasError(f"{', '.join(unsupported)}: not supported with --connect yet (the skill host runs "
+        raise RunError(f"{', '.join(unsupported)}: not supported with --connect yet (the skill host runs "
                          f"the world and the layers with its prior map)")
     form, line = choice.form, choice.line
     if form is not None and choice.name == "none":
-        raise SourceError(Problem("this program runs with no world ((world none)); --connect runs programs on "
+        raise WorldFileError(Problem("this program runs with no world ((world none)); --connect runs programs on "
                                   "a skill host's world", form.loc, line,
                                   "run it without --connect, or name the host's world"))
     assert options.bus is not None, "build_remote needs the bus settings (--connect)"
     fleet = RemoteSkills(options.bus)
     try:
         if form is not None and Path(choice.name).stem != fleet.world:
-            raise SourceError(Problem(f"this program names the world '{form.world}', but the skill host runs "
+            raise WorldFileError(Problem(f"this program names the world '{form.world}', but the skill host runs "
                                       f"'{fleet.world}'", form.loc, line,
                                       f"start the host in that world (atlas skills serve --world {form.world}), "
                                       f"or remove the (world ...) form"))

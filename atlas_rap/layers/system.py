@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from atlas_rap.errors import AtlasError, Problem, SourceError
+from atlas_rap.errors import AtlasError, Problem, WorldFileError
 from atlas_rap.layers.deliberation import Deliberation, ProblemFor
 from atlas_rap.layers.executive import Driver, Rates
 from atlas_rap.layers.layer import LAYER_NAMES, LayerStack
@@ -178,11 +178,11 @@ def world_of(form: ast.WorldDecl) -> str:
     return world
 
 
-def located(exc: AtlasError, form: ast.WorldDecl, line: str | None) -> SourceError:
+def located(exc: AtlasError, form: ast.WorldDecl, line: str | None) -> WorldFileError:
     """An error about the world a form names, as a problem located at the form."""
     first, *rest = str(exc).split("\n")
     hint = "; ".join(text.strip() for text in rest) or None
-    return SourceError(Problem(first, form.loc, line, hint))
+    return WorldFileError(Problem(first, form.loc, line, hint))
 
 
 def planning_beside(sequencer: Sequencer, problem_for: ProblemFor, worker: bool) -> Deliberation:
