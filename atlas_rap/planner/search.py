@@ -248,15 +248,16 @@ def eliminate_redundant(task: GroundTask, plan: list[GroundAction],
         return plan
     run = _KeptRun(task, plan, task.init if init is None else init, settle, settle_adds,
                    work if work is not None else EliminationWork())
+    trial, accept, reject = run.trial, run.accept, run.reject
     i = 0
     while i < len(plan) and i <= run.last_candidate:
         if stop is not None and stop():
             break
-        kept = run.trial(i)
+        kept = trial(i)
         if kept is not None:
-            run.accept(i, kept)
+            accept(i, *kept)
         else:
-            run.reject(i)
+            reject(i)
             i += 1
     return plan
 
@@ -264,17 +265,11 @@ def eliminate_redundant(task: GroundTask, plan: list[GroundAction],
 Change = tuple[tuple[int, ...], tuple[int, ...]]  # the facts one step added and removed
 
 
-@dataclass(slots=True)
-class _Trial:
-    """What a trial without step ``i`` that reached the goals kept: the step ``end`` where it stopped
-    (met the kept run, or ran out), and of ``plan[i + 1:end]`` the actions it applied, their changes
-    and the fingerprints after them, and the actions it dropped (with step ``i``)."""
-
-    end: int
-    kept: list[GroundAction]
-    kept_changes: list[Change]
-    kept_marks: list[int]
-    skipped: list[GroundAction]
+Trial = tuple[int, list[GroundAction], list[Change], list[int], list[GroundAction]]
+"""What a trial without step ``i`` that reached the goals kept: the step ``end`` where it stopped
+(met the kept run, or ran out), and of ``plan[i + 1:end]`` the actions it applied (``kept``), their
+changes and the fingerprints after them, and the actions it dropped (``skipped``, with step ``i``).
+A plain tuple: one is made for most trials, and it is read once, by :meth:`_KeptRun.accept`."""
 
 
 class _KeptRun:
@@ -292,18 +287,13 @@ class _KeptRun:
                  settle_adds: Collection[int] | None, work: EliminationWork) -> None:
         self.plan, self.work, self.here = plan, work, start
         self._applicable, self._step = task.applicable, _stepper(task.apply, settle, work)
-        goals = _goals_settle_cannot_add(task, settle, settle_adds)
         # the plan only ever loses actions: the goals each of its actions adds are known once for all
-        self.adds_goals = {action: tuple(f for f in action.add if f in goals) for action in plan}
+        self.adds_goals, self.rest = _goal_adders(plan, _goals_settle_cannot_add(task, settle, settle_adds))
         state = self._run_once(start)
         self.executable = all(self.done)
         self.last_candidate = len(plan) if self.executable else self.done.index(False)
         self.reaches = task.is_goal(state)
         self._is_goal = task.is_goal
-        self.rest: dict[int, int] = {}
-        for action in plan:
-            for g in self.adds_goals[action]:
-                self.rest[g] = self.rest.get(g, 0) + 1
 
     def _run_once(self, state: frozenset[int]) -> frozenset[int]:
         """Run the plan from ``state``, skipping the inapplicable steps, noting what each step
@@ -345,7 +335,7 @@ class _KeptRun:
                 lost = True
         return lost
 
-    def trial(self, i: int) -> _Trial | None:
+    def trial(self, i: int) -> Trial | None:
         """Run the plan without step ``i`` from the state before it, until its outcome is known:
         what it kept when it reaches the goals, else None."""
         self.work.trials += 1
@@ -382,7 +372,7 @@ class _KeptRun:
             j += 1
         if succeeded is None:
             succeeded = self._is_goal(state)  # the trial ran to the end
-        return _Trial(j, kept, kept_changes, kept_marks, skipped) if succeeded else None
+        return (j, kept, kept_changes, kept_marks, skipped) if succeeded else None
 
     def reject(self, i: int) -> None:
         """Step ``i`` is needed: keep it and move the candidate on to step ``i + 1``."""
@@ -394,24 +384,25 @@ class _KeptRun:
                 self.work.copied += 1
                 self.here = self.here.difference(removed).union(added)
 
-    def accept(self, i: int, trial: _Trial) -> None:
-        """Step ``i`` is redundant: the plan and the kept run become what ``trial`` kept."""
-        plan, changes, marks, j, n = self.plan, self.changes, self.marks, trial.end, len(self.plan)
-        skipped = trial.skipped
+    def accept(self, i: int, end: int, kept: list[GroundAction], kept_changes: list[Change], kept_marks: list[int],
+               skipped: list[GroundAction]) -> None:
+        """Step ``i`` is redundant: the plan and the kept run become what its trial kept (:data:`Trial`)."""
+        plan, changes, marks, j, n = self.plan, self.changes, self.marks, end, len(self.plan)
         if self.executable or j == n:
-            plan[i:j] = trial.kept
-            changes[i:j] = trial.kept_changes
-            marks[i + 1:j + 1] = trial.kept_marks
+            plan[i:j] = kept
+            changes[i:j] = kept_changes
+            marks[i + 1:j + 1] = kept_marks
         else:  # met a kept run that skips inapplicable steps: keep the ones it applied
             done = self.done
             tail = [m for m in range(j, n) if done[m]]
             skipped.extend(plan[m] for m in range(j, n) if not done[m])
-            plan[i:] = trial.kept + [plan[m] for m in tail]
-            changes[i:] = trial.kept_changes + [changes[m] for m in tail]
-            marks[i + 1:] = trial.kept_marks + [marks[m + 1] for m in tail]
+            plan[i:] = kept + [plan[m] for m in tail]
+            changes[i:] = kept_changes + [changes[m] for m in tail]
+            marks[i + 1:] = kept_marks + [marks[m + 1] for m in tail]
+        rest, adds_goals = self.rest, self.adds_goals
         for action in skipped:
-            for g in self.adds_goals[action]:
-                self.rest[g] -= 1
+            for g in adds_goals[action]:
+                rest[g] -= 1
         self.executable = self.reaches = True
         self.last_candidate = len(plan)
 
@@ -436,6 +427,20 @@ def _stepper(apply: Callable[[GroundAction, frozenset[int]], frozenset[int]], se
         return after, added, removed, sum(map(_fact_key, added)) - sum(map(_fact_key, removed))
 
     return step
+
+
+def _goal_adders(plan: list[GroundAction],
+                 goals: set[int]) -> tuple[dict[GroundAction, tuple[int, ...]], dict[int, int]]:
+    """The ``goals`` each action of ``plan`` adds, and how many steps of the plan add each goal."""
+    adds_goals: dict[GroundAction, tuple[int, ...]] = {}
+    count: dict[int, int] = {}
+    for action in plan:
+        found = adds_goals.get(action)
+        if found is None:
+            found = adds_goals[action] = tuple(f for f in action.add if f in goals)
+        for g in found:
+            count[g] = count.get(g, 0) + 1
+    return adds_goals, count
 
 
 def _goals_settle_cannot_add(task: GroundTask, settle: Settle | None,
