@@ -99,15 +99,27 @@ def test_an_unknown_world_is_a_clear_error(tmp_path):
     assert_no_traceback(done)
 
 
+def wait_for_line(path, text: str, process: subprocess.Popen, timeout: float = 60.0) -> None:
+    """Poll the file ``path`` until a line of it holds ``text`` (fails if the process ends first or time runs out)."""
+    deadline = time.monotonic() + timeout
+    while text not in path.read_text(encoding="utf-8"):
+        assert process.poll() is None, f"the run ended before {text!r}:\n{path.read_text(encoding='utf-8')}"
+        assert time.monotonic() < deadline, f"no {text!r} within {timeout} s"
+        time.sleep(0.05)
+
+
 def test_ctrl_c_stops_the_run_with_130_and_keeps_the_trace(tmp_path):
-    trace = tmp_path / "interrupted.jsonl"
-    process = subprocess.Popen(atlas_command("run", SITE_VISIT, "--realtime", "-q", "--trace", str(trace)),
-                               cwd=REPO, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(4.0)  # the robot reaches hull-3 at 3 s of (real) time
-    process.send_signal(signal.SIGINT)
-    out, err = process.communicate(timeout=20)
+    trace, live = tmp_path / "interrupted.jsonl", tmp_path / "live.txt"
+    with live.open("w", encoding="utf-8") as stdout:
+        process = subprocess.Popen(atlas_command("run", SITE_VISIT, "--realtime", "--trace", str(trace)),
+                                   cwd=REPO, env=ENV, stdout=stdout, stderr=subprocess.PIPE, text=True)
+    try:  # the trace file is written whole at the end: its live view on stdout shows the record as it comes
+        wait_for_line(live, "(navigate-to hull-3) succeeded", process)
+    finally:
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=20)
     assert process.returncode == 130, err
-    assert "(interrupted)" in out
+    assert "(interrupted)" in live.read_text(encoding="utf-8")
     records = read_trace(trace)
     assert any(r["event"] == "task-succeeded" and r["task"] == "(navigate-to hull-3)" for r in records)
     assert not any(r["task"] == "(service-round)" for r in records if r["event"] == "task-succeeded")

@@ -818,10 +818,7 @@ def test_places_off_the_rooms_are_counted_but_not_scored(plans: dict[int, FloorP
         score(places[:-1], plan.rooms)
 
 
-def test_the_score_does_not_depend_on_how_the_places_are_numbered(plans: dict[int, FloorPlan],
-                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
-    import floorplans
-
+def test_the_score_does_not_depend_on_how_the_places_are_numbered(plans: dict[int, FloorPlan]) -> None:
     plan = plans[4]
     a, b = two_rooms_with_a_door(plan)
     places = np.where(plan.rooms == b, a, plan.rooms)
@@ -829,8 +826,7 @@ def test_the_score_does_not_depend_on_how_the_places_are_numbered(plans: dict[in
     expected = score(places, plan.rooms)
     assert expected.place_precision[-1] != expected.place_precision[-1]  # NaN: the place off the rooms
     renumbered = score(np.where(places > 0, places.astype(np.int64) * 10 ** 9 + 7, 0), plan.rooms)  # sorted, huge
-    monkeypatch.setattr(floorplans, "_DENSE_BINS", 0)  # count the pairs that occur instead of a table
-    sparse = score(places, plan.rooms)
+    sparse = score(places, plan.rooms, dense_bins=0)  # count the pairs that occur instead of a table
     unlabelled = {k: v for k, v in expected.to_dict().items() if k not in ("rooms", "places")}
     for other in (renumbered, sparse):
         assert {k: v for k, v in other.to_dict().items() if k not in ("rooms", "places")} == unlabelled

@@ -52,11 +52,10 @@ def test_the_landmark_search_finds_valid_plans(tmp_path: Path) -> None:
     assert validate_plan(problem, [a.term for a in found.plan]).ok
 
 
-def test_a_stuck_search_restarts_with_landmarks_and_says_so(tmp_path: Path, monkeypatch) -> None:
+def test_a_stuck_search_restarts_with_landmarks_and_says_so(tmp_path: Path) -> None:
     problem = load_pddl(*gripper_problem(tmp_path, balls=8))
     plain = solve_module.solve(problem)
     assert "restarted_after" not in plain.stats
-    monkeypatch.setattr(solve_module, "STUCK", 10)  # stuck at once, on a problem that needs more
-    restarted = solve_module.solve(problem)
+    restarted = solve_module.solve(problem, restart_after=10)  # stuck at once, on a problem that needs more
     assert restarted.status == "solved" and restarted.stats["restarted_after"] == 10
     assert validate_plan(problem, restarted.sequence).ok

@@ -5,8 +5,8 @@ rule, so h itself may differ by an action or two, never by the relaxed explorati
 
 from __future__ import annotations
 
-import importlib
 import random
+from dataclasses import replace
 from pathlib import Path
 
 from pddl_problems import blocks_problem, gripper_problem
@@ -16,14 +16,14 @@ from atlas_rap.planner.pddl import load_pddl
 from atlas_rap.planner.plan_file import validate_plan
 from atlas_rap.planner.relaxation import (
     INFINITY,
+    PYTHON_SECONDS_PER_INCIDENCE,
+    BackendCosts,
     RelaxedPlanHeuristic,
     SwitchingRelaxedPlanHeuristic,
     VectorRelaxedPlanHeuristic,
     relaxed_plan_heuristic,
 )
 from atlas_rap.planner.search import greedy_best_first
-
-relaxation = importlib.import_module("atlas_rap.planner.relaxation")
 
 
 def random_walk_states(task, steps: int, seed: int) -> list[frozenset[int]]:
@@ -74,36 +74,33 @@ def test_the_numpy_backend_guides_the_search_to_valid_plans(tmp_path: Path) -> N
         assert validate_plan(parsed, [a.term for a in found.plan]).ok
 
 
-def test_the_backend_whose_estimated_cost_is_lower_is_chosen(tmp_path: Path, monkeypatch) -> None:
+def test_the_backend_whose_estimated_cost_is_lower_is_chosen(tmp_path: Path) -> None:
     domain, problem = gripper_problem(tmp_path, 4)
     task = ground(load_pddl(domain, problem))
     assert type(relaxed_plan_heuristic(task)) is RelaxedPlanHeuristic  # 4 balls: Python's (the real costs)
-    monkeypatch.setattr(relaxation, "NUMPY_SECONDS_PER_LAYER", 1e-9)
-    monkeypatch.setattr(relaxation, "NUMPY_SECONDS_PER_LAYER_INCIDENCE", 0.0)
-    monkeypatch.setattr(relaxation, "PYTHON_SECONDS_PER_INCIDENCE", 1e-12)
-    assert type(relaxed_plan_heuristic(task)) is RelaxedPlanHeuristic  # Python is cheaper still
+    cheap = BackendCosts(numpy_seconds_per_layer=1e-9, numpy_seconds_per_layer_incidence=0.0,
+                         python_seconds_per_incidence=1e-12)
+    assert type(relaxed_plan_heuristic(task, costs=cheap)) is RelaxedPlanHeuristic  # Python is cheaper still
 
 
-def test_where_numpy_is_cheaper_the_search_changes_to_it_once_the_import_is_repaid(tmp_path: Path,
-                                                                                    monkeypatch) -> None:
+def test_where_numpy_is_cheaper_the_search_changes_to_it_once_the_import_is_repaid(tmp_path: Path) -> None:
     domain, problem = gripper_problem(tmp_path, 4)
     parsed = load_pddl(domain, problem)
     task = ground(parsed)
-    monkeypatch.setattr(relaxation, "NUMPY_SECONDS_PER_LAYER", 0.0)
-    monkeypatch.setattr(relaxation, "NUMPY_SECONDS_PER_LAYER_INCIDENCE", 0.0)
-    monkeypatch.setattr(relaxation, "NUMPY_IMPORT_SECONDS", 0.0)  # repaid at once
-    heuristic = relaxed_plan_heuristic(task)
+    free_numpy = BackendCosts(numpy_seconds_per_layer=0.0, numpy_seconds_per_layer_incidence=0.0,
+                              numpy_import_seconds=0.0)  # repaid at once
+    heuristic = relaxed_plan_heuristic(task, costs=free_numpy)
     assert type(heuristic) is SwitchingRelaxedPlanHeuristic and heuristic.after == 0
     vector = VectorRelaxedPlanHeuristic(task)
     assert heuristic.evaluate(task.init) == vector.evaluate(task.init)
     incidences = sum(len(a.pre) for a in task.actions)
-    monkeypatch.setattr(relaxation, "NUMPY_IMPORT_SECONDS", 10 * incidences * relaxation.PYTHON_SECONDS_PER_INCIDENCE)
-    heuristic = relaxed_plan_heuristic(task)
+    ten_evaluations = replace(free_numpy, numpy_import_seconds=10 * incidences * PYTHON_SECONDS_PER_INCIDENCE)
+    heuristic = relaxed_plan_heuristic(task, costs=ten_evaluations)
     assert heuristic.after == 10
     python = RelaxedPlanHeuristic(task)
     states = random_walk_states(task, 12, seed=2)
     for i, state in enumerate(states):
         expected = (python if i < 10 else vector).evaluate(state)
         assert heuristic.evaluate(state) == expected
-    found = greedy_best_first(task, heuristic=relaxed_plan_heuristic(task))
+    found = greedy_best_first(task, heuristic=relaxed_plan_heuristic(task, costs=ten_evaluations))
     assert found.status == "solved" and validate_plan(parsed, [a.term for a in found.plan]).ok

@@ -549,9 +549,6 @@ def render_timeline(records: Iterable[Mapping[str, Any]], out_png: str | Path, t
     ``out_png``; return its path. ``title`` is e.g. ``"evahr.rap, seed 0"``; ``end`` is
     the time the run has reached (bars still running reach it; default the last record's).
     The parent directory of ``out_png`` is created if needed."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     from atlas_rap.planner.render import save_figure
 
     records = list(records)
@@ -560,55 +557,116 @@ def render_timeline(records: Iterable[Mapping[str, Any]], out_png: str | Path, t
     bars = step_bars(records)
     notes = plan_lines(records)
     tasks = task_bars(records, skip={b.task for b in bars if b.task is not None})
+    axis = _time_axis(records, end)
+    rows = _chart_rows(bars, tasks, axis)
+    labels = _line_labels(notes, axis)
+    fig, ax, head, key = _figure(rows.total, labels.height, axis, title)
+    column = _name_column(rows)
+    _draw_lanes(ax, rows, column)
+    _draw_steps(ax, rows.steps, axis)
+    _draw_tasks(ax, rows.tasks, column, axis)
+    _draw_plan_lines(ax, head, notes, labels, axis)
+    _legend(key, legend_labels(bars, tasks, notes))
+    return save_figure(fig, out)
+
+
+class _TimeAxis(NamedTuple):
+    """The chart's time axis: the time the run has reached, the axis' limits and the seconds per inch."""
+
+    t_end: float
+    xmin: float
+    xmax: float
+    sec_per_inch: float
+
+
+def _time_axis(records: Sequence[Mapping[str, Any]], end: float | None) -> _TimeAxis:
+    """The time axis for ``records``, to the last record's time or ``end``, whichever is later."""
     last = max((float(r.get("t", 0.0)) for r in records), default=0.0)
     t_end = max(last, float(end) if end is not None else 0.0)
     span = t_end if t_end > 0 else 1.0
     xmin, xmax = -0.01 * span, t_end + 0.01 * span
-    sec_per_inch = (xmax - xmin) / CHART_WIDTH
+    return _TimeAxis(t_end, xmin, xmax, (xmax - xmin) / CHART_WIDTH)
 
-    # Rows, top to bottom: plan heading, lanes (packed), task heading, tasks.
+
+@dataclass
+class _Rows:
+    """The chart's rows, top to bottom (plan heading, lanes packed, task heading, tasks), in rows from
+    the top: each step bar with its row's centre and where its label goes, each lane's name and span,
+    the headings, each task shown with its row's centre, and the rows in all."""
+
+    steps: list[tuple[StepBar, float, str]]
+    lane_spans: list[tuple[str, float, float]]
+    headings: list[tuple[float, str]]
+    tasks: list[tuple[TaskBar, float]]
+    total: float
+
+
+def _chart_rows(bars: Sequence[StepBar], tasks: Sequence[TaskBar], axis: _TimeAxis) -> _Rows:
+    """Lay out the rows: the plan steps in their lanes, each lane as few rows as its bars and labels
+    take, then at most :data:`MAX_TASK_ROWS` tasks."""
+    rows = _Rows([], [], [], [], 0.0)
     y = 0.0
-    rows_of: list[tuple[StepBar, float, str]] = []  # bar, row centre, where its label goes
-    lane_spans: list[tuple[str, float, float]] = []
-    headings: list[tuple[float, str]] = []
     if bars:
-        headings.append((y + 0.45, "plan steps, a lane per agent"))
+        rows.headings.append((y + 0.45, "plan steps, a lane per agent"))
         y += 0.9
         for lane in lanes(bars):
             mine = [b for b in bars if b.lane == lane]
-            places = [_label_place(b, t_end, sec_per_inch, xmax) for b in mine]
-            rows = pack_rows([extent for _, extent in places])
-            for bar, (where, _), row in zip(mine, places, rows):
-                rows_of.append((bar, y + row + 0.5, where))
-            lane_spans.append((lane, y, y + max(rows) + 1))
-            y += max(rows) + 1
+            places = [_label_place(b, axis.t_end, axis.sec_per_inch, axis.xmax) for b in mine]
+            packed = pack_rows([extent for _, extent in places])
+            for bar, (where, _), row in zip(mine, places, packed):
+                rows.steps.append((bar, y + row + 0.5, where))
+            rows.lane_spans.append((lane, y, y + max(packed) + 1))
+            y += max(packed) + 1
         y += 0.35
-    task_rows: list[tuple[TaskBar, float]] = []
     if tasks:
-        headings.append((y + 0.45, "tasks posted (bold) and their subtasks; plan steps above"
-                         if bars else "tasks posted (bold) and their subtasks"))
+        rows.headings.append((y + 0.45, "tasks posted (bold) and their subtasks; plan steps above"
+                              if bars else "tasks posted (bold) and their subtasks"))
         y += 0.9
         for task in tasks[:MAX_TASK_ROWS]:
-            task_rows.append((task, y + 0.5))
+            rows.tasks.append((task, y + 0.5))
             y += 1
         if len(tasks) > MAX_TASK_ROWS:
-            headings.append((y + 0.5, f"\u2026 and {len(tasks) - MAX_TASK_ROWS} more tasks"))
+            rows.headings.append((y + 0.5, f"\u2026 and {len(tasks) - MAX_TASK_ROWS} more tasks"))
             y += 1
     if not bars and not tasks:
-        headings.append((0.5, "no tasks yet"))
+        rows.headings.append((0.5, "no tasks yet"))
         y = 1.0
-    total_rows = y
+    rows.total = y
+    return rows
 
-    # Labels of the lines, stacked above the chart.
+
+class _LineLabels(NamedTuple):
+    """The labels of the re-plan and abandon lines, stacked above the chart: each one's (time, width
+    in seconds, height in inches), each one's bottom, and the height of the band they take."""
+
+    sizes: list[tuple[float, float, float]]
+    bottoms: list[float]
+    height: float
+
+
+def _line_labels(notes: Sequence[PlanLine], axis: _TimeAxis) -> _LineLabels:
+    """Stack the lines' labels so that no line crosses a label (:func:`stack_labels`)."""
     line_h = LINE_FONT * 1.22 / 72  # inches per text line
-    sizes = [(n.time, (max(len(s) for s in n.lines) * CHAR_WIDTH * LINE_FONT / 72 + 0.08) * sec_per_inch,
+    sizes = [(n.time, (max(len(s) for s in n.lines) * CHAR_WIDTH * LINE_FONT / 72 + 0.08) * axis.sec_per_inch,
               len(n.lines) * line_h + 0.04) for n in notes]
     bottoms = stack_labels(sizes, gap=0.03)
-    header_h = max((b + s[2] for b, s in zip(bottoms, sizes)), default=0.0) + 0.08
+    height = max((b + s[2] for b, s in zip(bottoms, sizes)), default=0.0) + 0.08
+    return _LineLabels(sizes, bottoms, height)
 
-    names = [len(lane) for lane, _, _ in lane_spans] + [len(_task_text(t)) + INDENT / LEFT_FONT / CHAR_WIDTH * t.depth
-                                                        for t, _ in task_rows]
-    column = max(names, default=0) * CHAR_WIDTH * LEFT_FONT + 10  # points
+
+def _name_column(rows: _Rows) -> float:
+    """The width in points of the column left of the chart that names the lanes and tasks."""
+    names = [len(lane) for lane, _, _ in rows.lane_spans] + [
+        len(_task_text(t)) + INDENT / LEFT_FONT / CHAR_WIDTH * t.depth for t, _ in rows.tasks]
+    return max(names, default=0) * CHAR_WIDTH * LEFT_FONT + 10
+
+
+def _figure(total_rows: float, header_h: float, axis: _TimeAxis, title: str) -> tuple[Any, Any, Any, Any]:
+    """The figure and its three axes: the chart (``total_rows`` rows), the band of line labels above
+    it (``header_h`` inches, under the title) and the legend's below it."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     chart_h = total_rows * ROW
     legend_h, xlabel_h, title_h = 0.3, 0.45, 0.35
     fig_w = CHART_WIDTH + 2.5
@@ -621,7 +679,7 @@ def render_timeline(records: Iterable[Mapping[str, Any]], out_png: str | Path, t
     head = fig.add_axes((left, (chart_bottom + chart_h) / fig_h, CHART_WIDTH / fig_w, header_h / fig_h))
     key = fig.add_axes((left, 0.02 / fig_h, CHART_WIDTH / fig_w, (legend_h - 0.04) / fig_h))
 
-    ax.set_xlim(xmin, xmax)
+    ax.set_xlim(axis.xmin, axis.xmax)
     ax.set_ylim(total_rows, 0)
     ax.set_yticks([])
     ax.set_xlabel("simulated time (s)", fontsize=8.5)
@@ -630,28 +688,35 @@ def render_timeline(records: Iterable[Mapping[str, Any]], out_png: str | Path, t
     ax.set_axisbelow(True)
     for spine in ax.spines.values():
         spine.set_color("#adb5bd")
-    head.set_xlim(xmin, xmax)
+    head.set_xlim(axis.xmin, axis.xmax)
     head.set_ylim(0, header_h)
     head.axis("off")
     head.set_title(_plain(f"{title} \u2014 timeline of the run (no world to draw)"), fontsize=11, loc="left",
                    pad=4)
     key.axis("off")
+    return fig, ax, head, key
 
-    # Lanes: shade, name.
-    for i, (lane, top, bottom) in enumerate(lane_spans):
+
+def _draw_lanes(ax, rows: _Rows, column: float) -> None:
+    """The lanes (shaded every other one) and their names, the headings, and the rule between the
+    plan steps and the tasks."""
+    for i, (lane, top, bottom) in enumerate(rows.lane_spans):
         if i % 2 == 0:
             ax.axhspan(top, bottom, color=_LANE_SHADE, zorder=0.5, linewidth=0)
         _left_label(ax, (top + bottom) / 2, lane, column, bold=True)
-    for yy, text in headings:
+    for yy, text in rows.headings:
         _left_label(ax, yy, text, column, italic=True, colour="#495057", size=7)
-    if lane_spans and task_rows:
-        ax.axhline(lane_spans[-1][2] + 0.175, color="#ced4da", linewidth=0.8, zorder=1)
+    if rows.lane_spans and rows.tasks:
+        ax.axhline(rows.lane_spans[-1][2] + 0.175, color="#ced4da", linewidth=0.8, zorder=1)
 
-    # Plan steps.
-    for bar, yc, where in rows_of:
-        _draw_bar(ax, bar.start, bar.end if bar.end is not None else t_end, yc, STEP_BAR, bar.outcome,
+
+def _draw_steps(ax, steps: Sequence[tuple[StepBar, float, str]], axis: _TimeAxis) -> None:
+    """The plan steps' bars, with their waits, labels and method changes."""
+    sec_per_inch = axis.sec_per_inch
+    for bar, yc, where in steps:
+        _draw_bar(ax, bar.start, bar.end if bar.end is not None else axis.t_end, yc, STEP_BAR, bar.outcome,
                   bar.end is None, edge=True)
-        x0, x1 = bar.start, bar.end if bar.end is not None else t_end
+        x0, x1 = bar.start, bar.end if bar.end is not None else axis.t_end
         _draw_waits(ax, bar, x1, yc, STEP_BAR)
         label = _plain(bar.label)
         if where == "inside":
@@ -665,33 +730,42 @@ def render_timeline(records: Iterable[Mapping[str, Any]], out_png: str | Path, t
                     zorder=4, path_effects=_halo())
         _draw_ticks(ax, bar.ticks, yc, STEP_BAR, named=False)
 
-    # Tasks.
-    for task, yc in task_rows:
+
+def _draw_tasks(ax, tasks: Sequence[tuple[TaskBar, float]], column: float, axis: _TimeAxis) -> None:
+    """The tasks' names left of the chart and their bars, with their waits, method changes, and why
+    a task failed or was halted."""
+    for task, yc in tasks:
         _left_label(ax, yc, _task_text(task), column, bold=task.depth == 0, indent=INDENT * task.depth)
-        x1 = task.end if task.end is not None else t_end
+        x1 = task.end if task.end is not None else axis.t_end
         _draw_bar(ax, task.start, x1, yc, TASK_BAR, task.outcome, task.end is None, edge=False)
         _draw_waits(ax, task, x1, yc, TASK_BAR)
-        _draw_ticks(ax, task.ticks, yc, TASK_BAR, named=True, sec_per_inch=sec_per_inch)
+        _draw_ticks(ax, task.ticks, yc, TASK_BAR, named=True, sec_per_inch=axis.sec_per_inch)
         if task.outcome in ("failed", "halted") and task.reason:
-            words = _plain(_cut(f"{task.outcome}: {short_cause(task.reason).split('; ')[0]}", MAX_REASON_CHARS))
-            width = len(words) * CHAR_WIDTH * 6.5 / 72 * sec_per_inch
-            style = {"fontsize": 6.5, "color": _darker(task.outcome), "zorder": 4, "path_effects": _halo()}
-            if x1 + width + 0.1 * sec_per_inch <= xmax:  # beside the end of the bar
-                ax.text(x1 + 0.06 * sec_per_inch, yc, words, ha="left", va="center", **style)
-            else:  # no room after it: over the bar, ending where it ends
-                ax.text(x1, yc - TASK_BAR / 2 - 0.05, words, ha="right", va="bottom", **style)
+            _draw_reason(ax, task, x1, yc, axis)
 
-    # Re-plans and abandons: lines across the chart, labels above it.
-    for note, bottom, (_, _, h) in zip(notes, bottoms, sizes):
+
+def _draw_reason(ax, task: TaskBar, x1: float, yc: float, axis: _TimeAxis) -> None:
+    """Why ``task`` failed or was halted, briefly: beside the end of its bar, or over the bar, ending
+    where it ends, when there is no room after it."""
+    sec_per_inch = axis.sec_per_inch
+    words = _plain(_cut(f"{task.outcome}: {short_cause(task.reason).split('; ')[0]}", MAX_REASON_CHARS))
+    width = len(words) * CHAR_WIDTH * 6.5 / 72 * sec_per_inch
+    style = {"fontsize": 6.5, "color": _darker(task.outcome), "zorder": 4, "path_effects": _halo()}
+    if x1 + width + 0.1 * sec_per_inch <= axis.xmax:  # beside the end of the bar
+        ax.text(x1 + 0.06 * sec_per_inch, yc, words, ha="left", va="center", **style)
+    else:  # no room after it: over the bar, ending where it ends
+        ax.text(x1, yc - TASK_BAR / 2 - 0.05, words, ha="right", va="bottom", **style)
+
+
+def _draw_plan_lines(ax, head, notes: Sequence[PlanLine], labels: _LineLabels, axis: _TimeAxis) -> None:
+    """Re-plans and abandons: lines across the chart (under bars and text), labels above it."""
+    for note, bottom, (_, _, h) in zip(notes, labels.bottoms, labels.sizes):
         colour, style, width = _LINE_STYLE[note.kind]
-        ax.axvline(note.time, color=colour, linestyle=style, linewidth=width, zorder=1.5)  # under bars and text
+        ax.axvline(note.time, color=colour, linestyle=style, linewidth=width, zorder=1.5)
         head.plot([note.time, note.time], [0, bottom + h], color=colour, linestyle=style, linewidth=width,
                   clip_on=False, solid_capstyle="butt")
-        head.text(note.time + 0.04 * sec_per_inch, bottom + h - 0.02, _plain("\n".join(note.lines)), ha="left",
-                  va="top", fontsize=LINE_FONT, color=colour, linespacing=1.05)
-
-    _legend(key, legend_labels(bars, tasks, notes))
-    return save_figure(fig, out)
+        head.text(note.time + 0.04 * axis.sec_per_inch, bottom + h - 0.02, _plain("\n".join(note.lines)),
+                  ha="left", va="top", fontsize=LINE_FONT, color=colour, linespacing=1.05)
 
 
 def _halo(width: float = 2.4, colour: str = "white") -> list:

@@ -161,17 +161,46 @@ def trace_skeleton(skel: np.ndarray, dt: np.ndarray | None = None) -> SkeletonTr
     a path, not a chain of triangles). Junction pixels have three or more
     neighbours; touching junction pixels form one junction, placed at its
     pixel of largest ``dt`` (its first pixel without ``dt``).
+
+    The steps: the pixels' neighbour pairs; the junction clusters; the
+    junctions each path pixel touches; the chains of path pixels, each cut
+    open where it is a ring and put in order; their end nodes; their lengths.
     """
     skel = np.ascontiguousarray(skel, dtype=bool)
-    height, width = skel.shape
-    flat = skel.ravel()
-    idx = np.flatnonzero(flat)
+    width = skel.shape[1]
+    idx = np.flatnonzero(skel.ravel())
     n = idx.size
     if n == 0:
         return _empty_trace()
     rows, cols = np.divmod(idx, width)
+    src, dst = _neighbour_pairs(skel, idx, rows, cols)
+    junction = (np.bincount(src, minlength=n) + np.bincount(dst, minlength=n)) >= 3
+    n_junctions, cluster, rep = _junction_clusters(junction, src, dst, idx, dt)
+    path = ~junction
+    ppix = np.flatnonzero(path)
+    if ppix.size == 0:
+        node_cells = np.column_stack([rows[rep], cols[rep]])
+        return SkeletonTrace(node_cells, n_junctions, np.zeros((0, 2), dtype=np.int64),
+                             *(np.zeros(0, dtype=np.int64),) * 4, np.zeros(0))
+    touch1, touch2 = _junctions_touched(path, src, dst, cluster)
+    pp = path[src] & path[dst]
+    chains = _order_chains(src[pp], dst[pp], ppix, n)
+    ends = _chain_ends(chains, touch1, touch2, rep, n_junctions)
+    length = _chain_lengths(chains, ends, rows, cols)
+    node_pix = np.concatenate([rep, ends.extra_pixels])
+    node_cells = np.column_stack([rows[node_pix], cols[node_pix]])
+    pixels = np.column_stack([rows[chains.ordered], cols[chains.ordered]])
+    keep = ends.keep
+    return SkeletonTrace(node_cells, n_junctions, pixels, ends.u[keep], ends.v[keep], chains.seg_start[keep],
+                         chains.seg_stop[keep], length[keep])
 
-    # Neighbour pairs (i < j in raster order): right, down, down-left, down-right.
+
+def _neighbour_pairs(skel: np.ndarray, idx: np.ndarray, rows: np.ndarray,
+                     cols: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The skeleton's neighbour pairs (``src`` < ``dst``, numbers of pixels in ``idx``, raster order):
+    right, down, down-left and down-right, without the diagonals that a 4-connected corner joins."""
+    height, width = skel.shape
+    flat = skel.ravel()
     src_parts, dst_parts = [], []
     for dr, dc in ((0, 1), (1, 0), (1, -1), (1, 1)):
         rr, cc = rows + dr, cols + dc
@@ -184,40 +213,39 @@ def trace_skeleton(skel: np.ndarray, dt: np.ndarray | None = None) -> SkeletonTr
             inside, there = inside[~corner], there[~corner]
         src_parts.append(inside)
         dst_parts.append(np.searchsorted(idx, there))
-    src = np.concatenate(src_parts)
-    dst = np.concatenate(dst_parts)
-    degree = np.bincount(src, minlength=n) + np.bincount(dst, minlength=n)
-    junction = degree >= 3
+    return np.concatenate(src_parts), np.concatenate(dst_parts)
 
-    # Junction clusters.
-    jj = junction[src] & junction[dst]
+
+def _junction_clusters(junction: np.ndarray, src: np.ndarray, dst: np.ndarray, idx: np.ndarray,
+                       dt: np.ndarray | None) -> tuple[int, np.ndarray, np.ndarray]:
+    """The clusters of touching junction pixels: how many, each pixel's cluster (-1 off the junctions)
+    and each cluster's representative pixel (its largest ``dt``, or its first pixel)."""
+    n = junction.size
+    cluster = np.full(n, -1, dtype=np.int64)
     jpix = np.flatnonzero(junction)
+    if not jpix.size:
+        return 0, cluster, np.zeros(0, dtype=np.int64)
+    jj = junction[src] & junction[dst]
     jpos = np.full(n, -1, dtype=np.int64)
     jpos[jpix] = np.arange(jpix.size)
-    if jpix.size:
-        adj = sparse.coo_matrix((np.ones(int(jj.sum()), dtype=np.int8), (jpos[src[jj]], jpos[dst[jj]])),
-                                shape=(jpix.size, jpix.size)).tocsr()
-        n_junctions, jlabel = csgraph.connected_components(adj, directed=False)
-        cluster = np.full(n, -1, dtype=np.int64)
-        cluster[jpix] = jlabel
-        # Representative pixel: the largest dt (or the first pixel) of each cluster.
-        key = dt.ravel()[idx[jpix]] if dt is not None else -np.arange(jpix.size, dtype=float)
-        order = np.lexsort((-key, jlabel))
-        first = np.ones(order.size, dtype=bool)
-        first[1:] = jlabel[order][1:] != jlabel[order][:-1]
-        rep = np.empty(n_junctions, dtype=np.int64)
-        rep[jlabel[order][first]] = jpix[order][first]
-    else:
-        n_junctions = 0
-        cluster = np.full(n, -1, dtype=np.int64)
-        rep = np.zeros(0, dtype=np.int64)
+    adj = sparse.coo_matrix((np.ones(int(jj.sum()), dtype=np.int8), (jpos[src[jj]], jpos[dst[jj]])),
+                            shape=(jpix.size, jpix.size)).tocsr()
+    n_junctions, jlabel = csgraph.connected_components(adj, directed=False)
+    cluster[jpix] = jlabel
+    key = dt.ravel()[idx[jpix]] if dt is not None else -np.arange(jpix.size, dtype=float)
+    order = np.lexsort((-key, jlabel))
+    first = np.ones(order.size, dtype=bool)
+    first[1:] = jlabel[order][1:] != jlabel[order][:-1]
+    rep = np.empty(n_junctions, dtype=np.int64)
+    rep[jlabel[order][first]] = jpix[order][first]
+    return n_junctions, cluster, rep
 
-    # Paths: the other pixels (each with at most two neighbours).
-    path = ~junction
-    pp = path[src] & path[dst]
-    ps, pd = src[pp], dst[pp]
-    pdeg = np.bincount(ps, minlength=n) + np.bincount(pd, minlength=n)
-    # Junction neighbours of path pixels (a path pixel touches at most two; only a one-pixel path two).
+
+def _junctions_touched(path: np.ndarray, src: np.ndarray, dst: np.ndarray,
+                       cluster: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (up to two) junction clusters each path pixel touches, -1 for none: a path pixel touches
+    at most two, and only a one-pixel path two."""
+    n = path.size
     pj = path[src] != path[dst]
     a = np.where(path[src[pj]], src[pj], dst[pj])  # the path pixel
     b = cluster[np.where(path[src[pj]], dst[pj], src[pj])]  # the junction it touches
@@ -232,13 +260,26 @@ def trace_skeleton(skel: np.ndarray, dt: np.ndarray | None = None) -> SkeletonTr
     touch2 = np.full(n, -1, dtype=np.int64)
     touch1[a[first]] = b[first]
     touch2[a[~first]] = b[~first]
+    return touch1, touch2
 
-    ppix = np.flatnonzero(path)
-    if ppix.size == 0:
-        node_cells = np.column_stack([rows[rep], cols[rep]])
-        return SkeletonTrace(node_cells, n_junctions, np.zeros((0, 2), dtype=np.int64),
-                             *(np.zeros(0, dtype=np.int64),) * 4, np.zeros(0))
-    # Components of the path graph, each a chain (or a ring).
+
+@dataclass(frozen=True, eq=False)
+class _Chains:
+    """The path pixels as chains in order: chain ``k`` is ``ordered[seg_start[k]:seg_stop[k]]``
+    (``counts[k]`` pixels), ``comp_of`` each path pixel's chain, ``ring`` the chains that close."""
+
+    ordered: np.ndarray
+    comp_of: np.ndarray
+    counts: np.ndarray
+    seg_start: np.ndarray
+    seg_stop: np.ndarray
+    ring: np.ndarray
+
+
+def _order_chains(ps: np.ndarray, pd: np.ndarray, ppix: np.ndarray, n: int) -> _Chains:
+    """The components of the path graph (pixel pairs ``ps``-``pd`` over the path pixels ``ppix``), each
+    a chain or a ring, each pixel in order from the chain's start."""
+    pdeg = np.bincount(ps, minlength=n) + np.bincount(pd, minlength=n)
     graph = sparse.coo_matrix((np.ones(ps.size, dtype=np.int8), (ps, pd)), shape=(n, n)).tocsr()
     _, comp_all = csgraph.connected_components(graph, directed=False)
     comp_ids, comp = np.unique(comp_all[ppix], return_inverse=True)
@@ -253,16 +294,7 @@ def trace_skeleton(skel: np.ndarray, dt: np.ndarray | None = None) -> SkeletonTr
         ring_first = np.full(n_comp, big, dtype=np.int64)
         np.minimum.at(ring_first, comp, ppix)
         start[ring] = ring_first[ring]
-        # Cut each ring at its start: drop one of the start pixel's two path edges.
-        ring_start = np.zeros(n, dtype=bool)
-        ring_start[start[ring]] = True
-        cut = ring_start[ps] | ring_start[pd]
-        cut_idx = np.flatnonzero(cut)
-        owner = np.where(ring_start[ps[cut_idx]], ps[cut_idx], pd[cut_idx])
-        _, once = np.unique(owner, return_index=True)
-        drop = np.zeros(ps.size, dtype=bool)
-        drop[cut_idx[once]] = True
-        ps, pd = ps[~drop], pd[~drop]
+        ps, pd = _cut_rings(ps, pd, start[ring], n)
     # One breadth-first search from a virtual root joined to every chain's start orders all chains at once.
     root = n
     bs = np.concatenate([ps, np.full(n_comp, root)])
@@ -274,13 +306,44 @@ def trace_skeleton(skel: np.ndarray, dt: np.ndarray | None = None) -> SkeletonTr
     ordered = bfs[np.argsort(comp_of[bfs], kind="stable")]
     counts = np.bincount(comp_of[ordered], minlength=n_comp)
     seg_start = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    seg_stop = seg_start + counts
-    first_px = ordered[seg_start]
-    last_px = ordered[seg_stop - 1]
+    return _Chains(ordered, comp_of, counts, seg_start, seg_start + counts, ring)
 
-    # Ends: a junction the end pixel touches, else a new end node at that pixel.
+
+def _cut_rings(ps: np.ndarray, pd: np.ndarray, ring_starts: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The path pairs without one of each ring start pixel's two pairs, so that each ring is a chain."""
+    ring_start = np.zeros(n, dtype=bool)
+    ring_start[ring_starts] = True
+    cut = ring_start[ps] | ring_start[pd]
+    cut_idx = np.flatnonzero(cut)
+    owner = np.where(ring_start[ps[cut_idx]], ps[cut_idx], pd[cut_idx])
+    _, once = np.unique(owner, return_index=True)
+    drop = np.zeros(ps.size, dtype=bool)
+    drop[cut_idx[once]] = True
+    return ps[~drop], pd[~drop]
+
+
+@dataclass(frozen=True, eq=False)
+class _ChainEnds:
+    """The nodes at each chain's ends (``u`` first, ``v`` last), the pixels of the end nodes made for
+    them after the junctions (``extra_pixels``), each end's junction pixel (``rep_u``, ``rep_v``; -1
+    when the end is not a junction), and ``keep``: the chains that are segments (not lone pixels)."""
+
+    u: np.ndarray
+    v: np.ndarray
+    extra_pixels: np.ndarray
+    rep_u: np.ndarray
+    rep_v: np.ndarray
+    keep: np.ndarray
+
+
+def _chain_ends(chains: _Chains, touch1: np.ndarray, touch2: np.ndarray, rep: np.ndarray,
+                n_junctions: int) -> _ChainEnds:
+    """Each chain's end nodes: a junction the end pixel touches, else a new end node at that pixel."""
+    first_px = chains.ordered[chains.seg_start]
+    last_px = chains.ordered[chains.seg_stop - 1]
+    ring = chains.ring
     u = touch1[first_px].copy()
-    single = counts == 1
+    single = chains.counts == 1
     v = np.where(single, touch2[first_px], touch1[last_px])
     extra_cells: list[int] = []
     next_node = n_junctions
@@ -299,22 +362,30 @@ def trace_skeleton(skel: np.ndarray, dt: np.ndarray | None = None) -> SkeletonTr
     v[v_free] = new_nodes(v_free, last_px)
     v[ring] = u[ring]
     u[lone] = new_nodes(lone, first_px)
-    keep_seg = ~lone
-    rep_u = np.full(u.size, -1, dtype=np.int64)
-    at_junction = (u >= 0) & (u < n_junctions)
-    rep_u[at_junction] = rep[u[at_junction]]
-    rep_v = np.full(v.size, -1, dtype=np.int64)
-    at_junction = (v >= 0) & (v < n_junctions)
-    rep_v[at_junction] = rep[v[at_junction]]
+    return _ChainEnds(u, v, np.asarray(extra_cells, dtype=np.int64), _junction_pixels(u, rep, n_junctions),
+                      _junction_pixels(v, rep, n_junctions), ~lone)
 
-    # Lengths in cells: steps along each chain plus the jumps to its junction pixels.
+
+def _junction_pixels(nodes: np.ndarray, rep: np.ndarray, n_junctions: int) -> np.ndarray:
+    """The representative pixel of each of ``nodes`` that is a junction, -1 for the others."""
+    pixels = np.full(nodes.size, -1, dtype=np.int64)
+    at_junction = (nodes >= 0) & (nodes < n_junctions)
+    pixels[at_junction] = rep[nodes[at_junction]]
+    return pixels
+
+
+def _chain_lengths(chains: _Chains, ends: _ChainEnds, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """Each chain's length in cells, node to node: the steps along it plus the jumps to its junction
+    pixels (and the step that closes a ring)."""
+    ordered, comp_of, seg_start, seg_stop, ring = (chains.ordered, chains.comp_of, chains.seg_start,
+                                                   chains.seg_stop, chains.ring)
+    rep_u, rep_v = ends.rep_u, ends.rep_v
     pr, pc = rows[ordered].astype(float), cols[ordered].astype(float)
     step = np.hypot(np.diff(pr), np.diff(pc))
-    step_sum = np.zeros(n_comp)
+    length = np.zeros(chains.counts.size)
     inner = np.ones(step.size, dtype=bool)
     inner[seg_stop[:-1] - 1] = False  # the step from one chain to the next is not a step
-    np.add.at(step_sum, comp_of[ordered[:-1]][inner], step[inner])
-    length = step_sum
+    np.add.at(length, comp_of[ordered[:-1]][inner], step[inner])
     has_u = rep_u >= 0
     length[has_u] += np.hypot(rows[rep_u[has_u]] - pr[seg_start[has_u]], cols[rep_u[has_u]] - pc[seg_start[has_u]])
     has_v = rep_v >= 0
@@ -322,13 +393,7 @@ def trace_skeleton(skel: np.ndarray, dt: np.ndarray | None = None) -> SkeletonTr
     length[has_v] += np.hypot(rows[rep_v[has_v]] - pr[last[has_v]], cols[rep_v[has_v]] - pc[last[has_v]])
     if ring.any():  # close the ring
         length[ring] += np.hypot(pr[seg_start[ring]] - pr[last[ring]], pc[seg_start[ring]] - pc[last[ring]])
-
-    extra = np.asarray(extra_cells, dtype=np.int64)
-    node_pix = np.concatenate([rep, extra])
-    node_cells = np.column_stack([rows[node_pix], cols[node_pix]])
-    pixels = np.column_stack([rows[ordered], cols[ordered]])
-    return SkeletonTrace(node_cells, n_junctions, pixels, u[keep_seg], v[keep_seg], seg_start[keep_seg],
-                         seg_stop[keep_seg], length[keep_seg])
+    return length
 
 
 # -- support and costs ---------------------------------------------------------------

@@ -27,7 +27,7 @@ from __future__ import annotations
 from atlas_rap.errors import PlanFileError, Problem, SourceLocation
 from atlas_rap.lang import ast
 from atlas_rap.logic import Compound, Term, term_to_str, unify, variables
-from atlas_rap.planner.ground import agent_variables, operator_purposes, plot_steps
+from atlas_rap.planner.operator_parts import agent_variables, operator_purposes, plot_steps
 from atlas_rap.planner.problem import PlanningProblem
 
 _NOT_FACTS = frozenset({"not", "and", "or", "=", "/=", "<", "<=", ">", ">="})

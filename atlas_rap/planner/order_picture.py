@@ -158,48 +158,96 @@ def render_order(plan: Plan, path: str | Path) -> Path:
     only between columns."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
-    from matplotlib.font_manager import FontProperties
 
     fig = Figure(figsize=(8, 6), dpi=DPI)
     FigureCanvasAgg(fig)
-    renderer = fig.canvas.get_renderer()
-
-    def measure(lines: list[str], size: float) -> tuple[float, float]:
-        prop = FontProperties(size=size)
-        width = max((renderer.get_text_width_height_descent(line, prop, ismath=False)[0] for line in lines), default=0)
-        return width / DPI, len(lines) * size * 1.25 / 72
-
-    def wrap(text: str, width: int) -> list[str]:
-        return textwrap.wrap(text, width, break_long_words=False, break_on_hyphens=False) or [text]
-
+    measure = _Measure(fig.canvas.get_renderer())
     column = order_columns(plan)
     edges = drawn_edges(plan)
     colours = agent_colours(plan)
-    lane_index = {agent: i for i, agent in enumerate(lanes_by_first_use(plan))}
     by_id = {s.id: s for s in plan.steps}
     counters = {step: label.split("; ") for step, label in counter_labels(plan).items()}
-    n_columns = 2 * column[GOAL] + 1
 
-    items: dict[tuple, _Item] = {}
-    layers: list[list[tuple]] = [[] for _ in range(n_columns)]
+    items = _Items(2 * column[GOAL] + 1)
+    _add_boxes(items, plan, column, by_id, counters, measure)
+    label_at = _add_labels(items, edges, column, measure)
+    chains = _add_edge_chains(items, edges, column, label_at)
+    preds, succs = _neighbours(items.items, chains)
+    layers = [sorted(layer, key=_start_key(plan, by_id)) for layer in items.layers]
+    layers = _reduce_crossings(layers, preds, succs, _simultaneous_groups(plan))
+    _place_heights(layers, items.items, preds, succs)
+    _straighten(layers, items.items, chains)
+
+    columns = _Columns(layers, items.items)
+    ax = _chart_axes(fig, items.items, columns.total_w)
+    _draw_edges(ax, edges, chains, items.items, columns.where, columns.x_left, columns.widths, columns.centre)
+    _draw_labels(ax, items.items, columns.where, columns.centre)
+    _draw_nodes(ax, items.items, columns.where, columns.centre, colours, by_id, counters)
+    _draw_simultaneous(ax, plan, items.items, columns.where, columns.centre)
+    _legend_and_notes(ax, fig, plan, colours, edges)
+    return save_figure(fig, path)
+
+
+class _Measure:
+    """The size of text as the figure's renderer draws it."""
+
+    def __init__(self, renderer) -> None:
+        self.renderer = renderer
+
+    def __call__(self, lines: list[str], size: float) -> tuple[float, float]:
+        """(width, height) in inches of ``lines`` at ``size`` points."""
+        from matplotlib.font_manager import FontProperties
+
+        prop = FontProperties(size=size)
+        width = max((self.renderer.get_text_width_height_descent(line, prop, ismath=False)[0] for line in lines),
+                    default=0)
+        return width / DPI, len(lines) * size * 1.25 / 72
+
+
+def _wrap(text: str, width: int) -> list[str]:
+    """``text`` in lines of at most ``width`` characters, words kept whole."""
+    return textwrap.wrap(text, width, break_long_words=False, break_on_hyphens=False) or [text]
+
+
+class _Items:
+    """Every item of the picture by key, and the keys in each of the ``n_columns`` columns."""
+
+    def __init__(self, n_columns: int) -> None:
+        self.items: dict[tuple, _Item] = {}
+        self.layers: list[list[tuple]] = [[] for _ in range(n_columns)]
+
+    def add(self, item: _Item, column: int) -> None:
+        """Put ``item`` in ``column``."""
+        self.items[item.key] = item
+        self.layers[column].append(item.key)
+
+
+def _add_boxes(items: _Items, plan: Plan, column: dict[Node, int], by_id: dict, counters: dict,
+               measure: _Measure) -> None:
+    """A box for ``init``, each step (its action, and the threat a counterplan step counters) and ``goal``."""
     for node in [INIT, *(s.id for s in plan.steps), GOAL]:
         if node in (INIT, GOAL):
             lines, extra = [str(node)], []
         else:
-            lines = wrap(step_label(by_id[node]), NODE_WRAP)
+            lines = _wrap(step_label(by_id[node]), NODE_WRAP)
             extra = []
             for c in counters.get(node, ()):
                 threat, _, kept = c.partition(" \u2192 ")
-                extra += wrap(threat, COUNTER_WRAP) + wrap("\u2192 " + kept, COUNTER_WRAP)
+                extra += _wrap(threat, COUNTER_WRAP) + _wrap("\u2192 " + kept, COUNTER_WRAP)
         w1, h1 = measure(lines, NODE_FONT)
         w2, h2 = measure(extra, COUNTER_FONT)
         key = ("n", node)
-        items[key] = _Item(key, h1 + h2 + 2 * BOX_PAD_Y, max(w1, w2) + 2 * BOX_PAD_X, lines=lines, counter_lines=extra)
-        layers[2 * column[node]].append(key)
+        items.add(_Item(key, h1 + h2 + 2 * BOX_PAD_Y, max(w1, w2) + 2 * BOX_PAD_X, lines=lines, counter_lines=extra),
+                  2 * column[node])
 
-    # Labels: a link from init is labelled just before the step that needs it (init has many);
-    # any other just after the step that makes it, one label for one fact going to several steps.
-    label_at: dict[int, tuple[int, tuple]] = {}  # edge -> (its label's column, the label)
+
+def _add_labels(items: _Items, edges: list[Edge], column: dict[Node, int],
+                measure: _Measure) -> dict[int, tuple[int, tuple]]:
+    """The labels of the causal links; for each link, its label's column and key.
+
+    A link from init is labelled just before the step that needs it (init has many);
+    any other just after the step that makes it, one label for one fact going to several steps."""
+    label_at: dict[int, tuple[int, tuple]] = {}
     shared: dict[tuple, tuple] = {}
     for e, edge in enumerate(edges):
         if edge.kind != "link":
@@ -207,16 +255,22 @@ def render_order(plan: Plan, path: str | Path) -> Path:
         shown = list(edge.facts[:MAX_LABEL_FACTS])
         if len(edge.facts) > MAX_LABEL_FACTS:
             shown.append(f"+{len(edge.facts) - MAX_LABEL_FACTS} more")
-        lines = [w for f in shown for w in wrap(f, LABEL_WRAP)]
+        lines = [w for f in shown for w in _wrap(f, LABEL_WRAP)]
         at = 2 * column[edge.dst] - 1 if edge.src == INIT else 2 * column[edge.src] + 1
         share = (at, edge.src, edge.dst if edge.src == INIT else None, tuple(lines), edge.threatened)
         if share not in shared:
             key = ("l", len(shared))
             width, height = measure(lines, LABEL_FONT)
-            items[key] = _Item(key, height + 0.05, width + 0.08, lines=lines, threatened=edge.threatened)
-            layers[at].append(key)
+            items.add(_Item(key, height + 0.05, width + 0.08, lines=lines, threatened=edge.threatened), at)
             shared[share] = key
         label_at[e] = (at, shared[share])
+    return label_at
+
+
+def _add_edge_chains(items: _Items, edges: list[Edge], column: dict[Node, int],
+                     label_at: dict[int, tuple[int, tuple]]) -> list[list[tuple]]:
+    """Each edge's chain of items from its source box to its target box: its label in the label's
+    column, a slot in every other column it crosses."""
     chains: list[list[tuple]] = []
     for e, edge in enumerate(edges):
         chain = [("n", edge.src)]
@@ -225,11 +279,15 @@ def render_order(plan: Plan, path: str | Path) -> Path:
                 chain.append(label_at[e][1])
                 continue
             key = ("d", e, c)
-            items[key] = _Item(key, SLOT)
-            layers[c].append(key)
+            items.add(_Item(key, SLOT), c)
             chain.append(key)
         chain.append(("n", edge.dst))
         chains.append(chain)
+    return chains
+
+
+def _neighbours(items: dict[tuple, _Item], chains: list[list[tuple]]) -> tuple[dict, dict]:
+    """Each item's neighbours along the chains: the items left of it and those right of it."""
     preds: dict[tuple, list[tuple]] = {key: [] for key in items}
     succs: dict[tuple, list[tuple]] = {key: [] for key in items}
     for chain in chains:
@@ -237,29 +295,47 @@ def render_order(plan: Plan, path: str | Path) -> Path:
             if b not in succs[a]:
                 succs[a].append(b)
                 preds[b].append(a)
+    return preds, succs
 
-    groups = {("n", i): tuple(("n", m) for m in group) for group in plan.simultaneous for i in group}
+
+def _simultaneous_groups(plan: Plan) -> dict[tuple, tuple]:
+    """The box of each step in a simultaneous group: the boxes of its group."""
+    return {("n", i): tuple(("n", m) for m in group) for group in plan.simultaneous for i in group}
+
+
+def _start_key(plan: Plan, by_id: dict):
+    """The order of items in a column before the crossings are reduced: init, then by the agent's
+    lane (in order of first use), then by key."""
+    lane_index = {agent: i for i, agent in enumerate(lanes_by_first_use(plan))}
 
     def start_key(key: tuple) -> tuple:
         node = key[1] if key[0] == "n" else None
         agent = by_id[node].agent if isinstance(node, int) else None
         return (0 if node == INIT else lane_index.get(agent, len(lane_index)) + 1, str(key[1]).zfill(6), str(key))
 
-    layers = [sorted(layer, key=start_key) for layer in layers]
-    layers = _reduce_crossings(layers, preds, succs, groups)
-    _place_heights(layers, items, preds, succs)
-    _straighten(layers, items, chains)
+    return start_key
 
-    widths = [max([items[k].width for k in layer] + [0.0 if c % 2 else 0.3]) for c, layer in enumerate(layers)]
-    x_left: list[float] = []
-    x = 0.0
-    for c in range(n_columns):
-        x_left.append(x)
-        x += widths[c] + (COLUMN_MARGIN if c < n_columns - 1 else 0.0)
-    total_w = x
-    centre = [x_left[c] + widths[c] / 2 for c in range(n_columns)]
-    where = {key: c for c, layer in enumerate(layers) for key in layer}
 
+class _Columns:
+    """Where the columns are, left to right: each one's left edge, width and centre, the width of
+    them all, and each item's column."""
+
+    def __init__(self, layers: list[list[tuple]], items: dict[tuple, _Item]) -> None:
+        n_columns = len(layers)
+        self.widths = [max([items[k].width for k in layer] + [0.0 if c % 2 else 0.3])
+                       for c, layer in enumerate(layers)]
+        self.x_left: list[float] = []
+        x = 0.0
+        for c in range(n_columns):
+            self.x_left.append(x)
+            x += self.widths[c] + (COLUMN_MARGIN if c < n_columns - 1 else 0.0)
+        self.total_w = x
+        self.centre = [self.x_left[c] + self.widths[c] / 2 for c in range(n_columns)]
+        self.where = {key: c for c, layer in enumerate(layers) for key in layer}
+
+
+def _chart_axes(fig, items: dict[tuple, _Item], total_w: float):
+    """Size the figure to the items (``total_w`` inches wide, 2 inches around) and add the axes."""
     tops = [item.y - item.height / 2 for item in items.values()]
     bottoms = [item.y + item.height / 2 for item in items.values()]
     y_top, y_bottom = min(tops) - 0.12, max(bottoms) + 0.12
@@ -269,18 +345,17 @@ def render_order(plan: Plan, path: str | Path) -> Path:
     ax.set_xlim(0, total_w)
     ax.set_ylim(y_bottom, y_top)
     ax.set_axis_off()
+    return ax
 
-    _draw_edges(ax, edges, chains, items, where, x_left, widths, centre)
+
+def _draw_labels(ax, items: dict[tuple, _Item], where: dict, centre: list[float]) -> None:
+    """The links' labels: their facts on white, red when an uncontrolled agent may break the link."""
     for key, item in items.items():
         if key[0] == "l":
             ax.text(centre[where[key]], item.y, "\n".join(item.lines), fontsize=LABEL_FONT,
                     color=THREAT_COLOUR if item.threatened else "#343a40", ha="center", va="center",
                     linespacing=1.25, zorder=4,
                     bbox={"boxstyle": "round,pad=0.1", "facecolor": "white", "edgecolor": "none"})
-    _draw_nodes(ax, items, where, centre, colours, by_id, counters)
-    _draw_simultaneous(ax, plan, items, where, centre)
-    _legend_and_notes(ax, fig, plan, colours, edges)
-    return save_figure(fig, path)
 
 
 def _topological(preds: dict[int, set[int]]) -> list[int]:

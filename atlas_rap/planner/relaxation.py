@@ -45,6 +45,7 @@ can differ in h on the same state.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Sequence
 
 from atlas_rap.planner.ground import GroundAction, GroundTask
@@ -56,20 +57,36 @@ NUMPY_SECONDS_PER_LAYER_INCIDENCE = 1.5e-9  # ... and the products, per precondi
 NUMPY_IMPORT_SECONDS = 0.25  # importing numpy and scipy.sparse
 
 
-def relaxed_plan_heuristic(task: GroundTask, actions: Sequence[GroundAction] | None = None) -> RelaxedPlanHeuristic:
+@dataclass(frozen=True)
+class BackendCosts:
+    """The costs :func:`relaxed_plan_heuristic` weighs to choose a backend; the defaults are the measured ones."""
+
+    python_seconds_per_incidence: float = PYTHON_SECONDS_PER_INCIDENCE
+    numpy_seconds_per_layer: float = NUMPY_SECONDS_PER_LAYER
+    numpy_seconds_per_layer_incidence: float = NUMPY_SECONDS_PER_LAYER_INCIDENCE
+    numpy_import_seconds: float = NUMPY_IMPORT_SECONDS
+
+
+MEASURED_COSTS = BackendCosts()
+
+
+def relaxed_plan_heuristic(task: GroundTask, actions: Sequence[GroundAction] | None = None, *,
+                           costs: BackendCosts = MEASURED_COSTS) -> RelaxedPlanHeuristic:
     """The hFF of ``task`` over ``actions`` (default its own), with the backend that
-    should evaluate its states faster (module docstring)."""
+    should evaluate its states faster by ``costs`` (module docstring)."""
     python = RelaxedPlanHeuristic(task, actions)
     incidences = sum(python.pre_count)
-    if incidences * PYTHON_SECONDS_PER_INCIDENCE < 5 * NUMPY_SECONDS_PER_LAYER:
+    python_cost = incidences * costs.python_seconds_per_incidence
+    if python_cost < 5 * costs.numpy_seconds_per_layer:
         return python  # no need to look: five numpy layers would cost more than a whole evaluation here
     if python.evaluate(task.init)[0] in (0, INFINITY):
         return python
-    numpy_cost = python.layers * (NUMPY_SECONDS_PER_LAYER + incidences * NUMPY_SECONDS_PER_LAYER_INCIDENCE)
-    saving = incidences * PYTHON_SECONDS_PER_INCIDENCE - numpy_cost
+    numpy_cost = python.layers * (costs.numpy_seconds_per_layer + incidences * costs.numpy_seconds_per_layer_incidence)
+    saving = python_cost - numpy_cost
     if saving <= 0:
         return python
-    return SwitchingRelaxedPlanHeuristic(task, actions, after=math.ceil(NUMPY_IMPORT_SECONDS / saving), built=python)
+    after = math.ceil(costs.numpy_import_seconds / saving)
+    return SwitchingRelaxedPlanHeuristic(task, actions, after=after, built=python)
 
 
 class RelaxedPlanHeuristic:

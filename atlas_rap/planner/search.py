@@ -205,11 +205,11 @@ def eliminate_redundant(task: GroundTask, plan: list[GroundAction],
 
     Doing each trial from the start costs O(length) applications, each a copy
     of the state (and a ``settle``): O(length² × state) in all. Instead one run
-    of the current plan is kept (each action skipped when inapplicable, as a
-    trial does), as what each step changed and a fingerprint of the state
-    before it (``settle`` must be a function of state and action), and the
-    state before the candidate step ``i``. A trial computes the same outcome
-    from there on, stopping as soon as it is known:
+    of the current plan is kept (:class:`_KeptRun`: each action skipped when
+    inapplicable, as a trial does), as what each step changed and a fingerprint
+    of the state before it (``settle`` must be a function of state and action),
+    and the state before the candidate step ``i``. A trial computes the same
+    outcome from there on, stopping as soon as it is known:
 
     - **Prefix.** Before ``i`` a trial runs the unchanged steps from the same
       state, so it reaches the kept run's state before ``i`` exactly when every
@@ -242,13 +242,177 @@ def eliminate_redundant(task: GroundTask, plan: list[GroundAction],
     it has expired the plan so far is returned, valid if the given one was:
     plan shortening is anytime.
     """
-    start = task.init if init is None else init
     plan = list(plan)
     stop = getattr(deadline, "expired", deadline)
     if stop is not None and stop():
         return plan
-    work = work if work is not None else EliminationWork()
-    applicable, apply, is_goal = task.applicable, task.apply, task.is_goal
+    run = _KeptRun(task, plan, task.init if init is None else init, settle, settle_adds,
+                   work if work is not None else EliminationWork())
+    trial, accept, reject = run.trial, run.accept, run.reject
+    i = 0
+    while i < len(plan) and i <= run.last_candidate:
+        if stop is not None and stop():
+            break
+        kept = trial(i)
+        if kept is not None:
+            accept(i, *kept)
+        else:
+            reject(i)
+            i += 1
+    return plan
+
+
+Change = tuple[tuple[int, ...], tuple[int, ...]]  # the facts one step added and removed
+
+
+Trial = tuple[int, list[GroundAction], list[Change], list[int], list[GroundAction]]
+"""What a trial without step ``i`` that reached the goals kept: the step ``end`` where it stopped
+(met the kept run, or ran out), and of ``plan[i + 1:end]`` the actions it applied (``kept``), their
+changes and the fingerprints after them, and the actions it dropped (``skipped``, with step ``i``).
+A plain tuple: one is made for most trials, and it is read once, by :meth:`_KeptRun.accept`."""
+
+
+class _KeptRun:
+    """One run of :func:`eliminate_redundant`'s current plan (its docstring), and the trials against it.
+
+    ``changes[j]`` is what step ``j`` changed (nothing when it was not applied,
+    ``done[j]`` False), ``marks[j]`` the fingerprint of the state before step
+    ``j`` relative to the start's (``marks[-1]`` the last state's), ``here``
+    the state before the candidate step, ``adds_goals[action]`` the goals an
+    action adds (of those no ``settle`` may add), and ``rest[g]`` how many
+    steps from the candidate on add the goal ``g``. The plan is changed in place.
+    """
+
+    def __init__(self, task: GroundTask, plan: list[GroundAction], start: frozenset[int], settle: Settle | None,
+                 settle_adds: Collection[int] | None, work: EliminationWork) -> None:
+        self.plan, self.work, self.here = plan, work, start
+        self._applicable, self._step = task.applicable, _stepper(task.apply, settle, work)
+        # the plan only ever loses actions: the goals each of its actions adds are known once for all
+        self.adds_goals, self.rest = _goal_adders(plan, _goals_settle_cannot_add(task, settle, settle_adds))
+        state = self._run_once(start)
+        self.executable = all(self.done)
+        self.last_candidate = len(plan) if self.executable else self.done.index(False)
+        self.reaches = task.is_goal(state)
+        self._is_goal = task.is_goal
+
+    def _run_once(self, state: frozenset[int]) -> frozenset[int]:
+        """Run the plan from ``state``, skipping the inapplicable steps, noting what each step
+        changed and the fingerprints; the last state."""
+        changes: list[Change] = []
+        marks = [0]
+        done: list[bool] = []
+        applicable, step, work = self._applicable, self._step, self.work
+        for action in self.plan:
+            work.checked += 1
+            if applicable(action, state):
+                state, added, removed, shift = step(state, action)
+                changes.append((added, removed))
+                marks.append((marks[-1] + shift) & _MASK)
+                done.append(True)
+            else:
+                changes.append(((), ()))
+                marks.append(marks[-1])
+                done.append(False)
+        self.changes, self.marks, self.done = changes, marks, done
+        return state
+
+    def _kept_state(self, i: int, j: int) -> frozenset[int]:
+        """The kept run's state before step ``j``, from ``here`` (before step ``i``)."""
+        self.work.copied += 1
+        facts = set(self.here)
+        for added, removed in self.changes[i:j]:
+            facts.difference_update(removed)
+            facts.update(added)
+        return frozenset(facts)
+
+    def _loses_a_goal(self, goals_added: tuple[int, ...], used: dict[int, int], state: frozenset[int]) -> bool:
+        """Count a step's ``goals_added`` as passed (in ``used``): whether it was the last step that
+        could add a goal ``state`` lacks."""
+        lost = False
+        for g in goals_added:
+            used[g] = used.get(g, 0) + 1
+            if used[g] == self.rest[g] and g not in state:
+                lost = True
+        return lost
+
+    def trial(self, i: int) -> Trial | None:
+        """Run the plan without step ``i`` from the state before it, until its outcome is known:
+        what it kept when it reaches the goals, else None."""
+        self.work.trials += 1
+        plan, marks, applicable, step, work = self.plan, self.marks, self._applicable, self._step, self.work
+        adds_goals, loses_a_goal = self.adds_goals, self._loses_a_goal
+        n = len(plan)
+        removed_step = plan[i]
+        state, mark = self.here, marks[i]
+        kept: list[GroundAction] = []
+        kept_changes: list[Change] = []
+        kept_marks: list[int] = []
+        skipped = [removed_step]
+        used: dict[int, int] = {}
+        goals_added = adds_goals[removed_step]
+        succeeded: bool | None = False if goals_added and loses_a_goal(goals_added, used, state) else None
+        j = i + 1
+        while succeeded is None and j < n:
+            if mark == marks[j] and state == self._kept_state(i, j):
+                succeeded = self.reaches  # the kept run from here on
+                break
+            action = plan[j]
+            work.checked += 1
+            if applicable(action, state):
+                state, added, removed, shift = step(state, action)
+                mark = (mark + shift) & _MASK
+                kept.append(action)
+                kept_changes.append((added, removed))
+                kept_marks.append(mark)
+            else:
+                skipped.append(action)
+            goals_added = adds_goals[action]
+            if goals_added and loses_a_goal(goals_added, used, state):
+                succeeded = False
+            j += 1
+        if succeeded is None:
+            succeeded = self._is_goal(state)  # the trial ran to the end
+        return (j, kept, kept_changes, kept_marks, skipped) if succeeded else None
+
+    def reject(self, i: int) -> None:
+        """Step ``i`` is needed: keep it and move the candidate on to step ``i + 1``."""
+        for g in self.adds_goals[self.plan[i]]:
+            self.rest[g] -= 1
+        if i < self.last_candidate:
+            added, removed = self.changes[i]
+            if added or removed:
+                self.work.copied += 1
+                self.here = self.here.difference(removed).union(added)
+
+    def accept(self, i: int, end: int, kept: list[GroundAction], kept_changes: list[Change], kept_marks: list[int],
+               skipped: list[GroundAction]) -> None:
+        """Step ``i`` is redundant: the plan and the kept run become what its trial kept (:data:`Trial`)."""
+        plan, changes, marks, j, n = self.plan, self.changes, self.marks, end, len(self.plan)
+        if self.executable or j == n:
+            plan[i:j] = kept
+            changes[i:j] = kept_changes
+            marks[i + 1:j + 1] = kept_marks
+        else:  # met a kept run that skips inapplicable steps: keep the ones it applied
+            done = self.done
+            tail = [m for m in range(j, n) if done[m]]
+            skipped.extend(plan[m] for m in range(j, n) if not done[m])
+            plan[i:] = kept + [plan[m] for m in tail]
+            changes[i:] = kept_changes + [changes[m] for m in tail]
+            marks[i + 1:] = kept_marks + [marks[m + 1] for m in tail]
+        rest, adds_goals = self.rest, self.adds_goals
+        for action in skipped:
+            for g in adds_goals[action]:
+                rest[g] -= 1
+        self.executable = self.reaches = True
+        self.last_candidate = len(plan)
+
+
+Step = Callable[[frozenset[int], GroundAction], tuple[frozenset[int], tuple[int, ...], tuple[int, ...], int]]
+
+
+def _stepper(apply: Callable[[GroundAction, frozenset[int]], frozenset[int]], settle: Settle | None,
+             work: EliminationWork) -> Step:
+    """The function that applies an action (and ``settle``) to a state, counted in ``work``."""
 
     def step(state: frozenset[int],
              action: GroundAction) -> tuple[frozenset[int], tuple[int, ...], tuple[int, ...], int]:
@@ -262,121 +426,31 @@ def eliminate_redundant(task: GroundTask, plan: list[GroundAction],
         removed = tuple(f for f in changed if f not in after)
         return after, added, removed, sum(map(_fact_key, added)) - sum(map(_fact_key, removed))
 
-    # The kept run: changes[j] what step j changed (nothing when it was not applied,
-    # done[j] False), marks[j] the fingerprint of the state before step j relative to
-    # the start's (marks[-1] the last state's), here the state before candidate i.
-    state = start
-    changes: list[tuple[tuple[int, ...], tuple[int, ...]]] = []
-    marks = [0]
-    done: list[bool] = []
+    return step
+
+
+def _goal_adders(plan: list[GroundAction],
+                 goals: set[int]) -> tuple[dict[GroundAction, tuple[int, ...]], dict[int, int]]:
+    """The ``goals`` each action of ``plan`` adds, and how many steps of the plan add each goal."""
+    adds_goals: dict[GroundAction, tuple[int, ...]] = {}
+    count: dict[int, int] = {}
     for action in plan:
-        work.checked += 1
-        if applicable(action, state):
-            state, added, removed, shift = step(state, action)
-            changes.append((added, removed))
-            marks.append((marks[-1] + shift) & _MASK)
-            done.append(True)
-        else:
-            changes.append(((), ()))
-            marks.append(marks[-1])
-            done.append(False)
-    executable = all(done)
-    last_candidate = len(plan) if executable else done.index(False)
-    reaches = is_goal(state)
-    here = start
+        found = adds_goals.get(action)
+        if found is None:
+            found = adds_goals[action] = tuple(f for f in action.add if f in goals)
+        for g in found:
+            count[g] = count.get(g, 0) + 1
+    return adds_goals, count
 
-    def kept_state(i: int, j: int) -> frozenset[int]:
-        """The kept run's state before step ``j``, from ``here`` (before step ``i``)."""
-        work.copied += 1
-        facts = set(here)
-        for added, removed in changes[i:j]:
-            facts.difference_update(removed)
-            facts.update(added)
-        return frozenset(facts)
 
-    # For each goal fact no settle may add: how many steps of plan[i:] add it.
+def _goals_settle_cannot_add(task: GroundTask, settle: Settle | None,
+                             settle_adds: Collection[int] | None) -> set[int]:
+    """The task's (positive) goals that no ``settle`` may add: all without one; with one, those outside
+    ``settle_adds`` (none when it is not given)."""
     goals = set(task.goal)
     if settle is not None:
         goals = goals.difference(settle_adds) if settle_adds is not None else set()
-    goal_adds: dict[GroundAction, tuple[int, ...]] = {}
-
-    def adds_goals(action: GroundAction) -> tuple[int, ...]:
-        found = goal_adds.get(action)
-        if found is None:
-            found = goal_adds[action] = tuple(f for f in action.add if f in goals)
-        return found
-
-    rest: dict[int, int] = {}
-    for action in plan:
-        for g in adds_goals(action):
-            rest[g] = rest.get(g, 0) + 1
-
-    i = 0
-    while i < len(plan) and i <= last_candidate:
-        if stop is not None and stop():
-            break
-        work.trials += 1
-        n = len(plan)
-        removed_step = plan[i]
-        state, mark = here, marks[i]
-        kept: list[GroundAction] = []
-        kept_changes: list[tuple[tuple[int, ...], tuple[int, ...]]] = []
-        kept_marks: list[int] = []
-        skipped = [removed_step]
-        used: dict[int, int] = {}
-        ok: bool | None = None
-        for g in adds_goals(removed_step):
-            used[g] = used.get(g, 0) + 1
-            if used[g] == rest[g] and g not in state:
-                ok = False
-        j = i + 1
-        while ok is None and j < n:
-            if mark == marks[j] and state == kept_state(i, j):
-                ok = reaches  # the kept run from here on
-                break
-            action = plan[j]
-            work.checked += 1
-            if applicable(action, state):
-                state, added, removed, shift = step(state, action)
-                mark = (mark + shift) & _MASK
-                kept.append(action)
-                kept_changes.append((added, removed))
-                kept_marks.append(mark)
-            else:
-                skipped.append(action)
-            for g in adds_goals(action):
-                used[g] = used.get(g, 0) + 1
-                if used[g] == rest[g] and g not in state:
-                    ok = False
-            j += 1
-        if ok is None:
-            ok = is_goal(state)  # the trial ran to the end
-        if not ok:
-            for g in adds_goals(removed_step):
-                rest[g] -= 1
-            if i < last_candidate:
-                added, removed = changes[i]
-                if added or removed:
-                    work.copied += 1
-                    here = here.difference(removed).union(added)
-            i += 1
-            continue
-        if executable or j == n:
-            plan[i:j] = kept
-            changes[i:j] = kept_changes
-            marks[i + 1:j + 1] = kept_marks
-        else:  # met a kept run that skips inapplicable steps: keep the ones it applied
-            tail = [m for m in range(j, n) if done[m]]
-            skipped.extend(plan[m] for m in range(j, n) if not done[m])
-            plan[i:] = kept + [plan[m] for m in tail]
-            changes[i:] = kept_changes + [changes[m] for m in tail]
-            marks[i + 1:] = kept_marks + [marks[m + 1] for m in tail]
-        for action in skipped:
-            for g in adds_goals(action):
-                rest[g] -= 1
-        executable = reaches = True
-        last_candidate = len(plan)
-    return plan
+    return goals
 
 
 def shorter_plan(task: GroundTask, plan: list[GroundAction], budget: int, weight: float = 3.0,

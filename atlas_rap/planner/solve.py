@@ -68,7 +68,7 @@ class PlannerBug(AssertionError):
 
 
 def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, protect: bool = True,
-          memory: float | None = None, limits: Limits | None = None) -> Plan:
+          memory: float | None = None, limits: Limits | None = None, *, restart_after: int = STUCK) -> Plan:
     """Plan for ``problem`` within ``timeout`` CPU seconds and ``memory`` MiB (None: no limit),
     or within ``limits`` already running (``atlas plan`` starts them before it reads the files).
 
@@ -77,7 +77,8 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     (``Plan.limited``); a plan whose counterplanning was cut while threats were
     left is not returned as safe (status ``timeout`` or ``memory``); without a
     plan, the status says which limit ran out. ``protect`` False skips
-    counterplanning (the risk is still reported).
+    counterplanning (the risk is still reported). ``restart_after`` is the count of
+    hFF evaluations after which the search restarts with landmarks.
     """
     limits = limits if limits is not None else Limits(timeout, memory)
     timing: dict[str, float] = {}
@@ -98,7 +99,7 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     if limits.expired():
         return _without_plan(limits, phase, stats, "before the search began")
     phase("search", "search")
-    found = greedy_best_first(task, stop=limits.expired, max_evaluations=STUCK)
+    found = greedy_best_first(task, stop=limits.expired, max_evaluations=restart_after)
     if found.status == "timeout" and not limits.expired():  # stuck: restart as LAMA would search
         stuck = found
         found = landmark_search(task, stuck.heuristic, stop=limits.expired)
