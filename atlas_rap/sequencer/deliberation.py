@@ -83,6 +83,7 @@ from atlas_rap.lang import parse_term
 from atlas_rap.logic import Compound, Term, Var, is_ground, term_to_str
 from atlas_rap.planner.dispatch import match_steps
 from atlas_rap.planner.plan import Plan, PlanStep
+from atlas_rap.sequencer.status import Outcome
 from atlas_rap.sequencer.task import SUCCEEDED, Failure, Task
 
 if TYPE_CHECKING:
@@ -101,7 +102,7 @@ AGENT_FAILED = "agent-failed"
 GOAL_ABANDONED = "goal-abandoned"
 """``(goal-abandoned GOAL)`` is asserted for each goal a plan gave up, for RAPs to react to."""
 
-PARTIAL = ":partial"
+PARTIAL = Outcome.PARTIAL
 """The outcome of a plan step that achieved some of its goals after abandoning others."""
 
 _ANY = Var("%any")
@@ -412,7 +413,7 @@ class PlanExecution:
             self._trouble("every step is done but " + " ".join(_terms(unmet)) + " does not hold",
                           frozenset(unmet))
             return
-        outcome = PARTIAL if self.abandoned_goals else ":succeed"
+        outcome = PARTIAL if self.abandoned_goals else Outcome.SUCCEED
         self.seq.trace.emit("plan-done", plan=self.number, version=self.version, id=self.owner.id,
                             goals=_terms(self.goals), abandoned=_terms(self.abandoned_goals))
         self._close()
@@ -540,9 +541,9 @@ class PlanExecution:
 
     def _deadline_passed(self) -> None:
         if not self.ended:
-            self._abandon(f"missed its deadline at t={_num(self.deadline_at or 0.0)} s", outcome=":timeout")
+            self._abandon(f"missed its deadline at t={_num(self.deadline_at or 0.0)} s", outcome=Outcome.TIMEOUT)
 
-    def _abandon(self, reason: str, *, outcome: str = ":fail", **fields: object) -> None:
+    def _abandon(self, reason: str, *, outcome: str = Outcome.FAIL, **fields: object) -> None:
         """Give the plan up: halt its running steps, say why, and end the plan step."""
         self._halt_running(f"plan {self.number} was abandoned: {reason}")
         goals = list(self.goals)

@@ -111,6 +111,7 @@ from atlas_rap.sequencer.net import (
 )
 from atlas_rap.sequencer.resources import Claim, Resources
 from atlas_rap.sequencer.retrying import DEFAULT_RETRY_BACKOFF, RetryWait
+from atlas_rap.sequencer.status import Outcome, Status
 from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Task
 from atlas_rap.sequencer.trace import Trace
 from atlas_rap.sequencer.waiting import WaitIndex
@@ -460,18 +461,18 @@ class Sequencer:
         return rap.repeat_until is not None and not memory.holds(rap.repeat_until, bindings, relations)
 
     def _fail(self, task: Task, reason: str, cause: Failure | None = None, *, fatal: bool = False,
-              outcome: str = ":fail") -> None:
+              outcome: str = Outcome.FAIL) -> None:
         self._end(task, FAILED, Failure(task.text, reason, cause, fatal, outcome))
 
     def _timed_out(self, task: Task, seconds: float) -> None:
         if not task.finished:
             self._fail(task, f"timed out after {seconds:g} s (its timeout clause){self._waited(task)}",
-                       task.last_failure, outcome=":timeout")
+                       task.last_failure, outcome=Outcome.TIMEOUT)
 
     def _missed_deadline(self, task: Task) -> None:
         if not task.finished:
             self._fail(task, f"missed its deadline at t={task.deadline:g} s{self._waited(task)}", task.last_failure,
-                       outcome=":timeout")
+                       outcome=Outcome.TIMEOUT)
 
     def _waited(self, task: Task) -> str:
         """What ``task`` (or a task under it) is waiting for, as the end of a timeout's reason."""
@@ -483,7 +484,7 @@ class Sequencer:
                 return f": it waited for {term_to_str(claim.call)} {self.held_by(claim)} since t={claim.since:g} s"
         return ""
 
-    def _end(self, task: Task, status: str, failure: Failure | None) -> None:
+    def _end(self, task: Task, status: Status, failure: Failure | None) -> None:
         self._stop(task)
         task.status = status
         task.failure = failure
@@ -609,9 +610,9 @@ class Sequencer:
         outranks the holder takes the instance and halts the holder's step.
         """
         if not is_ground(call):
-            return ":fail", f"skill {term_to_str(call)} was enabled with unbound arguments"
+            return Outcome.FAIL, f"skill {term_to_str(call)} was enabled with unbound arguments"
         if not self.is_skill(call):
-            return ":fail", f"no skill {call.functor} with {_plural(len(call.args), 'argument')}"
+            return Outcome.FAIL, f"no skill {call.functor} with {_plural(len(call.args), 'argument')}"
         instance = self.skills.instance(call)
         held = self.holders.get(instance)
         task = run.task
@@ -684,7 +685,7 @@ class Sequencer:
         holder_run, holder_call = held
         holder, newcomer = holder_run.task, run.task
         resume = holder_run.method.on_preempt == "resume"
-        self.trace.emit("skill-preempted", skill=term_to_str(holder_call), outcome=":halted" if resume else ":preempted",
+        self.trace.emit("skill-preempted", skill=term_to_str(holder_call), outcome=Outcome.HALTED if resume else Outcome.PREEMPTED,
                         id=holder.id, task=holder.text, winner_id=newcomer.id, winner=newcomer.text)
         reason = f"preempted by [{newcomer.id}] {newcomer.text}, which enabled {term_to_str(call)}"
         holder_run.preempt(holder_call, reason, resume)

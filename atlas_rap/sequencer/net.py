@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING, Callable
 from atlas_rap.lang import ast
 from atlas_rap.logic import Compound, QueryError, String, Subst, Term, Var, is_ground, substitute, term_to_str
 from atlas_rap.sequencer.deliberation import PlanExecution
+from atlas_rap.sequencer.status import FAILURE_OUTCOMES, Outcome, StepState
 from atlas_rap.sequencer.task import SUCCEEDED, Failure, Task
 from atlas_rap.sequencer.waiting import Waiter
 
@@ -46,18 +47,15 @@ if TYPE_CHECKING:
     from atlas_rap.sequencer.resources import Claim
     from atlas_rap.skillbus.timers import Timer
 
-FAILURE_OUTCOMES = frozenset({":fail", ":timeout", ":preempted"})
-"""Step outcomes that fail the method; every other outcome counts as success.
-
-``:preempted``: a task of higher priority took the skill this step ran, and
-the method says ``(on-preempt fail)`` (``Sequencer.enable_skill``)."""
-
-HALTED_OUTCOME = ":halted"
+HALTED_OUTCOME = Outcome.HALTED
 """The outcome recorded for a monitor halted by ``until-end``."""
 
-WAITING_OUTCOME = ":waiting"
+WAITING_OUTCOME = Outcome.WAITING
 """What ``Sequencer.enable_skill`` answers when the step must wait for its skill (not an outcome a
 step ends with: the step goes on when it is served)."""
+
+_NEW, _BLOCKED, _WAITING = StepState.NEW, StepState.BLOCKED, StepState.WAITING  # StepNode's states, read
+_RUNNING, _DONE = StepState.RUNNING, StepState.DONE  # as globals: cheaper than StepState.X in its hot paths
 
 _OUTCOME = Var("%outcome")  # binds the outcome in (done (SKILL ...) ?outcome); no source can name it
 _WHY = Var("%why")  # binds the reason in (why (SKILL ...) "reason"), which a skill may post before done
@@ -284,7 +282,7 @@ class WaitGroup:
             try:
                 answer = memory.ask(query, None, relations)
             except QueryError as exc:
-                self._decide(":fail", f"{_entry_text(self.entries[index])} cannot be evaluated: {exc}", None)
+                self._decide(Outcome.FAIL, f"{_entry_text(self.entries[index])} cannot be evaluated: {exc}", None)
                 return
             if answer is not None:
                 self._matched(index, answer)
@@ -298,14 +296,14 @@ class WaitGroup:
             if timeout is not None:
                 self.timers.append(self.seq.timers.after(
                     timeout, lambda entry=entry, timeout=timeout: self._decide(
-                        ":timeout", f"{_entry_text(entry)} timed out after {_seconds(timeout)}", None),
+                        Outcome.TIMEOUT, f"{_entry_text(entry)} timed out after {_seconds(timeout)}", None),
                     late=True))
 
     def woken(self, waiter: Waiter, answer: Subst) -> None:
         self._matched(waiter.tag, answer)  # type: ignore[arg-type]
 
     def broken(self, waiter: Waiter, message: str) -> None:
-        self._decide(":fail", f"{_entry_text(self.entries[waiter.tag])} cannot be evaluated: {message}", None)  # type: ignore[index]
+        self._decide(Outcome.FAIL, f"{_entry_text(self.entries[waiter.tag])} cannot be evaluated: {message}", None)  # type: ignore[index]
 
     def _matched(self, index: int, answer: Subst) -> None:
         entry = self.entries[index]
@@ -431,7 +429,7 @@ class StepNode(_Leaf):
         self.gate = 0  # steps that must end well first, from their (for L) annotations
         self.successors: list[StepNode] = []
         self.monitors: list[StepNode] = []
-        self.state = "new"  # new | blocked | waiting (for its skill) | running | done
+        self.state = _NEW
         self.child: Task | None = None
         self.skill: Compound | None = None
         self.group: WaitGroup | None = None
@@ -448,22 +446,22 @@ class StepNode(_Leaf):
 
     def start(self) -> None:
         if self.cut:
-            self.state = "done"
+            self.state = _DONE
             self._ended()
         elif self.gate:
-            self.state = "blocked"
+            self.state = _BLOCKED
         else:
             self._begin()
 
     def open_gate(self) -> None:
         self.gate -= 1
-        if self.gate == 0 and self.state == "blocked":
+        if self.gate == 0 and self.state is _BLOCKED:
             self._begin()
 
     def _begin(self) -> None:
         run = self.run
         seq = run.seq
-        self.state = "running"
+        self.state = _RUNNING
         if self.step.plan is not None:
             self._begin_plan(self.step.plan)
             return
@@ -475,20 +473,20 @@ class StepNode(_Leaf):
             refused = seq.enable_skill(run, call, self)
             if refused is not None:
                 if refused[0] == WAITING_OUTCOME:
-                    self.state = "waiting"
+                    self.state = _WAITING
                     return
-                self.state = "done"
+                self.state = _DONE
                 if run.live:
                     self.record(*refused)
                 return
             self.skill = call
             entries = [(Compound("done", (call, _OUTCOME)), None, None, f"skill {term_to_str(call)}")]
         else:
-            self.state = "done"
-            self.record(":fail", f"{call.functor} is neither a RAP nor a skill")
+            self.state = _DONE
+            self.record(Outcome.FAIL, f"{call.functor} is neither a RAP nor a skill")
             return
         entries += [_wait_entry(wait, run.subst) for wait in self.step.waits]
-        if entries and run.live and self.state == "running":
+        if entries and run.live and self.state is _RUNNING:
             self.group = WaitGroup(seq, entries, self._decided)
             self.group.start()
 
@@ -497,19 +495,19 @@ class StepNode(_Leaf):
         run = self.run
         started = _start_plan(run, request, self._plan_ended)
         if not isinstance(started, PlanExecution):
-            self.state = "done"
+            self.state = _DONE
             self.record(*started)
             return
         self.execution = started
         self.call = Compound("plan", started.goals_asked)
         entries = [_wait_entry(wait, run.subst) for wait in self.step.waits]
-        if entries and run.live and self.state == "running":
+        if entries and run.live and self.state is _RUNNING:
             self.group = WaitGroup(run.seq, entries, self._decided)
             self.group.start()
 
     def _plan_ended(self, outcome: str, why: str) -> None:
         self.execution = None
-        if self.state == "running":
+        if self.state is _RUNNING:
             self._finish(outcome, why, None)
 
     def subtask_waiting(self, wait: object, what: str) -> None:
@@ -517,17 +515,17 @@ class StepNode(_Leaf):
 
     def child_ended(self, child: Task) -> None:
         """The child task ended (succeeded or failed) before any wait-for matched."""
-        if self.state != "running":
+        if self.state is not _RUNNING:
             return
         if child.status == SUCCEEDED:
-            self._finish(":succeed", f"{child.text} succeeded", None)
+            self._finish(Outcome.SUCCEED, f"{child.text} succeeded", None)
         else:
             failure = child.failure
-            self._finish(failure.outcome if failure else ":fail", failure.reason if failure else "failed",
+            self._finish(failure.outcome if failure else Outcome.FAIL, failure.reason if failure else "failed",
                          failure, fatal=bool(failure and failure.fatal))
 
     def _decided(self, outcome: str, why: str, answer: Subst | None) -> None:
-        if self.state != "running":
+        if self.state is not _RUNNING:
             return
         self.bind(answer)
         cause = None
@@ -537,7 +535,7 @@ class StepNode(_Leaf):
         self._finish(outcome, why, cause)
 
     def _finish(self, outcome: str, why: str, cause: Failure | None, fatal: bool = False) -> None:
-        self.state = "done"
+        self.state = _DONE
         self._release(self, f"ended {outcome}")
         run = self.run
         run.seq.step_outcome(run.task, self, outcome, cause.reason if cause else why)
@@ -560,14 +558,14 @@ class StepNode(_Leaf):
 
     def cut_off(self, target: StepNode) -> None:
         """``until-end``: the step this one monitors has ended, so this one stops."""
-        if self.state in ("done",) or not self.run.live:
+        if self.state is _DONE or not self.run.live:
             return
-        if self.state == "new":
+        if self.state is _NEW:
             self.cut = True
             return
-        was_running = self.state in ("running", "waiting")
+        was_running = self.state is _RUNNING or self.state is _WAITING
         self._stop_waiting()
-        self.state = "done"
+        self.state = _DONE
         if was_running:
             self._release(target, "ended (until-end)")
             self.run.seq.step_outcome(self.run.task, self, HALTED_OUTCOME)
@@ -587,36 +585,36 @@ class StepNode(_Leaf):
             self.run.seq.disable_skill(self.run, self.skill)
 
     def halt(self) -> None:
-        if self.state == "running":
+        if self.state is _RUNNING:
             self._release(None, "its method was halted")
         self._stop_waiting()
-        self.state = "done"
+        self.state = _DONE
 
     def preempted(self, call: Compound, reason: str, resume: bool) -> None:
-        if self.state != "running" or call != self.skill:
+        if self.state is not _RUNNING or call != self.skill:
             super().preempted(call, reason, resume)
             return
         if not resume:
-            self._finish(":preempted", "the skill was taken by another task",
+            self._finish(Outcome.PREEMPTED, "the skill was taken by another task",
                          Failure(f"skill {term_to_str(call)}", reason))
             return
         self._release(None, "its skill was taken")  # its waits and its skill
         self.group = self.skill = None
-        self.state = "waiting"
+        self.state = _WAITING
         self.run.seq.wait_again(self, call)
 
     def resume(self, call: Compound, preempted: bool) -> None:
-        if self.state == "waiting" and self.run.live:
+        if self.state is _WAITING and self.run.live:
             self._begin()
 
     def waiting_for(self) -> list[str]:
-        if self.state == "blocked":
+        if self.state is _BLOCKED:
             return [f"{self.describe()}: waiting for an earlier step (for)"]
-        if self.state == "waiting" and self.claim is not None:
+        if self.state is _WAITING and self.claim is not None:
             return [f"{term_to_str(self.claim.call)} {self.run.seq.held_by(self.claim)}"]
         if self.execution is not None:
             return self.execution.waiting_for()
-        if self.state != "running" or self.group is None or self.child is not None:
+        if self.state is not _RUNNING or self.group is None or self.child is not None:
             return []
         return self.group.describe()
 
@@ -703,7 +701,7 @@ class PrimitiveNode(_Leaf):
             self.run.seq.wait_again(self, call)
             return
         self.index = len(self.actions)
-        self.record(":preempted", f"skill {term_to_str(call)} {reason}")
+        self.record(Outcome.PREEMPTED, f"skill {term_to_str(call)} {reason}")
 
     def resume(self, call: Compound, preempted: bool) -> None:
         run = self.run
@@ -774,9 +772,9 @@ def _start_plan(run: MethodRun, request: ast.PlanRequest,
     goals = tuple(substitute(goal, run.subst) for goal in request.goals) if run.subst else request.goals
     unbound = [term_to_str(g) for g in goals if not is_ground(g)]
     if unbound:
-        return ":fail", f"its goals have unbound variables: {', '.join(unbound)}"
+        return Outcome.FAIL, f"its goals have unbound variables: {', '.join(unbound)}"
     if seq.deliberator is None:
-        return ":fail", "this run has no planner"
+        return Outcome.FAIL, "this run has no planner"
     execution = PlanExecution(seq, seq.deliberator, run.task, goals, on_end, deadline=request.deadline,
                               max_failures=request.max_failures)
     execution.start()

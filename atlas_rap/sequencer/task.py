@@ -22,18 +22,20 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from atlas_rap.logic import Compound, term_to_str
+from atlas_rap.sequencer.status import Outcome, Status
 
 if TYPE_CHECKING:
     from atlas_rap.sequencer.net import MethodRun, StepNode
     from atlas_rap.sequencer.retrying import RetryWait
     from atlas_rap.skillbus.timers import Timer
 
-PENDING = "pending"
-RUNNING = "running"
-SUCCEEDED = "succeeded"
-FAILED = "failed"
-HALTED = "halted"
+PENDING = Status.PENDING  # the statuses by name, as before they were an enum (and as fast to read)
+RUNNING = Status.RUNNING
+SUCCEEDED = Status.SUCCEEDED
+FAILED = Status.FAILED
+HALTED = Status.HALTED
 FINISHED = frozenset({SUCCEEDED, FAILED, HALTED})
+"""The statuses of a task that has ended."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,7 +54,7 @@ class Failure:
     reason: str
     cause: Failure | None = None
     fatal: bool = False
-    outcome: str = ":fail"
+    outcome: str = Outcome.FAIL
 
     def chain(self) -> list[Failure]:
         """This failure and every cause under it, outermost first."""
@@ -96,7 +98,7 @@ class Task:
         self.depth = parent.depth + 1 if parent is not None else 0
         self.priority = priority
         self.deadline = deadline
-        self.status = PENDING
+        self.status: Status = PENDING
         self.attempts = 0
         self.tries: dict[int, int] = {}
         self.run: MethodRun | None = None
