@@ -75,12 +75,11 @@ user would expect:
 from __future__ import annotations
 
 from itertools import count
-from typing import Hashable, Iterable, Mapping, Sequence
+from typing import Callable, Hashable, Iterable, Mapping, Sequence
 
 from atlas_rap.lang import ast
 from atlas_rap.logic import (
     Compound,
-    FactError,
     LogicError,
     Memory,
     MemoryRule,
@@ -95,24 +94,15 @@ from atlas_rap.logic import (
     term_to_str,
     unify,
 )
-from atlas_rap.logic.arithmetic import evaluated_fact
 from atlas_rap.logic.errors import RuleError
 from atlas_rap.logic.rules import Change
 from atlas_rap.sequencer.agenda import Agenda, agenda_key
-from atlas_rap.sequencer.deliberation import Deliberator
-from atlas_rap.sequencer.net import (
-    FAILURE_OUTCOMES,
-    HALTED_OUTCOME,
-    WAITING_OUTCOME,
-    MethodRun,
-    Node,
-    StepNode,
-    method_label,
-)
+from atlas_rap.sequencer.deliberation import Deliberator, PlanExecution
+from atlas_rap.sequencer.net import HALTED_OUTCOME, WAITING_OUTCOME, MethodRun, Node, Refusal, method_label
 from atlas_rap.sequencer.resources import Claim, Resources
 from atlas_rap.sequencer.retrying import DEFAULT_RETRY_BACKOFF, RetryWait
-from atlas_rap.sequencer.status import Outcome, Status
-from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Task
+from atlas_rap.sequencer.status import FAILURE_OUTCOMES, Outcome, Status
+from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Spawner, Task
 from atlas_rap.sequencer.trace import Trace
 from atlas_rap.sequencer.waiting import WaitIndex
 from atlas_rap.skillbus.skill_link import NoSkills, SkillLink
@@ -212,6 +202,17 @@ class Sequencer:
         """The current simulated time, in seconds."""
         return self.timers.now
 
+    def start_plan(self, owner: Task, goals: tuple[Term, ...], on_end: Callable[[str, str], None], *,
+                   deadline: float | None, max_failures: int | None) -> PlanExecution | None:
+        """Start carrying out a plan for ``goals``, asked by a step of ``owner``'s method
+        (``deliberation``); None when this run has no planner (no :attr:`deliberator`)."""
+        if self.deliberator is None:
+            return None
+        execution = PlanExecution(self, self.deliberator, owner, goals, on_end, deadline=deadline,
+                                  max_failures=max_failures)
+        execution.start()
+        return execution
+
     def next_plan_number(self) -> int:
         """The number of the next plan of this run (1, 2, ...), as the trace names plans."""
         return next(self._plan_numbers)
@@ -233,7 +234,7 @@ class Sequencer:
         self.agenda.push(task)
         return task
 
-    def spawn(self, call: Compound, parent: Task, step: StepNode) -> Task:
+    def spawn(self, call: Compound, parent: Task, step: Spawner) -> Task:
         """A subtask for ``step`` of ``parent``'s net, on the agenda."""
         rap = self.library[(call.functor, len(call.args))]
         priority = rap.priority if rap.priority is not None else parent.priority
@@ -585,21 +586,7 @@ class Sequencer:
             if answer is not None:
                 waiter.owner.woken(waiter, answer)
 
-    def apply_memory_op(self, run: MethodRun, op: ast.MemoryOp) -> bool:
-        """Apply an assert/retract step of a method; False (and the method fails) if it cannot be."""
-        fact = substitute(op.fact, run.subst) if run.subst else op.fact
-        if not is_ground(fact):
-            run.fail(Failure(f"({op.kind} {term_to_str(fact)})", "the fact has unbound variables"))
-            return False
-        try:
-            fact = evaluated_fact(fact)
-        except FactError as exc:
-            run.fail(Failure(f"({op.kind} {term_to_str(fact)})", str(exc)))
-            return False
-        self.change(((op.kind, fact),), f"task {run.task.id}", task=run.task)
-        return run.live
-
-    def enable_skill(self, run: MethodRun, call: Compound, node: Node) -> tuple[str, str] | None:
+    def enable_skill(self, run: MethodRun, call: Compound, node: Node) -> Refusal | None:
         """Enable a skill for ``node`` of a method; None, or the outcome and reason its step ends with.
 
         The skill's instance (:meth:`SkillLink.instance`) then belongs to
@@ -636,7 +623,7 @@ class Sequencer:
         self.trace.emit("skill-enabled", skill=term_to_str(call), id=task.id, task=task.text)
         return None
 
-    def _wait(self, node: Node, call: Compound, instance: Hashable, *, preempted: bool = False) -> tuple[str, str]:
+    def _wait(self, node: Node, call: Compound, instance: Hashable, *, preempted: bool = False) -> Refusal:
         """Queue ``node``'s claim on ``instance`` and trace the wait."""
         task = node.run.task
         claim = node.claim = Claim(node, task, call, instance, self.timers.now, preempted)
@@ -685,10 +672,15 @@ class Sequencer:
         holder_run, holder_call = held
         holder, newcomer = holder_run.task, run.task
         resume = holder_run.method.on_preempt == "resume"
-        self.trace.emit("skill-preempted", skill=term_to_str(holder_call), outcome=Outcome.HALTED if resume else Outcome.PREEMPTED,
+        outcome = Outcome.HALTED if resume else Outcome.PREEMPTED
+        self.trace.emit("skill-preempted", skill=term_to_str(holder_call), outcome=outcome,
                         id=holder.id, task=holder.text, winner_id=newcomer.id, winner=newcomer.text)
         reason = f"preempted by [{newcomer.id}] {newcomer.text}, which enabled {term_to_str(call)}"
         holder_run.preempt(holder_call, reason, resume)
+
+    def withdraw(self, claim: Claim) -> None:
+        """``claim``'s step stops waiting (it was halted, or ended another way)."""
+        self.resources.withdraw(claim)
 
     def wait_again(self, node: Node, call: Compound) -> None:
         """``node`` lost the skill ``call`` to a task that outranks it: it waits to resume."""

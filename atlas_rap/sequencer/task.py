@@ -19,13 +19,12 @@ event caused it, the failure underneath, so the whole chain can be told.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from atlas_rap.logic import Compound, term_to_str
 from atlas_rap.sequencer.status import Outcome, Status
 
 if TYPE_CHECKING:
-    from atlas_rap.sequencer.net import MethodRun, StepNode
     from atlas_rap.sequencer.retrying import RetryWait
     from atlas_rap.skillbus.timers import Timer
 
@@ -36,6 +35,43 @@ FAILED = Status.FAILED
 HALTED = Status.HALTED
 FINISHED = frozenset({SUCCEEDED, FAILED, HALTED})
 """The statuses of a task that has ended."""
+
+
+class SkillWait(Protocol):
+    """A step's wait for a skill instance (``resources.Claim``): ``live`` while the step still waits for ``call``."""
+
+    live: bool
+    call: Compound
+
+
+class Spawner(Protocol):
+    """What spawned a subtask: a step of its parent's net (``net.StepNode``) or of a plan
+    (``deliberation.StepRun``). The interpreter tells it when the task ends or waits for a skill."""
+
+    def child_ended(self, task: Task) -> None:
+        """The task ended (succeeded, failed or halted)."""
+        ...
+
+    def subtask_waiting(self, wait: SkillWait, what: str) -> None:
+        """The task, or a task under it, waits for a skill (``what`` says which and who has it)."""
+        ...
+
+
+class Attempt(Protocol):
+    """A task's running method (``net.MethodRun``), as readers of the task see it."""
+
+    @property
+    def label(self) -> str:
+        """The method's name, or its 1-based position."""
+        ...
+
+    def waiting_for(self) -> list[str]:
+        """What the method's live steps wait for."""
+        ...
+
+    def halt(self) -> None:
+        """Stop the method (its task ended)."""
+        ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,7 +124,7 @@ class Task:
         "started", "ended", "bindings", "last_method", "backoff",
     )
 
-    def __init__(self, id: int, call: Compound, parent: Task | None, step: StepNode | None,
+    def __init__(self, id: int, call: Compound, parent: Task | None, step: Spawner | None,
                  priority: float, deadline: float | None) -> None:
         self.id = id
         self.call = call
@@ -101,7 +137,7 @@ class Task:
         self.status: Status = PENDING
         self.attempts = 0
         self.tries: dict[int, int] = {}
-        self.run: MethodRun | None = None
+        self.run: Attempt | None = None
         self.children: list[Task] = []
         self.failure: Failure | None = None
         self.last_failure: Failure | None = None
