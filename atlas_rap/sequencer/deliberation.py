@@ -86,6 +86,7 @@ from atlas_rap.planner.plan import Plan, PlanStep
 from atlas_rap.sequencer.host import PlanHost
 from atlas_rap.sequencer.status import Outcome
 from atlas_rap.sequencer.task import SUCCEEDED, Failure, SkillWait, Task
+from atlas_rap.sequencer.trace import Event
 
 if TYPE_CHECKING:
     from atlas_rap.skillbus.timers import Timer
@@ -220,7 +221,7 @@ class PlanExecution:
             self.deadline_at = host.now() + self.deadline
             fields["deadline"] = self.deadline_at
             self._timers.append(host.timers.at(self.deadline_at, self._deadline_passed, late=True))
-        host.trace.emit("plan-requested", plan=self.number, id=self.owner.id, task=self.owner.text,
+        host.trace.emit(Event.PLAN_REQUESTED, plan=self.number, id=self.owner.id, task=self.owner.text,
                        goals=_terms(self.goals), **fields)
         self._unsubscribe = host.memory.subscribe(self._memory_changed)
         self._ask()
@@ -293,7 +294,7 @@ class PlanExecution:
         if self.version > 1:
             self._adopt(old)
         agents = sorted({s.step.agent for s in self.steps.values() if s.step.agent})
-        self.host.trace.emit("plan-ready", plan=self.number, version=self.version, id=self.owner.id,
+        self.host.trace.emit(Event.PLAN_READY, plan=self.number, version=self.version, id=self.owner.id,
                             goals=_terms(self.goals), steps=len(plan.steps), makespan=_num(plan.makespan),
                             agents=agents, latency=round(latency, 6),
                             actions=[f"s{s.id} {term_to_str(s.action)}" + (f" [{s.agent}]" if s.agent else "")
@@ -336,7 +337,7 @@ class PlanExecution:
         for o in running:
             o.status = "halted"
             self.host.halt(o.task, f"re-plan {self.version} of plan {self.number} dropped this step")
-        self.host.trace.emit("replanned", plan=self.number, version=self.version, id=self.owner.id,
+        self.host.trace.emit(Event.REPLANNED, plan=self.number, version=self.version, id=self.owner.id,
                             cause=self.cause, done=list(self.done),
                             kept=kept, new=new, halted=halted, reassigned=reassigned,
                             lost_agents=sorted(self._lost_agents()))
@@ -353,7 +354,7 @@ class PlanExecution:
                 continue
             run.status = "running"
             run.task = host.spawn(run.call, self.owner, run)
-            host.trace.emit("plan-step-started", plan=self.number, version=self.version, step=run.step.id,
+            host.trace.emit(Event.PLAN_STEP_STARTED, plan=self.number, version=self.version, step=run.step.id,
                            action=run.action, agent=run.step.agent, id=self.owner.id, step_task=run.task.id,
                            task=run.task.text)
             if self.ended or self.planning:
@@ -371,7 +372,7 @@ class PlanExecution:
         if task.status == SUCCEEDED:
             run.status = "done"
             self.done.append(run.action)
-            host.trace.emit("plan-step-done", **fields)
+            host.trace.emit(Event.PLAN_STEP_DONE, **fields)
             unmet = self._unmet_links(run.step.id)
             if unmet is not None:
                 self._changed(unmet)
@@ -381,7 +382,7 @@ class PlanExecution:
         run.status = "failed"
         self.failed[self.plan.sequence[run.step.source]] = None  # type: ignore[union-attr]
         reason = _root_reason(task.failure)
-        host.trace.emit("plan-step-failed", reason=reason, **fields)
+        host.trace.emit(Event.PLAN_STEP_FAILED, reason=reason, **fields)
         self._trouble(f"step s{run.step.id} {run.action} failed: {reason}", self.serves.get(run.step.id))
 
     def step_waiting(self, run: StepRun, wait: SkillWait, what: str) -> None:
@@ -408,7 +409,7 @@ class PlanExecution:
                           frozenset(unmet))
             return
         outcome = PARTIAL if self.abandoned_goals else Outcome.SUCCEED
-        self.host.trace.emit("plan-done", plan=self.number, version=self.version, id=self.owner.id,
+        self.host.trace.emit(Event.PLAN_DONE, plan=self.number, version=self.version, id=self.owner.id,
                             goals=_terms(self.goals), abandoned=_terms(self.abandoned_goals))
         self._close()
         why = (f"plan {self.number} achieved {' '.join(_terms(self.goals))}"
@@ -548,7 +549,7 @@ class PlanExecution:
         self.on_end(outcome, f"plan {self.number} abandoned: {reason}")
 
     def _emit_abandoned(self, scope: str, reason: str, goals: list[Term], **fields: object) -> None:
-        self.host.trace.emit("plan-abandoned", plan=self.number, version=self.version, id=self.owner.id,
+        self.host.trace.emit(Event.PLAN_ABANDONED, plan=self.number, version=self.version, id=self.owner.id,
                             scope=scope, goals=_terms(goals), reason=reason, **fields)
 
     def _halt_running(self, why: str) -> None:

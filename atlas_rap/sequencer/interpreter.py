@@ -103,7 +103,7 @@ from atlas_rap.sequencer.resources import Claim, Resources
 from atlas_rap.sequencer.retrying import DEFAULT_RETRY_BACKOFF, RetryWait
 from atlas_rap.sequencer.status import FAILURE_OUTCOMES, Outcome, Status
 from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Spawner, Task
-from atlas_rap.sequencer.trace import Trace
+from atlas_rap.sequencer.trace import Event, Trace
 from atlas_rap.sequencer.waiting import WaitIndex
 from atlas_rap.skillbus.skill_link import NoSkills, SkillLink
 from atlas_rap.skillbus.timers import Timers
@@ -227,7 +227,7 @@ class Sequencer:
         due = None if deadline is None else self.timers.now + deadline
         task = Task(next(self._ids), call, None, None, priority, due)
         self.roots.append(task)
-        self.trace.emit("task-posted", id=task.id, task=task.text, priority=priority,
+        self.trace.emit(Event.TASK_POSTED, id=task.id, task=task.text, priority=priority,
                         **({"deadline": due} if due is not None else {}))
         if due is not None:
             task.timers.append(self.timers.at(due, lambda: self._missed_deadline(task), late=True))
@@ -240,7 +240,7 @@ class Sequencer:
         priority = rap.priority if rap.priority is not None else parent.priority
         task = Task(next(self._ids), call, parent, step, priority, parent.deadline)
         parent.children.append(task)
-        self.trace.emit("task-posted", id=task.id, task=task.text, priority=priority, parent=parent.id)
+        self.trace.emit(Event.TASK_POSTED, id=task.id, task=task.text, priority=priority, parent=parent.id)
         self.agenda.push(task)
         return task
 
@@ -251,7 +251,7 @@ class Sequencer:
         self._stop(task)
         task.status = HALTED
         task.ended = self.timers.now
-        self.trace.emit("task-halted", id=task.id, task=task.text, reason=why)
+        self.trace.emit(Event.TASK_HALTED, id=task.id, task=task.text, reason=why)
 
     def cancel(self, task: Task, why: str = "cancelled") -> None:
         """Halt a task from outside (a person or a program); its parent's step fails."""
@@ -302,7 +302,7 @@ class Sequencer:
         trace = self.trace
         if trace.active:
             fields = {"repeat": task.repeats} if task.repeats else {}
-            trace.emit("task-selected", id=task.id, task=task.text, **fields)
+            trace.emit(Event.TASK_SELECTED, id=task.id, task=task.text, **fields)
         rap = self.library.get((task.call.functor, len(task.call.args)))
         if rap is None:
             self._fail(task, "no RAP of this name and arity is defined (was it removed by a reload?)", fatal=True)
@@ -371,7 +371,7 @@ class Sequencer:
         task.attempts += 1
         task.status = RUNNING
         task.last_method = method_label(method, number)
-        self.trace.emit("method-selected", id=task.id, task=task.text, method=task.last_method,
+        self.trace.emit(Event.METHOD_SELECTED, id=task.id, task=task.text, method=task.last_method,
                         attempt=task.attempts)
         run = task.run = MethodRun(self, task, method, number, answer)
         run.start()
@@ -425,13 +425,13 @@ class Sequencer:
 
         def resume(wait: RetryWait, by: str) -> None:
             task.backoff = None
-            self.trace.emit("task-resumed", id=task.id, task=task.text, waited=_seconds(self.timers.now - wait.since),
-                            by=by)
+            self.trace.emit(Event.TASK_RESUMED, id=task.id, task=task.text,
+                            waited=_seconds(self.timers.now - wait.since), by=by)
             self.agenda.push(task)
 
         task.backoff = RetryWait(queries, _retry_backoff(rap), waits=self.waits, timers=self.timers,
                                  relations=self.relations, on_end=resume)
-        self.trace.emit("task-waiting", id=task.id, task=task.text, until=task.backoff.until,
+        self.trace.emit(Event.TASK_WAITING, id=task.id, task=task.text, until=task.backoff.until,
                         watching=task.backoff.watching)
 
     # -- ending tasks --------------------------------------------------------
@@ -491,10 +491,10 @@ class Sequencer:
         task.failure = failure
         task.ended = self.timers.now
         if status == SUCCEEDED:
-            self.trace.emit("task-succeeded", id=task.id, task=task.text)
+            self.trace.emit(Event.TASK_SUCCEEDED, id=task.id, task=task.text)
         else:
             fields = {"because": failure.root().what + ": " + failure.root().reason} if failure.cause else {}
-            self.trace.emit("task-failed", id=task.id, task=task.text, reason=failure.reason, **fields)
+            self.trace.emit(Event.TASK_FAILED, id=task.id, task=task.text, reason=failure.reason, **fields)
         if task.step is not None:
             task.step.child_ended(task)
 
@@ -533,7 +533,7 @@ class Sequencer:
             if trace.active:
                 for i, (kind, fact) in enumerate(done):
                     by = source if i == 0 else "memory rule"
-                    event = "fact-asserted" if kind == "assert" else "fact-retracted"
+                    event = Event.FACT_ASSERTED if kind == "assert" else Event.FACT_RETRACTED
                     trace.emit(event, fact=term_to_str(fact), **({"by": by} if by else {}))
             made += done
         if made and self.waits.size:
@@ -550,7 +550,7 @@ class Sequencer:
         """A change that memory could not take: fail its task; a broken rule stops the run."""
         message = str(exc)
         fields = {"id": task.id, "task": task.text} if task is not None else {}
-        self.trace.emit("memory-error", error=message, fact=term_to_str(change[1]),
+        self.trace.emit(Event.MEMORY_ERROR, error=message, fact=term_to_str(change[1]),
                         **({"by": source} if source else {}), **fields)
         if not isinstance(exc, RuleError):
             if task is not None and not task.finished:
@@ -620,7 +620,7 @@ class Sequencer:
         self.skills.enable(call)
         self.holders[instance] = (run, call)
         run.enabled[call] = node
-        self.trace.emit("skill-enabled", skill=term_to_str(call), id=task.id, task=task.text)
+        self.trace.emit(Event.SKILL_ENABLED, skill=term_to_str(call), id=task.id, task=task.text)
         return None
 
     def _wait(self, node: Node, call: Compound, instance: Hashable, *, preempted: bool = False) -> Refusal:
@@ -630,7 +630,7 @@ class Sequencer:
         self.resources.queue(claim)
         held = self.holders.get(instance)
         holder = {"holder_id": held[0].task.id, "holder": held[0].task.text} if held is not None else {}
-        self.trace.emit("task-waiting", id=task.id, task=task.text, skill=term_to_str(call), **holder)
+        self.trace.emit(Event.TASK_WAITING, id=task.id, task=task.text, skill=term_to_str(call), **holder)
         what = f"{term_to_str(call)} {self.held_by(claim)}"
         above: Task | None = task
         while above is not None:  # a plan whose step this is watches the wait against its deadline
@@ -673,7 +673,7 @@ class Sequencer:
         holder, newcomer = holder_run.task, run.task
         resume = holder_run.method.on_preempt == "resume"
         outcome = Outcome.HALTED if resume else Outcome.PREEMPTED
-        self.trace.emit("skill-preempted", skill=term_to_str(holder_call), outcome=outcome,
+        self.trace.emit(Event.SKILL_PREEMPTED, skill=term_to_str(holder_call), outcome=outcome,
                         id=holder.id, task=holder.text, winner_id=newcomer.id, winner=newcomer.text)
         reason = f"preempted by [{newcomer.id}] {newcomer.text}, which enabled {term_to_str(call)}"
         holder_run.preempt(holder_call, reason, resume)
@@ -705,8 +705,8 @@ class Sequencer:
         waited = self.timers.now - claim.since
         changed = self._changed_while_halted(run) if claim.preempted else None
         fields = {"rechoose": changed} if changed is not None else {}
-        self.trace.emit("task-resumed", id=task.id, task=task.text, skill=term_to_str(claim.call), waited=_seconds(waited),
-                        **fields)
+        self.trace.emit(Event.TASK_RESUMED, id=task.id, task=task.text, skill=term_to_str(claim.call),
+                        waited=_seconds(waited), **fields)
         if changed is None:
             node.resume(claim.call, claim.preempted)
             return
@@ -744,13 +744,13 @@ class Sequencer:
                 del self.holders[instance]
                 self.resources.release(instance)
             self.skills.disable(call)
-            self.trace.emit("skill-disabled", skill=term_to_str(call), id=run.task.id, task=run.task.text)
+            self.trace.emit(Event.SKILL_DISABLED, skill=term_to_str(call), id=run.task.id, task=run.task.text)
 
     def step_outcome(self, task: Task, step, outcome: str, why: str = "") -> None:
         """Trace the outcome of a step (a net node with ``describe()``); a failure carries its reason."""
         if self.trace.active:
             fields = {"reason": why} if why and outcome in FAILURE_OUTCOMES else {}
-            self.trace.emit("step-outcome", id=task.id, task=task.text, step=step.describe(), outcome=outcome,
+            self.trace.emit(Event.STEP_OUTCOME, id=task.id, task=task.text, step=step.describe(), outcome=outcome,
                             **fields)
 
 
