@@ -102,7 +102,7 @@ from atlas_rap.sequencer.net import HALTED_OUTCOME, WAITING_OUTCOME, MethodRun, 
 from atlas_rap.sequencer.resources import Claim, Resources
 from atlas_rap.sequencer.retrying import DEFAULT_RETRY_BACKOFF, RetryWait
 from atlas_rap.sequencer.status import FAILURE_OUTCOMES, Outcome, Status
-from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Spawner, Task
+from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, AtOnce, Failure, Spawner, Task
 from atlas_rap.sequencer.trace import Event, Trace
 from atlas_rap.sequencer.waiting import WaitIndex
 from atlas_rap.skillbus.skill_link import NoSkills, SkillLink
@@ -330,20 +330,18 @@ class Sequencer:
             if rap.constraints is not None and not memory.holds(rap.constraints, bindings, relations):
                 self._fail(task, f"its constraints do not hold: {_shown(rap.constraints, bindings)}")
                 return
-            if task.method_ended_ok:
-                task.method_ended_ok = False
-                task.last_failure = Failure(
-                    f"method {task.last_method}", f"ended, but the succeed test "
+            methods = task.methods
+            if methods.ended_ok:
+                methods.ended_ok = False
+                methods.last_failure = Failure(
+                    f"method {methods.last_method}", f"ended, but the succeed test "
                     f"{_shown(rap.succeed, bindings)} is still false")
-            if task.attempts >= _retries(rap):
-                self._fail(task, f"gave up after {_plural(task.attempts, 'attempt')}", task.last_failure)
+            if methods.count >= _retries(rap):
+                self._fail(task, f"gave up after {_plural(methods.count, 'attempt')}", methods.last_failure)
                 return
-            now = self.timers.now
-            task.attempts_now = task.attempts_now + 1 if task.attempt_time == now else 1
-            task.attempt_time = now
-            if task.attempts_now > MAX_REPEATS_AT_ONCE:  # (retries 1000000000) of a method that fails at once
+            if methods.at_once.add(self.timers.now) > MAX_REPEATS_AT_ONCE:  # (retries 1000000000) failing at once
                 self._fail(task, f"tried {MAX_REPEATS_AT_ONCE} methods without simulated time passing",
-                           task.last_failure, fatal=True)
+                           methods.last_failure, fatal=True)
                 return
             self._choose_method(task, rap, bindings)
         except QueryError as exc:
@@ -352,7 +350,7 @@ class Sequencer:
     def _choose_method(self, task: Task, rap: ast.RapDef, bindings: Subst) -> None:
         best: tuple[int, int, Subst] | None = None
         for number, method in enumerate(rap.methods, 1):
-            tries = task.tries.get(number, 0)
+            tries = task.methods.by_method.get(number, 0)
             if best is not None and tries >= best[0]:
                 continue
             if method.context is None:
@@ -362,17 +360,16 @@ class Sequencer:
             if answer is not None:
                 best = (tries, number, answer)
         if best is None:
-            self._fail(task, _no_method(rap, bindings), task.last_failure)
+            self._fail(task, _no_method(rap, bindings), task.methods.last_failure)
             return
         _, number, answer = best
         method = rap.methods[number - 1]
         task.children = [child for child in task.children if not child.finished]  # the tree shows this attempt
-        task.tries[number] = task.tries.get(number, 0) + 1
-        task.attempts += 1
+        methods = task.methods
+        methods.begin(number, method_label(method, number))
         task.status = RUNNING
-        task.last_method = method_label(method, number)
-        self.trace.emit(Event.METHOD_SELECTED, id=task.id, task=task.text, method=task.last_method,
-                        attempt=task.attempts)
+        self.trace.emit(Event.METHOD_SELECTED, id=task.id, task=task.text, method=methods.last_method,
+                        attempt=methods.count)
         run = task.run = MethodRun(self, task, method, number, answer)
         run.start()
 
@@ -385,7 +382,7 @@ class Sequencer:
             return
         rap = self.library.get((task.call.functor, len(task.call.args)))
         if failure is not None:
-            task.last_failure = failure
+            task.methods.last_failure = failure
             if failure.fatal:
                 self._fail(task, "a failure that retrying cannot fix", failure, fatal=True)
                 return
@@ -393,7 +390,7 @@ class Sequencer:
             if rap is not None and rap.succeed is None:
                 self._succeed(task)
                 return
-            task.method_ended_ok = True
+            task.methods.ended_ok = True
         task.status = PENDING
         if rap is not None and self._waits_to_retry(task, rap):
             self._back_off(task, rap)
@@ -405,7 +402,7 @@ class Sequencer:
         it has retries left and a back-off, its ``succeed`` test does not already hold, and its next
         choice would repeat a method: an applicable method not yet tried is another way, tried at once,
         and a task with no applicable method fails at once, as it always has."""
-        if task.attempts >= _retries(rap) or _retry_backoff(rap) <= 0:
+        if task.methods.count >= _retries(rap) or _retry_backoff(rap) <= 0:
             return False
         memory, bindings, relations = self.memory, task.bindings, self.relations
         try:
@@ -413,7 +410,7 @@ class Sequencer:
                 return False
             applicable = [number for number, m in enumerate(rap.methods, 1)
                           if m.context is None or memory.holds(m.context, bindings, relations)]
-            return bool(applicable) and all(number in task.tries for number in applicable)
+            return bool(applicable) and all(number in task.methods.by_method for number in applicable)
         except QueryError:
             return False  # the selection reports it
 
@@ -438,18 +435,13 @@ class Sequencer:
 
     def _succeed(self, task: Task) -> None:
         rap = self.library.get((task.call.functor, len(task.call.args)))
-        if rap is not None and task.attempts and self._repeats(rap, task):
-            now = self.timers.now
-            task.repeats_now = task.repeats_now + 1 if task.repeat_time == now else 1
-            task.repeat_time = now
-            if task.repeats_now > MAX_REPEATS_AT_ONCE:
+        if rap is not None and task.methods.count and self._repeats(rap, task):
+            at_once = task.repeats_at_once = task.repeats_at_once or AtOnce()
+            if at_once.add(self.timers.now) > MAX_REPEATS_AT_ONCE:
                 self._fail(task, f"repeated {MAX_REPEATS_AT_ONCE} times without simulated time passing", fatal=True)
                 return
             task.repeats += 1
-            task.attempts = 0
-            task.tries.clear()
-            task.last_failure = None
-            task.method_ended_ok = False
+            task.methods.restart()
             task.status = PENDING
             self.agenda.push(task)
             return
@@ -468,12 +460,12 @@ class Sequencer:
     def _timed_out(self, task: Task, seconds: float) -> None:
         if not task.finished:
             self._fail(task, f"timed out after {seconds:g} s (its timeout clause){self._waited(task)}",
-                       task.last_failure, outcome=Outcome.TIMEOUT)
+                       task.methods.last_failure, outcome=Outcome.TIMEOUT)
 
     def _missed_deadline(self, task: Task) -> None:
         if not task.finished:
-            self._fail(task, f"missed its deadline at t={task.deadline:g} s{self._waited(task)}", task.last_failure,
-                       outcome=Outcome.TIMEOUT)
+            self._fail(task, f"missed its deadline at t={task.deadline:g} s{self._waited(task)}",
+                       task.methods.last_failure, outcome=Outcome.TIMEOUT)
 
     def _waited(self, task: Task) -> str:
         """What ``task`` (or a task under it) is waiting for, as the end of a timeout's reason."""
@@ -710,10 +702,7 @@ class Sequencer:
         if changed is None:
             node.resume(claim.call, claim.preempted)
             return
-        task.attempts -= 1  # the halted attempt is not charged
-        task.tries[run.number] -= 1
-        if not task.tries[run.number]:
-            del task.tries[run.number]
+        task.methods.refund(run.number)  # the halted attempt is not charged
         if task.run is run:
             task.run = None
         run.halt()

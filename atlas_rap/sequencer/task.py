@@ -57,7 +57,7 @@ class Spawner(Protocol):
         ...
 
 
-class Attempt(Protocol):
+class RunningMethod(Protocol):
     """A task's running method (``net.MethodRun``), as readers of the task see it."""
 
     @property
@@ -110,18 +110,74 @@ class Failure:
         return self.chain()[-1]
 
 
+class AtOnce:
+    """How many times something happened at one instant of simulated time: the guard against a
+    runaway loop (``interpreter.MAX_REPEATS_AT_ONCE``)."""
+
+    __slots__ = ("time", "count")
+
+    def __init__(self) -> None:
+        self.time = -1.0
+        self.count = 0
+
+    def add(self, now: float) -> int:
+        """Count one more at ``now``; how many there have been at ``now``."""
+        self.count = self.count + 1 if self.time == now else 1
+        self.time = now
+        return self.count
+
+
+class Attempts:
+    """A task's method attempts since it was posted or last repeated: how many, of which
+    methods, and how the last one ended (the interpreter's bookkeeping for retries)."""
+
+    __slots__ = ("count", "by_method", "last_method", "last_failure", "ended_ok", "at_once")
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.by_method: dict[int, int] = {}  # method number (from 1) -> attempts of it
+        self.last_method = ""  # the label of the method tried last
+        self.last_failure: Failure | None = None
+        self.ended_ok = False  # the last method ended well, and the task's succeed test is still to be checked
+        self.at_once = AtOnce()  # attempts at the current instant (not reset by a repeat)
+
+    def begin(self, number: int, label: str) -> None:
+        """Charge an attempt of method ``number`` (named ``label``)."""
+        self.by_method[number] = self.by_method.get(number, 0) + 1
+        self.count += 1
+        self.last_method = label
+
+    def refund(self, number: int) -> None:
+        """Take back the charge of an attempt of method ``number`` (it was halted, not failed)."""
+        self.count -= 1
+        self.by_method[number] -= 1
+        if not self.by_method[number]:
+            del self.by_method[number]
+
+    def restart(self) -> None:
+        """The task repeats: it starts again with no attempt spent."""
+        self.count = 0
+        self.by_method.clear()
+        self.last_failure = None
+        self.ended_ok = False
+
+
 class Task:
     """One call of a RAP on the agenda (see the module docstring for its life).
 
-    ``id`` is stable for the run (creation order, from 1); ``depth`` is 0 for
-    a posted task; ``step`` is the step of the parent's net that spawned it.
+    Its parts: what it is (``id``, stable for the run, in creation order from 1;
+    ``call`` and its ``text``; ``parent`` and the ``step`` of the parent's net or
+    plan that spawned it; ``depth``, 0 for a posted task; ``priority`` and
+    ``deadline``), where it is in its life (``status``, ``started``, ``ended``,
+    ``failure``; ``queued`` on the agenda; the ``run`` of its current method,
+    its ``children``, its ``timers`` and retry ``backoff``; the ``bindings`` of
+    its head), its method :class:`Attempts` (``methods``), and its repeats.
     """
 
     __slots__ = (
-        "id", "call", "text", "parent", "step", "depth", "priority", "deadline", "status",
-        "attempts", "tries", "run", "children", "failure", "last_failure", "timers",
-        "queued", "method_ended_ok", "repeats", "repeat_time", "repeats_now", "attempt_time", "attempts_now",
-        "started", "ended", "bindings", "last_method", "backoff",
+        "id", "call", "text", "parent", "step", "depth", "priority", "deadline",
+        "status", "started", "ended", "failure", "queued", "run", "children", "timers", "backoff", "bindings",
+        "methods", "repeats", "repeats_at_once",
     )
 
     def __init__(self, id: int, call: Compound, parent: Task | None, step: Spawner | None,
@@ -135,25 +191,18 @@ class Task:
         self.priority = priority
         self.deadline = deadline
         self.status: Status = PENDING
-        self.attempts = 0
-        self.tries: dict[int, int] = {}
-        self.run: Attempt | None = None
-        self.children: list[Task] = []
-        self.failure: Failure | None = None
-        self.last_failure: Failure | None = None
-        self.timers: list[Timer] = []
-        self.queued = False
-        self.method_ended_ok = False
-        self.repeats = 0
-        self.repeat_time = -1.0
-        self.repeats_now = 0
-        self.attempt_time = -1.0  # the instant of the last method attempt, and how many were made in it
-        self.attempts_now = 0
         self.started: float | None = None
         self.ended: float | None = None
-        self.bindings: dict = {}
-        self.last_method = ""
+        self.failure: Failure | None = None
+        self.queued = False
+        self.run: RunningMethod | None = None
+        self.children: list[Task] = []
+        self.timers: list[Timer] = []
         self.backoff: RetryWait | None = None  # the wait before its next attempt, after a failed one
+        self.bindings: dict = {}
+        self.methods = Attempts()
+        self.repeats = 0
+        self.repeats_at_once: AtOnce | None = None  # made at its first repeat (most tasks never repeat)
 
     @property
     def name(self) -> str:
@@ -163,6 +212,16 @@ class Task:
     @property
     def finished(self) -> bool:
         return self.status in FINISHED
+
+    @property
+    def attempts(self) -> int:
+        """Method attempts since it was posted or last repeated (``methods.count``)."""
+        return self.methods.count
+
+    @property
+    def last_method(self) -> str:
+        """The label of the method tried last, or ``""`` (``methods.last_method``)."""
+        return self.methods.last_method
 
     def __repr__(self) -> str:
         return f"<Task {self.id} {self.text} {self.status}>"
