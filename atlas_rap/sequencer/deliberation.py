@@ -222,7 +222,7 @@ class PlanExecution:
             fields["deadline"] = self.deadline_at
             self._timers.append(host.timers.at(self.deadline_at, self._deadline_passed, late=True))
         host.trace.emit(Event.PLAN_REQUESTED, plan=self.number, id=self.owner.id, task=self.owner.text,
-                       goals=_terms(self.goals), **fields)
+                        goals=_terms(self.goals), **fields)
         self._unsubscribe = host.memory.subscribe(self._memory_changed)
         self._ask()
 
@@ -295,10 +295,10 @@ class PlanExecution:
             self._adopt(old)
         agents = sorted({s.step.agent for s in self.steps.values() if s.step.agent})
         self.host.trace.emit(Event.PLAN_READY, plan=self.number, version=self.version, id=self.owner.id,
-                            goals=_terms(self.goals), steps=len(plan.steps), makespan=_num(plan.makespan),
-                            agents=agents, latency=round(latency, 6),
-                            actions=[f"s{s.id} {term_to_str(s.action)}" + (f" [{s.agent}]" if s.agent else "")
-                                     for s in plan.steps])
+                             goals=_terms(self.goals), steps=len(plan.steps), makespan=_num(plan.makespan),
+                             agents=agents, latency=round(latency, 6),
+                             actions=[f"s{s.id} {term_to_str(s.action)}" + (f" [{s.agent}]" if s.agent else "")
+                                      for s in plan.steps])
         changed, self.changed = self.changed, []
         for kind, fact in changed:  # what happened while the planner worked may break the new plan
             broken = self._breaks(kind, fact)
@@ -338,9 +338,9 @@ class PlanExecution:
             o.status = "halted"
             self.host.halt(o.task, f"re-plan {self.version} of plan {self.number} dropped this step")
         self.host.trace.emit(Event.REPLANNED, plan=self.number, version=self.version, id=self.owner.id,
-                            cause=self.cause, done=list(self.done),
-                            kept=kept, new=new, halted=halted, reassigned=reassigned,
-                            lost_agents=sorted(self._lost_agents()))
+                             cause=self.cause, done=list(self.done),
+                             kept=kept, new=new, halted=halted, reassigned=reassigned,
+                             lost_agents=sorted(self._lost_agents()))
 
     # -- carrying it out ---------------------------------------------------------------
 
@@ -355,8 +355,8 @@ class PlanExecution:
             run.status = "running"
             run.task = host.spawn(run.call, self.owner, run)
             host.trace.emit(Event.PLAN_STEP_STARTED, plan=self.number, version=self.version, step=run.step.id,
-                           action=run.action, agent=run.step.agent, id=self.owner.id, step_task=run.task.id,
-                           task=run.task.text)
+                            action=run.action, agent=run.step.agent, id=self.owner.id, step_task=run.task.id,
+                            task=run.task.text)
             if self.ended or self.planning:
                 return
         if all(run.status == "done" for run in self.steps.values()):
@@ -410,7 +410,7 @@ class PlanExecution:
             return
         outcome = PARTIAL if self.abandoned_goals else Outcome.SUCCEED
         self.host.trace.emit(Event.PLAN_DONE, plan=self.number, version=self.version, id=self.owner.id,
-                            goals=_terms(self.goals), abandoned=_terms(self.abandoned_goals))
+                             goals=_terms(self.goals), abandoned=_terms(self.abandoned_goals))
         self._close()
         why = (f"plan {self.number} achieved {' '.join(_terms(self.goals))}"
                + (f", and gave up {' '.join(_terms(self.abandoned_goals))}" if self.abandoned_goals else ""))
@@ -550,7 +550,7 @@ class PlanExecution:
 
     def _emit_abandoned(self, scope: str, reason: str, goals: list[Term], **fields: object) -> None:
         self.host.trace.emit(Event.PLAN_ABANDONED, plan=self.number, version=self.version, id=self.owner.id,
-                            scope=scope, goals=_terms(goals), reason=reason, **fields)
+                             scope=scope, goals=_terms(goals), reason=reason, **fields)
 
     def _halt_running(self, why: str) -> None:
         for run in self.steps.values():

@@ -174,7 +174,7 @@ class MethodRun:
         if self.live:
             self._stop()
             self.host.method_ended(self, Failure(f"method {self.label}", "a step failed", failure,
-                                                failure.fatal))
+                                                 failure.fatal))
 
     def halt(self) -> None:
         """Stop the method from outside (its task ended, failed or was halted)."""
