@@ -10,6 +10,7 @@ from atlas_rap.sequencer import Sequencer
 from atlas_rap.skills import Skill, SkillManager
 from atlas_rap.skills.catalog import STOCK_EVENTS, STOCK_SKILLS
 from atlas_rap.skills.manager import dependency_order
+from atlas_rap.skills.skill import HALTED
 
 
 class Counter(Skill):
@@ -97,7 +98,7 @@ def test_outputs_reach_inputs_by_name_each_skill_at_its_rate_and_disabling_clear
     assert counter.ticks == 3  # 10 Hz on its schedule from t=0: due at 0 (runs at 0.05), 0.1 and 0.2
     assert doubler.seen == [1, 2, 2, 3]  # it always sees the counter of this tick
     assert manager.data["double"] == 6
-    manager.disable(call)
+    manager.disable(call)  # Doubler's disable takes no reason, as skills written before it had one
     assert doubler.disabled == 1 and "double" not in manager.data
     manager.tick(0.25)
     assert doubler.seen == [1, 2, 2, 3]
@@ -125,6 +126,31 @@ def test_finishing_posts_done_and_why_and_the_sequencer_reports_the_reason():
         manager.tick(step * 0.05)
         seq.advance_to(step * 0.05)
     assert play.status == "succeeded"
+
+
+class TellingFinisher(Finisher):
+    """A finisher that keeps the reasons it was disabled with."""
+
+    def init(self, context) -> None:
+        super().init(context)
+        self.reasons: list[str] = []
+
+    def disable(self, reason: str = HALTED) -> None:
+        self.reasons.append(reason)
+
+
+def test_disable_tells_the_skill_the_outcome_it_finished_with_or_that_it_was_halted():
+    finisher = TellingFinisher()
+    manager = SkillManager([finisher])
+    Sequencer(skills=manager)
+    early, done = parse_term("(finisher 3 :succeed)"), parse_term("(finisher 1 :fail)")
+    manager.enable(early)
+    manager.tick(0.05)
+    manager.disable(early)  # two ticks short of finishing
+    manager.enable(done)
+    manager.tick(0.10)
+    manager.disable(done)
+    assert finisher.reasons == [HALTED, ":fail"], finisher.reasons
 
 
 def test_halting_a_task_disables_every_skill_its_primitive_enabled():

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import operator
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Callable, Iterator, Mapping, Sequence
+from typing import Any, Callable, Iterator, Mapping, Protocol, Sequence
 
 from atlas_rap.logic.arithmetic import ARITHMETIC, ArithmeticUndefined, combine
 from atlas_rap.logic.errors import QueryError, RelationDepthError
@@ -59,9 +59,6 @@ from atlas_rap.logic.terms import (
 )
 from atlas_rap.logic.unify import unify
 
-if TYPE_CHECKING:
-    from atlas_rap.logic.memory import Memory
-
 COMPARISONS: dict[str, Callable[[Any, Any], bool]] = {
     "<": operator.lt,
     "<=": operator.le,
@@ -78,6 +75,18 @@ QUERY_FORMS: frozenset[str] = frozenset({"and", "or", "not", "=", "/="}) | froze
 
 DEFAULT_MAX_DEPTH = 64
 """How deeply defined relations may call each other before :class:`RelationDepthError`."""
+
+
+class Facts(Protocol):
+    """What a query reads facts from: ``Memory``, or any object with its ``matches``.
+
+    Declared here, not imported from ``memory`` (which evaluates queries with this
+    module), so that the two modules do not import each other.
+    """
+
+    def matches(self, pattern: Compound, subst: Subst | None = None) -> Iterator[Subst]:
+        """The answers of one pattern ``(pred arg ...)`` under ``subst``, in memory order."""
+        ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,7 +118,7 @@ class Relation:
 
 def evaluate(
     query: Term,
-    memory: Memory,
+    memory: Facts,
     subst: Subst | None = None,
     relations: Mapping[str, Sequence[Relation]] | None = None,
     *,
@@ -139,7 +148,7 @@ _VALUE = Var("value")
 class _Solver:
     """One evaluation: the memory, the relations and the depth bound."""
 
-    def __init__(self, memory: Memory, relations: Mapping[str, Sequence[Relation]], max_depth: int) -> None:
+    def __init__(self, memory: Facts, relations: Mapping[str, Sequence[Relation]], max_depth: int) -> None:
         self.memory = memory
         self.relations = relations
         self.max_depth = max_depth

@@ -83,10 +83,12 @@ from atlas_rap.lang import parse_term
 from atlas_rap.logic import Compound, Term, Var, is_ground, term_to_str
 from atlas_rap.planner.dispatch import match_steps
 from atlas_rap.planner.plan import Plan, PlanStep
-from atlas_rap.sequencer.task import SUCCEEDED, Failure, Task
+from atlas_rap.sequencer.host import PlanHost
+from atlas_rap.sequencer.status import Outcome
+from atlas_rap.sequencer.task import SUCCEEDED, Failure, SkillWait, Task
+from atlas_rap.sequencer.trace import Event
 
 if TYPE_CHECKING:
-    from atlas_rap.sequencer.interpreter import Sequencer
     from atlas_rap.skillbus.timers import Timer
 
 DEFAULT_MAX_FAILURES = 3
@@ -101,16 +103,10 @@ AGENT_FAILED = "agent-failed"
 GOAL_ABANDONED = "goal-abandoned"
 """``(goal-abandoned GOAL)`` is asserted for each goal a plan gave up, for RAPs to react to."""
 
-PARTIAL = ":partial"
+PARTIAL = Outcome.PARTIAL
 """The outcome of a plan step that achieved some of its goals after abandoning others."""
 
 _ANY = Var("%any")
-
-
-class SkillWait(Protocol):
-    """A step's wait for a skill (``resources.Claim``): ``live`` while the step still waits."""
-
-    live: bool
 
 
 class Ticket(Protocol):
@@ -183,10 +179,10 @@ class PlanExecution:
     (``:fail``, or ``:timeout`` at the deadline).
     """
 
-    def __init__(self, seq: Sequencer, deliberator: Deliberator, owner: Task, goals: tuple[Term, ...],
+    def __init__(self, host: PlanHost, deliberator: Deliberator, owner: Task, goals: tuple[Term, ...],
                  on_end: Callable[[str, str], None], *, deadline: float | None = None,
                  max_failures: int | None = None) -> None:
-        self.seq = seq
+        self.host = host
         self.deliberator = deliberator
         self.owner = owner
         self.goals = list(goals)
@@ -196,7 +192,7 @@ class PlanExecution:
         written = deliberator.deadline_for(tuple(goals))
         self.deadline = min((d for d in (deadline, written) if d is not None), default=None)
         self.max_failures = max_failures if max_failures is not None else DEFAULT_MAX_FAILURES
-        self.number = seq.next_plan_number()
+        self.number = host.next_plan_number()
         self.version = 0
         self.plan: Plan | None = None
         self.steps: dict[int, StepRun] = {}
@@ -219,15 +215,15 @@ class PlanExecution:
 
     def start(self) -> None:
         """Ask for the first plan (and start the deadline's clock)."""
-        seq = self.seq
+        host = self.host
         fields = {}
         if self.deadline is not None:
-            self.deadline_at = seq.now() + self.deadline
+            self.deadline_at = host.now() + self.deadline
             fields["deadline"] = self.deadline_at
-            self._timers.append(seq.timers.at(self.deadline_at, self._deadline_passed, late=True))
-        seq.trace.emit("plan-requested", plan=self.number, id=self.owner.id, task=self.owner.text,
-                       goals=_terms(self.goals), **fields)
-        self._unsubscribe = seq.memory.subscribe(self._memory_changed)
+            self._timers.append(host.timers.at(self.deadline_at, self._deadline_passed, late=True))
+        host.trace.emit(Event.PLAN_REQUESTED, plan=self.number, id=self.owner.id, task=self.owner.text,
+                        goals=_terms(self.goals), **fields)
+        self._unsubscribe = host.memory.subscribe(self._memory_changed)
         self._ask()
 
     def halt(self, why: str) -> None:
@@ -256,7 +252,7 @@ class PlanExecution:
                                                self._delivered)
 
     def _lost_agents(self) -> frozenset[str]:
-        return frozenset(term_to_str(fact.args[0]) for fact in self.seq.memory.facts(
+        return frozenset(term_to_str(fact.args[0]) for fact in self.host.memory.facts(
             Compound(AGENT_FAILED, (_ANY,))))
 
     def _delivered(self, plan: Plan, latency: float) -> None:
@@ -268,13 +264,13 @@ class PlanExecution:
             goals = " ".join(_terms(self.goals))
             self._abandon(f"no plan for {goals}: {plan.status}" + (f" ({plan.reason})" if plan.reason else ""))
             return
-        dispatches = match_steps(plan, list(self.seq.library.values()))
+        dispatches = match_steps(plan, list(self.host.library.values()))
         for d in dispatches:
             if d.task is None or not is_ground(d.task):
                 self._abandon(f"plan step s{d.step.id} {term_to_str(d.step.action)}: no RAP can execute it "
                               f"(write a RAP whose succeed clause unifies with the step's purpose)")
                 return
-        now = self.seq.now()
+        now = self.host.now()
         if self.deadline_at is not None and now + plan.makespan > self.deadline_at + 1e-9:
             left = max(0.0, self.deadline_at - now)
             repair = {"cause": self.cause} if self.version else {}  # what the plan was being repaired for
@@ -298,11 +294,11 @@ class PlanExecution:
         if self.version > 1:
             self._adopt(old)
         agents = sorted({s.step.agent for s in self.steps.values() if s.step.agent})
-        self.seq.trace.emit("plan-ready", plan=self.number, version=self.version, id=self.owner.id,
-                            goals=_terms(self.goals), steps=len(plan.steps), makespan=_num(plan.makespan),
-                            agents=agents, latency=round(latency, 6),
-                            actions=[f"s{s.id} {term_to_str(s.action)}" + (f" [{s.agent}]" if s.agent else "")
-                                     for s in plan.steps])
+        self.host.trace.emit(Event.PLAN_READY, plan=self.number, version=self.version, id=self.owner.id,
+                             goals=_terms(self.goals), steps=len(plan.steps), makespan=_num(plan.makespan),
+                             agents=agents, latency=round(latency, 6),
+                             actions=[f"s{s.id} {term_to_str(s.action)}" + (f" [{s.agent}]" if s.agent else "")
+                                      for s in plan.steps])
         changed, self.changed = self.changed, []
         for kind, fact in changed:  # what happened while the planner worked may break the new plan
             broken = self._breaks(kind, fact)
@@ -313,7 +309,7 @@ class PlanExecution:
 
     def _still(self, kind: str, fact: Compound) -> bool:
         """Whether memory still shows the change (a retracted fact still absent, an asserted one present)."""
-        return (fact in self.seq.memory) == (kind == "assert")
+        return (fact in self.host.memory) == (kind == "assert")
 
     def _adopt(self, old: dict[int, StepRun]) -> None:
         """Take the new plan over the old: keep running steps it keeps, halt the others; trace it."""
@@ -340,11 +336,11 @@ class PlanExecution:
         halted = [o.action for o in running]
         for o in running:
             o.status = "halted"
-            self.seq.halt(o.task, f"re-plan {self.version} of plan {self.number} dropped this step")
-        self.seq.trace.emit("replanned", plan=self.number, version=self.version, id=self.owner.id,
-                            cause=self.cause, done=list(self.done),
-                            kept=kept, new=new, halted=halted, reassigned=reassigned,
-                            lost_agents=sorted(self._lost_agents()))
+            self.host.halt(o.task, f"re-plan {self.version} of plan {self.number} dropped this step")
+        self.host.trace.emit(Event.REPLANNED, plan=self.number, version=self.version, id=self.owner.id,
+                             cause=self.cause, done=list(self.done),
+                             kept=kept, new=new, halted=halted, reassigned=reassigned,
+                             lost_agents=sorted(self._lost_agents()))
 
     # -- carrying it out ---------------------------------------------------------------
 
@@ -352,15 +348,15 @@ class PlanExecution:
         """Start every waiting step whose predecessors are done; end the plan when all are."""
         if self.planning or self.ended:
             return
-        seq = self.seq
+        host = self.host
         for run in self.steps.values():
             if run.status != "waiting" or any(self.steps[b].status != "done" for b in run.before):
                 continue
             run.status = "running"
-            run.task = seq.spawn(run.call, self.owner, run)  # type: ignore[arg-type]
-            seq.trace.emit("plan-step-started", plan=self.number, version=self.version, step=run.step.id,
-                           action=run.action, agent=run.step.agent, id=self.owner.id, step_task=run.task.id,
-                           task=run.task.text)
+            run.task = host.spawn(run.call, self.owner, run)
+            host.trace.emit(Event.PLAN_STEP_STARTED, plan=self.number, version=self.version, step=run.step.id,
+                            action=run.action, agent=run.step.agent, id=self.owner.id, step_task=run.task.id,
+                            task=run.task.text)
             if self.ended or self.planning:
                 return
         if all(run.status == "done" for run in self.steps.values()):
@@ -370,13 +366,13 @@ class PlanExecution:
         """A step's RAP task ended (the interpreter calls this through the task's step)."""
         if self.ended or run.status != "running" or self.steps.get(run.step.id) is not run:
             return
-        seq = self.seq
+        host = self.host
         fields = {"plan": self.number, "version": self.version, "step": run.step.id, "action": run.action,
                   "agent": run.step.agent, "id": self.owner.id, "step_task": task.id, "task": task.text}
         if task.status == SUCCEEDED:
             run.status = "done"
             self.done.append(run.action)
-            seq.trace.emit("plan-step-done", **fields)
+            host.trace.emit(Event.PLAN_STEP_DONE, **fields)
             unmet = self._unmet_links(run.step.id)
             if unmet is not None:
                 self._changed(unmet)
@@ -386,7 +382,7 @@ class PlanExecution:
         run.status = "failed"
         self.failed[self.plan.sequence[run.step.source]] = None  # type: ignore[union-attr]
         reason = _root_reason(task.failure)
-        seq.trace.emit("plan-step-failed", reason=reason, **fields)
+        host.trace.emit(Event.PLAN_STEP_FAILED, reason=reason, **fields)
         self._trouble(f"step s{run.step.id} {run.action} failed: {reason}", self.serves.get(run.step.id))
 
     def step_waiting(self, run: StepRun, wait: SkillWait, what: str) -> None:
@@ -394,7 +390,7 @@ class PlanExecution:
         before the deadline, the plan is repaired."""
         if self.ended or self.deadline_at is None or self.plan is None or run.status != "running":
             return
-        seq = self.seq
+        host = self.host
         rest = self.plan.makespan - run.step.start
         latest = self.deadline_at - rest
 
@@ -403,18 +399,18 @@ class PlanExecution:
                 self._changed(f"step s{run.step.id} {run.action} waits for {what}, and the {_num(rest)} s of plan "
                               f"left from it no longer fit before the deadline at t={_num(self.deadline_at or 0.0)} s")
 
-        self._timers.append(seq.timers.at(max(latest, seq.now()), check))
+        self._timers.append(host.timers.at(max(latest, host.now()), check))
 
     def _all_done(self) -> None:
-        memory, relations = self.seq.memory, self.seq.relations
+        memory, relations = self.host.memory, self.host.relations
         unmet = [g for g in self.goals if not memory.holds(g, None, relations)]
         if unmet:
             self._trouble("every step is done but " + " ".join(_terms(unmet)) + " does not hold",
                           frozenset(unmet))
             return
-        outcome = PARTIAL if self.abandoned_goals else ":succeed"
-        self.seq.trace.emit("plan-done", plan=self.number, version=self.version, id=self.owner.id,
-                            goals=_terms(self.goals), abandoned=_terms(self.abandoned_goals))
+        outcome = PARTIAL if self.abandoned_goals else Outcome.SUCCEED
+        self.host.trace.emit(Event.PLAN_DONE, plan=self.number, version=self.version, id=self.owner.id,
+                             goals=_terms(self.goals), abandoned=_terms(self.abandoned_goals))
         self._close()
         why = (f"plan {self.number} achieved {' '.join(_terms(self.goals))}"
                + (f", and gave up {' '.join(_terms(self.abandoned_goals))}" if self.abandoned_goals else ""))
@@ -468,7 +464,7 @@ class PlanExecution:
         mine = {i for i, run in self.steps.items() if run.step.source == source}
         if any(self.steps[i].status != "done" for i in mine):
             return None
-        memory, relations = self.seq.memory, self.seq.relations
+        memory, relations = self.host.memory, self.host.relations
         believed = []
         for producer, consumer, link in self.plan.links:  # type: ignore[union-attr]
             if producer not in mine or not self._live(producer, consumer):
@@ -483,16 +479,16 @@ class PlanExecution:
             need = "the goals" if consumer == "goal" else f"step s{consumer}"
             return f"s{done} {self.steps[done].action} is done but {link} does not hold, which {need} needs"
         if believed:
-            self.seq.plan_beliefs.update(believed)
-            self.seq.change([("assert", fact) for fact in dict.fromkeys(believed)], f"plan {self.number}")
+            self.host.plan_beliefs.update(believed)
+            self.host.change([("assert", fact) for fact in dict.fromkeys(believed)], f"plan {self.number}")
         return None
 
     def _bookkeeping(self, fact: Compound) -> bool:
         """Whether ``fact`` is of a predicate only plans keep: memory holds no fact of it that
         a skill, a RAP or the program asserted (only the plans' own beliefs, if any)."""
         pattern = Compound(fact.functor, tuple(Var(f"%any{i}") for i in range(len(fact.args))))
-        beliefs = self.seq.plan_beliefs
-        return all(known in beliefs for known in self.seq.memory.facts(pattern))
+        beliefs = self.host.plan_beliefs
+        return all(known in beliefs for known in self.host.memory.facts(pattern))
 
     def _live(self, producer: int | str, consumer: int | str) -> bool:
         if producer != "init" and self.steps[producer].status != "done":  # type: ignore[index]
@@ -502,7 +498,7 @@ class PlanExecution:
     def _later(self, cause: str) -> None:
         """Handle a change of memory after the change is done (not inside the rules' run)."""
         self.trouble = cause
-        self._timers.append(self.seq.timers.after(0.0, lambda: self._changed(cause)))
+        self._timers.append(self.host.timers.after(0.0, lambda: self._changed(cause)))
 
     def _changed(self, cause: str) -> None:
         """The situation changed under the plan (no failure): repair it."""
@@ -527,7 +523,7 @@ class PlanExecution:
                 self.abandoned_goals.append(goal)
             why = f"{self.max_failures} failures; the last: {cause}"
             self._emit_abandoned("goal", why, spent)
-            self.seq.change([("assert", Compound(GOAL_ABANDONED, (g,))) for g in spent], f"plan {self.number}")
+            self.host.change([("assert", Compound(GOAL_ABANDONED, (g,))) for g in spent], f"plan {self.number}")
             if self.ended:
                 return
         elif spent:
@@ -540,27 +536,27 @@ class PlanExecution:
 
     def _deadline_passed(self) -> None:
         if not self.ended:
-            self._abandon(f"missed its deadline at t={_num(self.deadline_at or 0.0)} s", outcome=":timeout")
+            self._abandon(f"missed its deadline at t={_num(self.deadline_at or 0.0)} s", outcome=Outcome.TIMEOUT)
 
-    def _abandon(self, reason: str, *, outcome: str = ":fail", **fields: object) -> None:
+    def _abandon(self, reason: str, *, outcome: str = Outcome.FAIL, **fields: object) -> None:
         """Give the plan up: halt its running steps, say why, and end the plan step."""
         self._halt_running(f"plan {self.number} was abandoned: {reason}")
         goals = list(self.goals)
         self.abandoned_goals += goals
         self._emit_abandoned("plan", reason, goals, **fields)
         self._close()
-        self.seq.change([("assert", Compound(GOAL_ABANDONED, (g,))) for g in goals], f"plan {self.number}")
+        self.host.change([("assert", Compound(GOAL_ABANDONED, (g,))) for g in goals], f"plan {self.number}")
         self.on_end(outcome, f"plan {self.number} abandoned: {reason}")
 
     def _emit_abandoned(self, scope: str, reason: str, goals: list[Term], **fields: object) -> None:
-        self.seq.trace.emit("plan-abandoned", plan=self.number, version=self.version, id=self.owner.id,
-                            scope=scope, goals=_terms(goals), reason=reason, **fields)
+        self.host.trace.emit(Event.PLAN_ABANDONED, plan=self.number, version=self.version, id=self.owner.id,
+                             scope=scope, goals=_terms(goals), reason=reason, **fields)
 
     def _halt_running(self, why: str) -> None:
         for run in self.steps.values():
             if run.status == "running" and run.task is not None:
                 run.status = "halted"
-                self.seq.halt(run.task, why)
+                self.host.halt(run.task, why)
 
     def _close(self) -> None:
         self.ended = True

@@ -75,12 +75,11 @@ user would expect:
 from __future__ import annotations
 
 from itertools import count
-from typing import Hashable, Iterable, Mapping, Sequence
+from typing import Callable, Hashable, Iterable, Mapping, Sequence
 
 from atlas_rap.lang import ast
 from atlas_rap.logic import (
     Compound,
-    FactError,
     LogicError,
     Memory,
     MemoryRule,
@@ -95,24 +94,16 @@ from atlas_rap.logic import (
     term_to_str,
     unify,
 )
-from atlas_rap.logic.arithmetic import evaluated_fact
 from atlas_rap.logic.errors import RuleError
 from atlas_rap.logic.rules import Change
 from atlas_rap.sequencer.agenda import Agenda, agenda_key
-from atlas_rap.sequencer.deliberation import Deliberator
-from atlas_rap.sequencer.net import (
-    FAILURE_OUTCOMES,
-    HALTED_OUTCOME,
-    WAITING_OUTCOME,
-    MethodRun,
-    Node,
-    StepNode,
-    method_label,
-)
+from atlas_rap.sequencer.deliberation import Deliberator, PlanExecution
+from atlas_rap.sequencer.net import HALTED_OUTCOME, WAITING_OUTCOME, MethodRun, Node, Refusal, method_label
 from atlas_rap.sequencer.resources import Claim, Resources
 from atlas_rap.sequencer.retrying import DEFAULT_RETRY_BACKOFF, RetryWait
-from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, Failure, Task
-from atlas_rap.sequencer.trace import Trace
+from atlas_rap.sequencer.status import FAILURE_OUTCOMES, Outcome, Status
+from atlas_rap.sequencer.task import FAILED, HALTED, PENDING, RUNNING, SUCCEEDED, AtOnce, Failure, Spawner, Task
+from atlas_rap.sequencer.trace import Event, Trace
 from atlas_rap.sequencer.waiting import WaitIndex
 from atlas_rap.skillbus.skill_link import NoSkills, SkillLink
 from atlas_rap.skillbus.timers import Timers
@@ -211,6 +202,17 @@ class Sequencer:
         """The current simulated time, in seconds."""
         return self.timers.now
 
+    def start_plan(self, owner: Task, goals: tuple[Term, ...], on_end: Callable[[str, str], None], *,
+                   deadline: float | None, max_failures: int | None) -> PlanExecution | None:
+        """Start carrying out a plan for ``goals``, asked by a step of ``owner``'s method
+        (``deliberation``); None when this run has no planner (no :attr:`deliberator`)."""
+        if self.deliberator is None:
+            return None
+        execution = PlanExecution(self, self.deliberator, owner, goals, on_end, deadline=deadline,
+                                  max_failures=max_failures)
+        execution.start()
+        return execution
+
     def next_plan_number(self) -> int:
         """The number of the next plan of this run (1, 2, ...), as the trace names plans."""
         return next(self._plan_numbers)
@@ -225,20 +227,20 @@ class Sequencer:
         due = None if deadline is None else self.timers.now + deadline
         task = Task(next(self._ids), call, None, None, priority, due)
         self.roots.append(task)
-        self.trace.emit("task-posted", id=task.id, task=task.text, priority=priority,
+        self.trace.emit(Event.TASK_POSTED, id=task.id, task=task.text, priority=priority,
                         **({"deadline": due} if due is not None else {}))
         if due is not None:
             task.timers.append(self.timers.at(due, lambda: self._missed_deadline(task), late=True))
         self.agenda.push(task)
         return task
 
-    def spawn(self, call: Compound, parent: Task, step: StepNode) -> Task:
+    def spawn(self, call: Compound, parent: Task, step: Spawner) -> Task:
         """A subtask for ``step`` of ``parent``'s net, on the agenda."""
         rap = self.library[(call.functor, len(call.args))]
         priority = rap.priority if rap.priority is not None else parent.priority
         task = Task(next(self._ids), call, parent, step, priority, parent.deadline)
         parent.children.append(task)
-        self.trace.emit("task-posted", id=task.id, task=task.text, priority=priority, parent=parent.id)
+        self.trace.emit(Event.TASK_POSTED, id=task.id, task=task.text, priority=priority, parent=parent.id)
         self.agenda.push(task)
         return task
 
@@ -249,7 +251,7 @@ class Sequencer:
         self._stop(task)
         task.status = HALTED
         task.ended = self.timers.now
-        self.trace.emit("task-halted", id=task.id, task=task.text, reason=why)
+        self.trace.emit(Event.TASK_HALTED, id=task.id, task=task.text, reason=why)
 
     def cancel(self, task: Task, why: str = "cancelled") -> None:
         """Halt a task from outside (a person or a program); its parent's step fails."""
@@ -300,7 +302,7 @@ class Sequencer:
         trace = self.trace
         if trace.active:
             fields = {"repeat": task.repeats} if task.repeats else {}
-            trace.emit("task-selected", id=task.id, task=task.text, **fields)
+            trace.emit(Event.TASK_SELECTED, id=task.id, task=task.text, **fields)
         rap = self.library.get((task.call.functor, len(task.call.args)))
         if rap is None:
             self._fail(task, "no RAP of this name and arity is defined (was it removed by a reload?)", fatal=True)
@@ -328,20 +330,18 @@ class Sequencer:
             if rap.constraints is not None and not memory.holds(rap.constraints, bindings, relations):
                 self._fail(task, f"its constraints do not hold: {_shown(rap.constraints, bindings)}")
                 return
-            if task.method_ended_ok:
-                task.method_ended_ok = False
-                task.last_failure = Failure(
-                    f"method {task.last_method}", f"ended, but the succeed test "
+            methods = task.methods
+            if methods.ended_ok:
+                methods.ended_ok = False
+                methods.last_failure = Failure(
+                    f"method {methods.last_method}", f"ended, but the succeed test "
                     f"{_shown(rap.succeed, bindings)} is still false")
-            if task.attempts >= _retries(rap):
-                self._fail(task, f"gave up after {_plural(task.attempts, 'attempt')}", task.last_failure)
+            if methods.count >= _retries(rap):
+                self._fail(task, f"gave up after {_plural(methods.count, 'attempt')}", methods.last_failure)
                 return
-            now = self.timers.now
-            task.attempts_now = task.attempts_now + 1 if task.attempt_time == now else 1
-            task.attempt_time = now
-            if task.attempts_now > MAX_REPEATS_AT_ONCE:  # (retries 1000000000) of a method that fails at once
+            if methods.at_once.add(self.timers.now) > MAX_REPEATS_AT_ONCE:  # (retries 1000000000) failing at once
                 self._fail(task, f"tried {MAX_REPEATS_AT_ONCE} methods without simulated time passing",
-                           task.last_failure, fatal=True)
+                           methods.last_failure, fatal=True)
                 return
             self._choose_method(task, rap, bindings)
         except QueryError as exc:
@@ -350,7 +350,7 @@ class Sequencer:
     def _choose_method(self, task: Task, rap: ast.RapDef, bindings: Subst) -> None:
         best: tuple[int, int, Subst] | None = None
         for number, method in enumerate(rap.methods, 1):
-            tries = task.tries.get(number, 0)
+            tries = task.methods.by_method.get(number, 0)
             if best is not None and tries >= best[0]:
                 continue
             if method.context is None:
@@ -360,17 +360,16 @@ class Sequencer:
             if answer is not None:
                 best = (tries, number, answer)
         if best is None:
-            self._fail(task, _no_method(rap, bindings), task.last_failure)
+            self._fail(task, _no_method(rap, bindings), task.methods.last_failure)
             return
         _, number, answer = best
         method = rap.methods[number - 1]
         task.children = [child for child in task.children if not child.finished]  # the tree shows this attempt
-        task.tries[number] = task.tries.get(number, 0) + 1
-        task.attempts += 1
+        methods = task.methods
+        methods.begin(number, method_label(method, number))
         task.status = RUNNING
-        task.last_method = method_label(method, number)
-        self.trace.emit("method-selected", id=task.id, task=task.text, method=task.last_method,
-                        attempt=task.attempts)
+        self.trace.emit(Event.METHOD_SELECTED, id=task.id, task=task.text, method=methods.last_method,
+                        attempt=methods.count)
         run = task.run = MethodRun(self, task, method, number, answer)
         run.start()
 
@@ -383,7 +382,7 @@ class Sequencer:
             return
         rap = self.library.get((task.call.functor, len(task.call.args)))
         if failure is not None:
-            task.last_failure = failure
+            task.methods.last_failure = failure
             if failure.fatal:
                 self._fail(task, "a failure that retrying cannot fix", failure, fatal=True)
                 return
@@ -391,7 +390,7 @@ class Sequencer:
             if rap is not None and rap.succeed is None:
                 self._succeed(task)
                 return
-            task.method_ended_ok = True
+            task.methods.ended_ok = True
         task.status = PENDING
         if rap is not None and self._waits_to_retry(task, rap):
             self._back_off(task, rap)
@@ -403,7 +402,7 @@ class Sequencer:
         it has retries left and a back-off, its ``succeed`` test does not already hold, and its next
         choice would repeat a method: an applicable method not yet tried is another way, tried at once,
         and a task with no applicable method fails at once, as it always has."""
-        if task.attempts >= _retries(rap) or _retry_backoff(rap) <= 0:
+        if task.methods.count >= _retries(rap) or _retry_backoff(rap) <= 0:
             return False
         memory, bindings, relations = self.memory, task.bindings, self.relations
         try:
@@ -411,7 +410,7 @@ class Sequencer:
                 return False
             applicable = [number for number, m in enumerate(rap.methods, 1)
                           if m.context is None or memory.holds(m.context, bindings, relations)]
-            return bool(applicable) and all(number in task.tries for number in applicable)
+            return bool(applicable) and all(number in task.methods.by_method for number in applicable)
         except QueryError:
             return False  # the selection reports it
 
@@ -423,31 +422,26 @@ class Sequencer:
 
         def resume(wait: RetryWait, by: str) -> None:
             task.backoff = None
-            self.trace.emit("task-resumed", id=task.id, task=task.text, waited=_seconds(self.timers.now - wait.since),
-                            by=by)
+            self.trace.emit(Event.TASK_RESUMED, id=task.id, task=task.text,
+                            waited=_seconds(self.timers.now - wait.since), by=by)
             self.agenda.push(task)
 
         task.backoff = RetryWait(queries, _retry_backoff(rap), waits=self.waits, timers=self.timers,
                                  relations=self.relations, on_end=resume)
-        self.trace.emit("task-waiting", id=task.id, task=task.text, until=task.backoff.until,
+        self.trace.emit(Event.TASK_WAITING, id=task.id, task=task.text, until=task.backoff.until,
                         watching=task.backoff.watching)
 
     # -- ending tasks --------------------------------------------------------
 
     def _succeed(self, task: Task) -> None:
         rap = self.library.get((task.call.functor, len(task.call.args)))
-        if rap is not None and task.attempts and self._repeats(rap, task):
-            now = self.timers.now
-            task.repeats_now = task.repeats_now + 1 if task.repeat_time == now else 1
-            task.repeat_time = now
-            if task.repeats_now > MAX_REPEATS_AT_ONCE:
+        if rap is not None and task.methods.count and self._repeats(rap, task):
+            at_once = task.repeats_at_once = task.repeats_at_once or AtOnce()
+            if at_once.add(self.timers.now) > MAX_REPEATS_AT_ONCE:
                 self._fail(task, f"repeated {MAX_REPEATS_AT_ONCE} times without simulated time passing", fatal=True)
                 return
             task.repeats += 1
-            task.attempts = 0
-            task.tries.clear()
-            task.last_failure = None
-            task.method_ended_ok = False
+            task.methods.restart()
             task.status = PENDING
             self.agenda.push(task)
             return
@@ -460,18 +454,18 @@ class Sequencer:
         return rap.repeat_until is not None and not memory.holds(rap.repeat_until, bindings, relations)
 
     def _fail(self, task: Task, reason: str, cause: Failure | None = None, *, fatal: bool = False,
-              outcome: str = ":fail") -> None:
+              outcome: str = Outcome.FAIL) -> None:
         self._end(task, FAILED, Failure(task.text, reason, cause, fatal, outcome))
 
     def _timed_out(self, task: Task, seconds: float) -> None:
         if not task.finished:
             self._fail(task, f"timed out after {seconds:g} s (its timeout clause){self._waited(task)}",
-                       task.last_failure, outcome=":timeout")
+                       task.methods.last_failure, outcome=Outcome.TIMEOUT)
 
     def _missed_deadline(self, task: Task) -> None:
         if not task.finished:
-            self._fail(task, f"missed its deadline at t={task.deadline:g} s{self._waited(task)}", task.last_failure,
-                       outcome=":timeout")
+            self._fail(task, f"missed its deadline at t={task.deadline:g} s{self._waited(task)}",
+                       task.methods.last_failure, outcome=Outcome.TIMEOUT)
 
     def _waited(self, task: Task) -> str:
         """What ``task`` (or a task under it) is waiting for, as the end of a timeout's reason."""
@@ -483,16 +477,16 @@ class Sequencer:
                 return f": it waited for {term_to_str(claim.call)} {self.held_by(claim)} since t={claim.since:g} s"
         return ""
 
-    def _end(self, task: Task, status: str, failure: Failure | None) -> None:
+    def _end(self, task: Task, status: Status, failure: Failure | None) -> None:
         self._stop(task)
         task.status = status
         task.failure = failure
         task.ended = self.timers.now
         if status == SUCCEEDED:
-            self.trace.emit("task-succeeded", id=task.id, task=task.text)
+            self.trace.emit(Event.TASK_SUCCEEDED, id=task.id, task=task.text)
         else:
             fields = {"because": failure.root().what + ": " + failure.root().reason} if failure.cause else {}
-            self.trace.emit("task-failed", id=task.id, task=task.text, reason=failure.reason, **fields)
+            self.trace.emit(Event.TASK_FAILED, id=task.id, task=task.text, reason=failure.reason, **fields)
         if task.step is not None:
             task.step.child_ended(task)
 
@@ -531,7 +525,7 @@ class Sequencer:
             if trace.active:
                 for i, (kind, fact) in enumerate(done):
                     by = source if i == 0 else "memory rule"
-                    event = "fact-asserted" if kind == "assert" else "fact-retracted"
+                    event = Event.FACT_ASSERTED if kind == "assert" else Event.FACT_RETRACTED
                     trace.emit(event, fact=term_to_str(fact), **({"by": by} if by else {}))
             made += done
         if made and self.waits.size:
@@ -548,7 +542,7 @@ class Sequencer:
         """A change that memory could not take: fail its task; a broken rule stops the run."""
         message = str(exc)
         fields = {"id": task.id, "task": task.text} if task is not None else {}
-        self.trace.emit("memory-error", error=message, fact=term_to_str(change[1]),
+        self.trace.emit(Event.MEMORY_ERROR, error=message, fact=term_to_str(change[1]),
                         **({"by": source} if source else {}), **fields)
         if not isinstance(exc, RuleError):
             if task is not None and not task.finished:
@@ -584,21 +578,7 @@ class Sequencer:
             if answer is not None:
                 waiter.owner.woken(waiter, answer)
 
-    def apply_memory_op(self, run: MethodRun, op: ast.MemoryOp) -> bool:
-        """Apply an assert/retract step of a method; False (and the method fails) if it cannot be."""
-        fact = substitute(op.fact, run.subst) if run.subst else op.fact
-        if not is_ground(fact):
-            run.fail(Failure(f"({op.kind} {term_to_str(fact)})", "the fact has unbound variables"))
-            return False
-        try:
-            fact = evaluated_fact(fact)
-        except FactError as exc:
-            run.fail(Failure(f"({op.kind} {term_to_str(fact)})", str(exc)))
-            return False
-        self.change(((op.kind, fact),), f"task {run.task.id}", task=run.task)
-        return run.live
-
-    def enable_skill(self, run: MethodRun, call: Compound, node: Node) -> tuple[str, str] | None:
+    def enable_skill(self, run: MethodRun, call: Compound, node: Node) -> Refusal | None:
         """Enable a skill for ``node`` of a method; None, or the outcome and reason its step ends with.
 
         The skill's instance (:meth:`SkillLink.instance`) then belongs to
@@ -609,9 +589,9 @@ class Sequencer:
         outranks the holder takes the instance and halts the holder's step.
         """
         if not is_ground(call):
-            return ":fail", f"skill {term_to_str(call)} was enabled with unbound arguments"
+            return Outcome.FAIL, f"skill {term_to_str(call)} was enabled with unbound arguments"
         if not self.is_skill(call):
-            return ":fail", f"no skill {call.functor} with {_plural(len(call.args), 'argument')}"
+            return Outcome.FAIL, f"no skill {call.functor} with {_plural(len(call.args), 'argument')}"
         instance = self.skills.instance(call)
         held = self.holders.get(instance)
         task = run.task
@@ -632,17 +612,17 @@ class Sequencer:
         self.skills.enable(call)
         self.holders[instance] = (run, call)
         run.enabled[call] = node
-        self.trace.emit("skill-enabled", skill=term_to_str(call), id=task.id, task=task.text)
+        self.trace.emit(Event.SKILL_ENABLED, skill=term_to_str(call), id=task.id, task=task.text)
         return None
 
-    def _wait(self, node: Node, call: Compound, instance: Hashable, *, preempted: bool = False) -> tuple[str, str]:
+    def _wait(self, node: Node, call: Compound, instance: Hashable, *, preempted: bool = False) -> Refusal:
         """Queue ``node``'s claim on ``instance`` and trace the wait."""
         task = node.run.task
         claim = node.claim = Claim(node, task, call, instance, self.timers.now, preempted)
         self.resources.queue(claim)
         held = self.holders.get(instance)
         holder = {"holder_id": held[0].task.id, "holder": held[0].task.text} if held is not None else {}
-        self.trace.emit("task-waiting", id=task.id, task=task.text, skill=term_to_str(call), **holder)
+        self.trace.emit(Event.TASK_WAITING, id=task.id, task=task.text, skill=term_to_str(call), **holder)
         what = f"{term_to_str(call)} {self.held_by(claim)}"
         above: Task | None = task
         while above is not None:  # a plan whose step this is watches the wait against its deadline
@@ -684,10 +664,15 @@ class Sequencer:
         holder_run, holder_call = held
         holder, newcomer = holder_run.task, run.task
         resume = holder_run.method.on_preempt == "resume"
-        self.trace.emit("skill-preempted", skill=term_to_str(holder_call), outcome=":halted" if resume else ":preempted",
+        outcome = Outcome.HALTED if resume else Outcome.PREEMPTED
+        self.trace.emit(Event.SKILL_PREEMPTED, skill=term_to_str(holder_call), outcome=outcome,
                         id=holder.id, task=holder.text, winner_id=newcomer.id, winner=newcomer.text)
         reason = f"preempted by [{newcomer.id}] {newcomer.text}, which enabled {term_to_str(call)}"
         holder_run.preempt(holder_call, reason, resume)
+
+    def withdraw(self, claim: Claim) -> None:
+        """``claim``'s step stops waiting (it was halted, or ended another way)."""
+        self.resources.withdraw(claim)
 
     def wait_again(self, node: Node, call: Compound) -> None:
         """``node`` lost the skill ``call`` to a task that outranks it: it waits to resume."""
@@ -712,15 +697,12 @@ class Sequencer:
         waited = self.timers.now - claim.since
         changed = self._changed_while_halted(run) if claim.preempted else None
         fields = {"rechoose": changed} if changed is not None else {}
-        self.trace.emit("task-resumed", id=task.id, task=task.text, skill=term_to_str(claim.call), waited=_seconds(waited),
-                        **fields)
+        self.trace.emit(Event.TASK_RESUMED, id=task.id, task=task.text, skill=term_to_str(claim.call),
+                        waited=_seconds(waited), **fields)
         if changed is None:
             node.resume(claim.call, claim.preempted)
             return
-        task.attempts -= 1  # the halted attempt is not charged
-        task.tries[run.number] -= 1
-        if not task.tries[run.number]:
-            del task.tries[run.number]
+        task.methods.refund(run.number)  # the halted attempt is not charged
         if task.run is run:
             task.run = None
         run.halt()
@@ -751,13 +733,13 @@ class Sequencer:
                 del self.holders[instance]
                 self.resources.release(instance)
             self.skills.disable(call)
-            self.trace.emit("skill-disabled", skill=term_to_str(call), id=run.task.id, task=run.task.text)
+            self.trace.emit(Event.SKILL_DISABLED, skill=term_to_str(call), id=run.task.id, task=run.task.text)
 
     def step_outcome(self, task: Task, step, outcome: str, why: str = "") -> None:
         """Trace the outcome of a step (a net node with ``describe()``); a failure carries its reason."""
         if self.trace.active:
             fields = {"reason": why} if why and outcome in FAILURE_OUTCOMES else {}
-            self.trace.emit("step-outcome", id=task.id, task=task.text, step=step.describe(), outcome=outcome,
+            self.trace.emit(Event.STEP_OUTCOME, id=task.id, task=task.text, step=step.describe(), outcome=outcome,
                             **fields)
 
 

@@ -43,8 +43,8 @@ def view(task: Task) -> TaskView:
         task=task.text,
         status=task.status,
         priority=task.priority,
-        method=run.label if run is not None else (task.last_method or None),
-        attempt=task.attempts,
+        method=run.label if run is not None else (task.methods.last_method or None),
+        attempt=task.methods.count,
         waiting=tuple(run.waiting_for()) if run is not None else (
             (task.backoff.describe(),) if task.backoff is not None else ()),
         reason=task.failure.reason if task.failure is not None else None,

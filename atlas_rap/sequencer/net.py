@@ -33,34 +33,101 @@ ends: no skill is ever left running by a dead method.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Callable, Protocol
 
 from atlas_rap.lang import ast
-from atlas_rap.logic import Compound, QueryError, String, Subst, Term, Var, is_ground, substitute, term_to_str
+from atlas_rap.logic import (
+    Compound,
+    FactError,
+    QueryError,
+    String,
+    Subst,
+    Term,
+    Var,
+    is_ground,
+    substitute,
+    term_to_str,
+)
+from atlas_rap.logic.arithmetic import evaluated_fact
 from atlas_rap.sequencer.deliberation import PlanExecution
-from atlas_rap.sequencer.task import SUCCEEDED, Failure, Task
+from atlas_rap.sequencer.host import Subtasks, Watching
+from atlas_rap.sequencer.status import FAILURE_OUTCOMES, Outcome, StepState
+from atlas_rap.sequencer.task import SUCCEEDED, Failure, SkillWait, Task
 from atlas_rap.sequencer.waiting import Waiter
 
 if TYPE_CHECKING:
-    from atlas_rap.sequencer.interpreter import Sequencer
-    from atlas_rap.sequencer.resources import Claim
     from atlas_rap.skillbus.timers import Timer
 
-FAILURE_OUTCOMES = frozenset({":fail", ":timeout", ":preempted"})
-"""Step outcomes that fail the method; every other outcome counts as success.
-
-``:preempted``: a task of higher priority took the skill this step ran, and
-the method says ``(on-preempt fail)`` (``Sequencer.enable_skill``)."""
-
-HALTED_OUTCOME = ":halted"
+HALTED_OUTCOME = Outcome.HALTED
 """The outcome recorded for a monitor halted by ``until-end``."""
 
-WAITING_OUTCOME = ":waiting"
+WAITING_OUTCOME = Outcome.WAITING
 """What ``Sequencer.enable_skill`` answers when the step must wait for its skill (not an outcome a
 step ends with: the step goes on when it is served)."""
 
+_NEW, _BLOCKED, _WAITING = StepState.NEW, StepState.BLOCKED, StepState.WAITING  # StepNode's states, read
+_RUNNING, _DONE = StepState.RUNNING, StepState.DONE  # as globals: cheaper than StepState.X in its hot paths
+
 _OUTCOME = Var("%outcome")  # binds the outcome in (done (SKILL ...) ?outcome); no source can name it
 _WHY = Var("%why")  # binds the reason in (why (SKILL ...) "reason"), which a skill may post before done
+
+
+Refusal = tuple[Outcome, str]
+"""Why ``enable_skill`` did not enable a skill: the outcome its step ends with (or :data:`WAITING_OUTCOME`:
+the step waits for the skill) and the reason."""
+
+
+class SkillResources(Protocol):
+    """Skills as resources, as a method's steps use them (``Sequencer.enable_skill``: who holds,
+    who waits, who is preempted)."""
+
+    def is_skill(self, call: Compound) -> bool:
+        """Whether ``call`` names a skill the skill link has, with that many arguments."""
+        ...
+
+    def enable_skill(self, run: MethodRun, call: Compound, node: Node) -> Refusal | None:
+        """Enable ``call`` for ``node``: None, or why not (the step may have to wait: ``node.claim``)."""
+        ...
+
+    def disable_skill(self, run: MethodRun, call: Compound) -> None:
+        """Disable a skill ``run`` enabled (nothing if it did not, or already did)."""
+        ...
+
+    def wait_again(self, node: Node, call: Compound) -> None:
+        """``node`` lost the skill ``call`` to a task that outranks it: it waits to resume."""
+        ...
+
+    def held_by(self, claim: SkillWait) -> str:
+        """Who holds the skill instance ``claim`` waits for, for people."""
+        ...
+
+    def withdraw(self, claim: SkillWait) -> None:
+        """``claim``'s step stops waiting."""
+        ...
+
+
+class NetHost(Watching, Subtasks, SkillResources, Protocol):
+    """What a method run and its nodes need of the interpreter (``Sequencer`` satisfies it): memory,
+    the wait index and timers, subtasks, the skills as resources, plans, and where steps and
+    methods report."""
+
+    def is_rap(self, call: Compound) -> bool:
+        """Whether ``call`` names a RAP (a step with it spawns a subtask)."""
+        ...
+
+    def start_plan(self, owner: Task, goals: tuple[Term, ...], on_end: Callable[[str, str], None], *,
+                   deadline: float | None, max_failures: int | None) -> PlanExecution | None:
+        """Start carrying out a plan for ``goals`` (a ``(plan GOAL ...)`` step of ``owner``'s method);
+        None when the run has no planner."""
+        ...
+
+    def step_outcome(self, task: Task, step: _Leaf, outcome: str, why: str = "") -> None:
+        """Trace the outcome of a step of ``task``'s method."""
+        ...
+
+    def method_ended(self, run: MethodRun, failure: Failure | None) -> None:
+        """The method's body ended (``failure`` None) or failed: the task goes on or fails."""
+        ...
 
 
 def method_label(method: ast.Method, number: int) -> str:
@@ -71,8 +138,8 @@ def method_label(method: ast.Method, number: int) -> str:
 class MethodRun:
     """One attempt of one method of a task: its live net, bindings and enabled skills."""
 
-    def __init__(self, seq: Sequencer, task: Task, method: ast.Method, number: int, subst: Subst) -> None:
-        self.seq = seq
+    def __init__(self, host: NetHost, task: Task, method: ast.Method, number: int, subst: Subst) -> None:
+        self.host = host
         self.task = task
         self.method = method
         self.number = number
@@ -100,14 +167,14 @@ class MethodRun:
         """The body ended well."""
         if self.live:
             self._stop()
-            self.seq.method_ended(self, None)
+            self.host.method_ended(self, None)
 
     def fail(self, failure: Failure) -> None:
         """A step failed: halt everything still live, then tell the task."""
         if self.live:
             self._stop()
-            self.seq.method_ended(self, Failure(f"method {self.label}", "a step failed", failure,
-                                                failure.fatal))
+            self.host.method_ended(self, Failure(f"method {self.label}", "a step failed", failure,
+                                                 failure.fatal))
 
     def halt(self) -> None:
         """Stop the method from outside (its task ended, failed or was halted)."""
@@ -119,7 +186,7 @@ class MethodRun:
         resume (``resume``) or ends ``:preempted``."""
         node = self.enabled.get(call)
         if node is None or not self.live:
-            self.seq.disable_skill(self, call)
+            self.host.disable_skill(self, call)
             return
         node.preempted(call, reason, resume)
 
@@ -127,7 +194,7 @@ class MethodRun:
         self.live = False
         self.root.halt()
         for call in list(self.enabled):
-            self.seq.disable_skill(self, call)
+            self.host.disable_skill(self, call)
 
     def waiting_for(self) -> list[str]:
         """What the live leaves of this method are waiting for, for introspection."""
@@ -142,7 +209,7 @@ class Node:
     def __init__(self, run: MethodRun, parent: Node | MethodRun) -> None:
         self.run = run
         self.parent = parent
-        self.claim: Claim | None = None  # its place in the queue for a skill, while it waits for one
+        self.claim: SkillWait | None = None  # its place in the queue for a skill, while it waits for one
 
     def start(self) -> None:
         raise NotImplementedError
@@ -159,7 +226,7 @@ class Node:
     def preempted(self, call: Compound, reason: str, resume: bool) -> None:
         """A task that outranks this one took the skill ``call`` this node enabled (only
         skill-running nodes do more than let it go)."""
-        self.run.seq.disable_skill(self.run, call)
+        self.run.host.disable_skill(self.run, call)
 
     def resume(self, call: Compound, preempted: bool) -> None:
         """The skill ``call`` this node waited for is free for it: go on (only skill-running nodes wait)."""
@@ -169,7 +236,7 @@ class Node:
         """Leave the queue for a skill, if waiting in one."""
         claim, self.claim = self.claim, None
         if claim is not None:
-            self.run.seq.resources.withdraw(claim)
+            self.run.host.withdraw(claim)
 
 
 class SequenceNode(Node):
@@ -267,11 +334,11 @@ class WaitGroup:
     written.
     """
 
-    __slots__ = ("seq", "entries", "on_done", "waiters", "timers", "done")
+    __slots__ = ("host", "entries", "on_done", "waiters", "timers", "done")
 
-    def __init__(self, seq: Sequencer, entries: list[WaitEntry],
+    def __init__(self, host: Watching, entries: list[WaitEntry],
                  on_done: Callable[[str, str, Subst | None], None]) -> None:
-        self.seq = seq
+        self.host = host
         self.entries = entries
         self.on_done = on_done
         self.waiters: list[Waiter] = []
@@ -279,33 +346,34 @@ class WaitGroup:
         self.done = False
 
     def start(self) -> None:
-        memory, relations = self.seq.memory, self.seq.relations
+        memory, relations = self.host.memory, self.host.relations
         for index, (query, _, _, _) in enumerate(self.entries):
             try:
                 answer = memory.ask(query, None, relations)
             except QueryError as exc:
-                self._decide(":fail", f"{_entry_text(self.entries[index])} cannot be evaluated: {exc}", None)
+                self._decide(Outcome.FAIL, f"{_entry_text(self.entries[index])} cannot be evaluated: {exc}", None)
                 return
             if answer is not None:
                 self._matched(index, answer)
                 return
-        waits = self.seq.waits
+        waits = self.host.waits
         for index, entry in enumerate(self.entries):
             waiter = Waiter(entry[0], self, index)
             waits.add(waiter)
             self.waiters.append(waiter)
             timeout = entry[2]
             if timeout is not None:
-                self.timers.append(self.seq.timers.after(
+                self.timers.append(self.host.timers.after(
                     timeout, lambda entry=entry, timeout=timeout: self._decide(
-                        ":timeout", f"{_entry_text(entry)} timed out after {_seconds(timeout)}", None),
+                        Outcome.TIMEOUT, f"{_entry_text(entry)} timed out after {_seconds(timeout)}", None),
                     late=True))
 
     def woken(self, waiter: Waiter, answer: Subst) -> None:
         self._matched(waiter.tag, answer)  # type: ignore[arg-type]
 
     def broken(self, waiter: Waiter, message: str) -> None:
-        self._decide(":fail", f"{_entry_text(self.entries[waiter.tag])} cannot be evaluated: {message}", None)  # type: ignore[index]
+        entry = self.entries[waiter.tag]  # type: ignore[index]
+        self._decide(Outcome.FAIL, f"{_entry_text(entry)} cannot be evaluated: {message}", None)
 
     def _matched(self, index: int, answer: Subst) -> None:
         entry = self.entries[index]
@@ -314,7 +382,7 @@ class WaitGroup:
             outcome = str(answer.get(_OUTCOME, ":succeed"))
             why = f"finished {outcome}"
             if outcome in FAILURE_OUTCOMES:
-                said = self.seq.memory.ask(Compound("why", (entry[0].args[0], _WHY)))  # type: ignore[union-attr]
+                said = self.host.memory.ask(Compound("why", (entry[0].args[0], _WHY)))  # type: ignore[union-attr]
                 if said is not None:
                     why += f": {_plain(said[_WHY])}"
         elif outcome in FAILURE_OUTCOMES:  # a reason is only ever shown for a failure
@@ -331,7 +399,7 @@ class WaitGroup:
 
     def cancel(self) -> None:
         self.done = True
-        waits = self.seq.waits
+        waits = self.host.waits
         for waiter in self.waiters:
             waits.remove(waiter)
         for timer in self.timers:
@@ -360,7 +428,7 @@ class _Leaf(Node):
     def record(self, outcome: str, why: str, cause: Failure | None = None) -> bool:
         """Trace the outcome; fail the method on a failure outcome. True when it counts as success."""
         run = self.run
-        self.run.seq.step_outcome(run.task, self, outcome, why)
+        self.run.host.step_outcome(run.task, self, outcome, why)
         if outcome in FAILURE_OUTCOMES:
             run.fail(Failure(self.describe(), why, cause))
             return False
@@ -388,7 +456,7 @@ class WaitNode(_Leaf):
         return _entry_text(_wait_entry(self.wait, self.run.subst))
 
     def start(self) -> None:
-        self.group = WaitGroup(self.run.seq, [_wait_entry(self.wait, self.run.subst)], self._decided)
+        self.group = WaitGroup(self.run.host, [_wait_entry(self.wait, self.run.subst)], self._decided)
         self.group.start()
 
     def _decided(self, outcome: str, why: str, answer: Subst | None) -> None:
@@ -415,7 +483,7 @@ class MemoryNode(Node):
 
     def start(self) -> None:
         run = self.run
-        if run.seq.apply_memory_op(run, self.op):
+        if _apply_memory_op(run, self.op):
             if run.live:
                 self.parent.child_done(self)
 
@@ -431,7 +499,7 @@ class StepNode(_Leaf):
         self.gate = 0  # steps that must end well first, from their (for L) annotations
         self.successors: list[StepNode] = []
         self.monitors: list[StepNode] = []
-        self.state = "new"  # new | blocked | waiting (for its skill) | running | done
+        self.state = _NEW
         self.child: Task | None = None
         self.skill: Compound | None = None
         self.group: WaitGroup | None = None
@@ -448,48 +516,48 @@ class StepNode(_Leaf):
 
     def start(self) -> None:
         if self.cut:
-            self.state = "done"
+            self.state = _DONE
             self._ended()
         elif self.gate:
-            self.state = "blocked"
+            self.state = _BLOCKED
         else:
             self._begin()
 
     def open_gate(self) -> None:
         self.gate -= 1
-        if self.gate == 0 and self.state == "blocked":
+        if self.gate == 0 and self.state is _BLOCKED:
             self._begin()
 
     def _begin(self) -> None:
         run = self.run
-        seq = run.seq
-        self.state = "running"
+        host = run.host
+        self.state = _RUNNING
         if self.step.plan is not None:
             self._begin_plan(self.step.plan)
             return
         call = self.call = substitute(self.step.task, run.subst) if run.subst else self.step.task
-        if seq.is_rap(call):
-            self.child = seq.spawn(call, run.task, self)
+        if host.is_rap(call):
+            self.child = host.spawn(call, run.task, self)
             entries = []
-        elif seq.is_skill(call):
-            refused = seq.enable_skill(run, call, self)
+        elif host.is_skill(call):
+            refused = host.enable_skill(run, call, self)
             if refused is not None:
                 if refused[0] == WAITING_OUTCOME:
-                    self.state = "waiting"
+                    self.state = _WAITING
                     return
-                self.state = "done"
+                self.state = _DONE
                 if run.live:
                     self.record(*refused)
                 return
             self.skill = call
             entries = [(Compound("done", (call, _OUTCOME)), None, None, f"skill {term_to_str(call)}")]
         else:
-            self.state = "done"
-            self.record(":fail", f"{call.functor} is neither a RAP nor a skill")
+            self.state = _DONE
+            self.record(Outcome.FAIL, f"{call.functor} is neither a RAP nor a skill")
             return
         entries += [_wait_entry(wait, run.subst) for wait in self.step.waits]
-        if entries and run.live and self.state == "running":
-            self.group = WaitGroup(seq, entries, self._decided)
+        if entries and run.live and self.state is _RUNNING:
+            self.group = WaitGroup(host, entries, self._decided)
             self.group.start()
 
     def _begin_plan(self, request: ast.PlanRequest) -> None:
@@ -497,19 +565,19 @@ class StepNode(_Leaf):
         run = self.run
         started = _start_plan(run, request, self._plan_ended)
         if not isinstance(started, PlanExecution):
-            self.state = "done"
+            self.state = _DONE
             self.record(*started)
             return
         self.execution = started
         self.call = Compound("plan", started.goals_asked)
         entries = [_wait_entry(wait, run.subst) for wait in self.step.waits]
-        if entries and run.live and self.state == "running":
-            self.group = WaitGroup(run.seq, entries, self._decided)
+        if entries and run.live and self.state is _RUNNING:
+            self.group = WaitGroup(run.host, entries, self._decided)
             self.group.start()
 
     def _plan_ended(self, outcome: str, why: str) -> None:
         self.execution = None
-        if self.state == "running":
+        if self.state is _RUNNING:
             self._finish(outcome, why, None)
 
     def subtask_waiting(self, wait: object, what: str) -> None:
@@ -517,17 +585,17 @@ class StepNode(_Leaf):
 
     def child_ended(self, child: Task) -> None:
         """The child task ended (succeeded or failed) before any wait-for matched."""
-        if self.state != "running":
+        if self.state is not _RUNNING:
             return
         if child.status == SUCCEEDED:
-            self._finish(":succeed", f"{child.text} succeeded", None)
+            self._finish(Outcome.SUCCEED, f"{child.text} succeeded", None)
         else:
             failure = child.failure
-            self._finish(failure.outcome if failure else ":fail", failure.reason if failure else "failed",
+            self._finish(failure.outcome if failure else Outcome.FAIL, failure.reason if failure else "failed",
                          failure, fatal=bool(failure and failure.fatal))
 
     def _decided(self, outcome: str, why: str, answer: Subst | None) -> None:
-        if self.state != "running":
+        if self.state is not _RUNNING:
             return
         self.bind(answer)
         cause = None
@@ -537,10 +605,10 @@ class StepNode(_Leaf):
         self._finish(outcome, why, cause)
 
     def _finish(self, outcome: str, why: str, cause: Failure | None, fatal: bool = False) -> None:
-        self.state = "done"
+        self.state = _DONE
         self._release(self, f"ended {outcome}")
         run = self.run
-        run.seq.step_outcome(run.task, self, outcome, cause.reason if cause else why)
+        run.host.step_outcome(run.task, self, outcome, cause.reason if cause else why)
         if outcome in FAILURE_OUTCOMES:
             if cause is not None and self.child is not None:
                 run.fail(Failure(self.describe(), "the subtask failed", cause, fatal))
@@ -560,17 +628,17 @@ class StepNode(_Leaf):
 
     def cut_off(self, target: StepNode) -> None:
         """``until-end``: the step this one monitors has ended, so this one stops."""
-        if self.state in ("done",) or not self.run.live:
+        if self.state is _DONE or not self.run.live:
             return
-        if self.state == "new":
+        if self.state is _NEW:
             self.cut = True
             return
-        was_running = self.state in ("running", "waiting")
+        was_running = self.state is _RUNNING or self.state is _WAITING
         self._stop_waiting()
-        self.state = "done"
+        self.state = _DONE
         if was_running:
             self._release(target, "ended (until-end)")
-            self.run.seq.step_outcome(self.run.task, self, HALTED_OUTCOME)
+            self.run.host.step_outcome(self.run.task, self, HALTED_OUTCOME)
         self._ended()
 
     def _release(self, cause: _Leaf | None, what: str) -> None:
@@ -582,41 +650,41 @@ class StepNode(_Leaf):
             execution.halt(f"{cause.describe()} {what}" if cause is not None else what)
         child = self.child
         if child is not None and not child.finished:
-            self.run.seq.halt(child, f"{cause.describe()} {what}" if cause is not None else what)
+            self.run.host.halt(child, f"{cause.describe()} {what}" if cause is not None else what)
         if self.skill is not None:
-            self.run.seq.disable_skill(self.run, self.skill)
+            self.run.host.disable_skill(self.run, self.skill)
 
     def halt(self) -> None:
-        if self.state == "running":
+        if self.state is _RUNNING:
             self._release(None, "its method was halted")
         self._stop_waiting()
-        self.state = "done"
+        self.state = _DONE
 
     def preempted(self, call: Compound, reason: str, resume: bool) -> None:
-        if self.state != "running" or call != self.skill:
+        if self.state is not _RUNNING or call != self.skill:
             super().preempted(call, reason, resume)
             return
         if not resume:
-            self._finish(":preempted", "the skill was taken by another task",
+            self._finish(Outcome.PREEMPTED, "the skill was taken by another task",
                          Failure(f"skill {term_to_str(call)}", reason))
             return
         self._release(None, "its skill was taken")  # its waits and its skill
         self.group = self.skill = None
-        self.state = "waiting"
-        self.run.seq.wait_again(self, call)
+        self.state = _WAITING
+        self.run.host.wait_again(self, call)
 
     def resume(self, call: Compound, preempted: bool) -> None:
-        if self.state == "waiting" and self.run.live:
+        if self.state is _WAITING and self.run.live:
             self._begin()
 
     def waiting_for(self) -> list[str]:
-        if self.state == "blocked":
+        if self.state is _BLOCKED:
             return [f"{self.describe()}: waiting for an earlier step (for)"]
-        if self.state == "waiting" and self.claim is not None:
-            return [f"{term_to_str(self.claim.call)} {self.run.seq.held_by(self.claim)}"]
+        if self.state is _WAITING and self.claim is not None:
+            return [f"{term_to_str(self.claim.call)} {self.run.host.held_by(self.claim)}"]
         if self.execution is not None:
             return self.execution.waiting_for()
-        if self.state != "running" or self.group is None or self.child is not None:
+        if self.state is not _RUNNING or self.group is None or self.child is not None:
             return []
         return self.group.describe()
 
@@ -648,7 +716,7 @@ class PrimitiveNode(_Leaf):
         self._continue()
 
     def _continue(self) -> None:
-        run, seq, actions = self.run, self.run.seq, self.actions
+        run, host, actions = self.run, self.run.host, self.actions
         while self.index < len(actions) and run.live:
             action = actions[self.index]
             if isinstance(action, ast.WaitFor):
@@ -657,13 +725,14 @@ class PrimitiveNode(_Leaf):
                     end += 1
                 entries = [_wait_entry(wait, run.subst) for wait in actions[self.index:end]]  # type: ignore[arg-type]
                 self.group_start, self.index = self.index, end
-                self.group = WaitGroup(seq, entries, self._decided)
+                self.group = WaitGroup(host, entries, self._decided)
                 self.group.start()
                 return
             if isinstance(action, ast.Enable):
                 skills = action.skills
                 while self.skill_index < len(skills):
-                    refused = seq.enable_skill(run, substitute(skills[self.skill_index], run.subst), self)  # type: ignore[arg-type]
+                    skill = substitute(skills[self.skill_index], run.subst)
+                    refused = host.enable_skill(run, skill, self)  # type: ignore[arg-type]
                     if refused is not None:
                         if refused[0] != WAITING_OUTCOME and run.live:
                             self.record(*refused)
@@ -676,8 +745,8 @@ class PrimitiveNode(_Leaf):
             if isinstance(action, ast.Disable):
                 calls = list(run.enabled) if action.above else [substitute(s, run.subst) for s in action.skills]
                 for call in calls:
-                    seq.disable_skill(run, call)  # type: ignore[arg-type]
-            elif not seq.apply_memory_op(run, action):  # type: ignore[arg-type]
+                    host.disable_skill(run, call)  # type: ignore[arg-type]
+            elif not _apply_memory_op(run, action):  # type: ignore[arg-type]
                 return
         if run.live:
             self.parent.child_done(self)
@@ -699,16 +768,16 @@ class PrimitiveNode(_Leaf):
             self.index = self.group_start  # resumed, it waits on this group again
         self._stop_waiting()  # waiting at a later enable: it goes on there once it has this skill back
         if resume:
-            self.run.seq.disable_skill(self.run, call)
-            self.run.seq.wait_again(self, call)
+            self.run.host.disable_skill(self.run, call)
+            self.run.host.wait_again(self, call)
             return
         self.index = len(self.actions)
-        self.record(":preempted", f"skill {term_to_str(call)} {reason}")
+        self.record(Outcome.PREEMPTED, f"skill {term_to_str(call)} {reason}")
 
     def resume(self, call: Compound, preempted: bool) -> None:
         run = self.run
         if preempted:
-            refused = run.seq.enable_skill(run, call, self)
+            refused = run.host.enable_skill(run, call, self)
             if refused is not None:
                 if refused[0] != WAITING_OUTCOME and run.live:
                     self.record(*refused)
@@ -719,7 +788,7 @@ class PrimitiveNode(_Leaf):
 
     def waiting_for(self) -> list[str]:
         if self.claim is not None:
-            return [f"{term_to_str(self.claim.call)} {self.run.seq.held_by(self.claim)}"]
+            return [f"{term_to_str(self.claim.call)} {self.run.host.held_by(self.claim)}"]
         return self.group.describe() if self.group is not None else []
 
 
@@ -770,17 +839,30 @@ def _start_plan(run: MethodRun, request: ast.PlanRequest,
                 on_end: Callable[[str, str], None]) -> PlanExecution | tuple[str, str]:
     """Start carrying out ``request`` for ``run``'s task: the execution, or the outcome and
     reason the step ends with at once (goals not ground, no planner)."""
-    seq = run.seq
+    host = run.host
     goals = tuple(substitute(goal, run.subst) for goal in request.goals) if run.subst else request.goals
     unbound = [term_to_str(g) for g in goals if not is_ground(g)]
     if unbound:
-        return ":fail", f"its goals have unbound variables: {', '.join(unbound)}"
-    if seq.deliberator is None:
-        return ":fail", "this run has no planner"
-    execution = PlanExecution(seq, seq.deliberator, run.task, goals, on_end, deadline=request.deadline,
-                              max_failures=request.max_failures)
-    execution.start()
+        return Outcome.FAIL, f"its goals have unbound variables: {', '.join(unbound)}"
+    execution = host.start_plan(run.task, goals, on_end, deadline=request.deadline, max_failures=request.max_failures)
+    if execution is None:
+        return Outcome.FAIL, "this run has no planner"
     return execution
+
+
+def _apply_memory_op(run: MethodRun, op: ast.MemoryOp) -> bool:
+    """Apply an assert/retract step of a method; False (and the method fails) if it cannot be."""
+    fact = substitute(op.fact, run.subst) if run.subst else op.fact
+    if not is_ground(fact):
+        run.fail(Failure(f"({op.kind} {term_to_str(fact)})", "the fact has unbound variables"))
+        return False
+    try:
+        fact = evaluated_fact(fact)
+    except FactError as exc:
+        run.fail(Failure(f"({op.kind} {term_to_str(fact)})", str(exc)))
+        return False
+    run.host.change(((op.kind, fact),), f"task {run.task.id}", task=run.task)
+    return run.live
 
 
 def _build(body: object, run: MethodRun, parent: Node | MethodRun) -> Node:

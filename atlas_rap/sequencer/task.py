@@ -19,21 +19,59 @@ event caused it, the failure underneath, so the whole chain can be told.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from atlas_rap.logic import Compound, term_to_str
+from atlas_rap.sequencer.status import Outcome, Status
 
 if TYPE_CHECKING:
-    from atlas_rap.sequencer.net import MethodRun, StepNode
     from atlas_rap.sequencer.retrying import RetryWait
     from atlas_rap.skillbus.timers import Timer
 
-PENDING = "pending"
-RUNNING = "running"
-SUCCEEDED = "succeeded"
-FAILED = "failed"
-HALTED = "halted"
+PENDING = Status.PENDING  # the statuses by name, as before they were an enum (and as fast to read)
+RUNNING = Status.RUNNING
+SUCCEEDED = Status.SUCCEEDED
+FAILED = Status.FAILED
+HALTED = Status.HALTED
 FINISHED = frozenset({SUCCEEDED, FAILED, HALTED})
+"""The statuses of a task that has ended."""
+
+
+class SkillWait(Protocol):
+    """A step's wait for a skill instance (``resources.Claim``): ``live`` while the step still waits for ``call``."""
+
+    live: bool
+    call: Compound
+
+
+class Spawner(Protocol):
+    """What spawned a subtask: a step of its parent's net (``net.StepNode``) or of a plan
+    (``deliberation.StepRun``). The interpreter tells it when the task ends or waits for a skill."""
+
+    def child_ended(self, task: Task) -> None:
+        """The task ended (succeeded, failed or halted)."""
+        ...
+
+    def subtask_waiting(self, wait: SkillWait, what: str) -> None:
+        """The task, or a task under it, waits for a skill (``what`` says which and who has it)."""
+        ...
+
+
+class RunningMethod(Protocol):
+    """A task's running method (``net.MethodRun``), as readers of the task see it."""
+
+    @property
+    def label(self) -> str:
+        """The method's name, or its 1-based position."""
+        ...
+
+    def waiting_for(self) -> list[str]:
+        """What the method's live steps wait for."""
+        ...
+
+    def halt(self) -> None:
+        """Stop the method (its task ended)."""
+        ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,7 +90,7 @@ class Failure:
     reason: str
     cause: Failure | None = None
     fatal: bool = False
-    outcome: str = ":fail"
+    outcome: str = Outcome.FAIL
 
     def chain(self) -> list[Failure]:
         """This failure and every cause under it, outermost first."""
@@ -72,21 +110,77 @@ class Failure:
         return self.chain()[-1]
 
 
+class AtOnce:
+    """How many times something happened at one instant of simulated time: the guard against a
+    runaway loop (``interpreter.MAX_REPEATS_AT_ONCE``)."""
+
+    __slots__ = ("time", "count")
+
+    def __init__(self) -> None:
+        self.time = -1.0
+        self.count = 0
+
+    def add(self, now: float) -> int:
+        """Count one more at ``now``; how many there have been at ``now``."""
+        self.count = self.count + 1 if self.time == now else 1
+        self.time = now
+        return self.count
+
+
+class Attempts:
+    """A task's method attempts since it was posted or last repeated: how many, of which
+    methods, and how the last one ended (the interpreter's bookkeeping for retries)."""
+
+    __slots__ = ("count", "by_method", "last_method", "last_failure", "ended_ok", "at_once")
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.by_method: dict[int, int] = {}  # method number (from 1) -> attempts of it
+        self.last_method = ""  # the label of the method tried last
+        self.last_failure: Failure | None = None
+        self.ended_ok = False  # the last method ended well, and the task's succeed test is still to be checked
+        self.at_once = AtOnce()  # attempts at the current instant (not reset by a repeat)
+
+    def begin(self, number: int, label: str) -> None:
+        """Charge an attempt of method ``number`` (named ``label``)."""
+        self.by_method[number] = self.by_method.get(number, 0) + 1
+        self.count += 1
+        self.last_method = label
+
+    def refund(self, number: int) -> None:
+        """Take back the charge of an attempt of method ``number`` (it was halted, not failed)."""
+        self.count -= 1
+        self.by_method[number] -= 1
+        if not self.by_method[number]:
+            del self.by_method[number]
+
+    def restart(self) -> None:
+        """The task repeats: it starts again with no attempt spent."""
+        self.count = 0
+        self.by_method.clear()
+        self.last_failure = None
+        self.ended_ok = False
+
+
 class Task:
     """One call of a RAP on the agenda (see the module docstring for its life).
 
-    ``id`` is stable for the run (creation order, from 1); ``depth`` is 0 for
-    a posted task; ``step`` is the step of the parent's net that spawned it.
+    Its parts: what it is (``id``, stable for the run, in creation order from 1;
+    ``call`` and its ``text``; ``parent`` and the ``step`` of the parent's net or
+    plan that spawned it; ``depth``, 0 for a posted task; ``priority`` and
+    ``deadline``), where it is in its life (``status``, ``started``, ``ended``,
+    ``failure``; ``queued`` on the agenda; the ``run`` of its current method,
+    its ``children``, its ``timers`` and retry ``backoff``; the ``bindings`` of
+    its head), its method :class:`Attempts` (``methods``), and its repeats.
     """
 
     __slots__ = (
-        "id", "call", "text", "parent", "step", "depth", "priority", "deadline", "status",
-        "attempts", "tries", "run", "children", "failure", "last_failure", "timers",
-        "queued", "method_ended_ok", "repeats", "repeat_time", "repeats_now", "attempt_time", "attempts_now",
-        "started", "ended", "bindings", "last_method", "backoff",
+        "id", "call", "text", "parent", "step", "depth", "priority", "deadline",
+        "status", "started", "ended", "failure", "queued", "run", "children", "timers", "backoff", "bindings",
+        "methods", "repeats", "repeats_at_once",
     )
 
-    def __init__(self, id: int, call: Compound, parent: Task | None, step: StepNode | None,
+    def __init__(self, id: int, call: Compound, parent: Task | None, step: Spawner | None,
                  priority: float, deadline: float | None) -> None:
         self.id = id
         self.call = call
@@ -96,26 +190,19 @@ class Task:
         self.depth = parent.depth + 1 if parent is not None else 0
         self.priority = priority
         self.deadline = deadline
-        self.status = PENDING
-        self.attempts = 0
-        self.tries: dict[int, int] = {}
-        self.run: MethodRun | None = None
-        self.children: list[Task] = []
-        self.failure: Failure | None = None
-        self.last_failure: Failure | None = None
-        self.timers: list[Timer] = []
-        self.queued = False
-        self.method_ended_ok = False
-        self.repeats = 0
-        self.repeat_time = -1.0
-        self.repeats_now = 0
-        self.attempt_time = -1.0  # the instant of the last method attempt, and how many were made in it
-        self.attempts_now = 0
+        self.status: Status = PENDING
         self.started: float | None = None
         self.ended: float | None = None
-        self.bindings: dict = {}
-        self.last_method = ""
+        self.failure: Failure | None = None
+        self.queued = False
+        self.run: RunningMethod | None = None
+        self.children: list[Task] = []
+        self.timers: list[Timer] = []
         self.backoff: RetryWait | None = None  # the wait before its next attempt, after a failed one
+        self.bindings: dict = {}
+        self.methods = Attempts()
+        self.repeats = 0
+        self.repeats_at_once: AtOnce | None = None  # made at its first repeat (most tasks never repeat)
 
     @property
     def name(self) -> str:
@@ -125,6 +212,16 @@ class Task:
     @property
     def finished(self) -> bool:
         return self.status in FINISHED
+
+    @property
+    def attempts(self) -> int:
+        """Method attempts since it was posted or last repeated (``methods.count``)."""
+        return self.methods.count
+
+    @property
+    def last_method(self) -> str:
+        """The label of the method tried last, or ``""`` (``methods.last_method``)."""
+        return self.methods.last_method
 
     def __repr__(self) -> str:
         return f"<Task {self.id} {self.text} {self.status}>"

@@ -22,53 +22,15 @@ enabled skills write the same output, the one later in dependency order
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import inspect
 from typing import Any, Iterable
 
 from atlas_rap.errors import AtlasError
 from atlas_rap.logic import Compound, String
 from atlas_rap.skillbus.skill_link import SkillHost
-from atlas_rap.skills.beliefs import Beliefs
-from atlas_rap.skills.skill import Skill
+from atlas_rap.skills.skill import HALTED, Skill, SkillContext
 
-
-@dataclass
-class SkillContext:
-    """What a skill may use: the world's prior map, the robot, shared beliefs and the event channel.
-
-    ``robot`` is the body the skills sense and drive (the simulation, or a
-    real robot's driver with the same methods); ``beliefs`` is shared
-    state that is not a data flow, under typed keys (:mod:`atlas_rap.skills.beliefs`:
-    the doors observed closed, the grid, the route); ``rng`` the run's one random generator.
-    """
-
-    manager: SkillManager
-    world: Any = None
-    robot: Any = None
-    rng: Any = None
-    beliefs: Beliefs = field(default_factory=Beliefs)
-
-    def now(self) -> float:
-        return self.manager.now
-
-    def assert_fact(self, fact: Compound) -> None:
-        """Post a fact to RAP memory (an event)."""
-        self.manager.post([("assert", fact)])
-
-    def retract_fact(self, fact: Compound) -> None:
-        self.manager.post([("retract", fact)])
-
-    def retract_matching(self, pattern: Compound) -> None:
-        """Retract every fact in memory that matches ``pattern``."""
-        host = self.manager.host
-        if host is not None:
-            facts = list(host.memory.facts(pattern))
-            if facts:
-                self.manager.post([("retract", fact) for fact in facts])
-
-    def finish(self, skill: Skill, outcome: str = ":succeed", reason: str | None = None) -> None:
-        """The skill is done: post ``(done CALL OUTCOME)`` (and why); it stops being run."""
-        self.manager.finish(skill, outcome, reason)
+__all__ = ["SkillContext", "SkillManager", "dependency_order"]  # SkillContext lives in skills.skill now
 
 
 class SkillManager:
@@ -91,7 +53,7 @@ class SkillManager:
         self.context = SkillContext(self, world, robot, rng)
         self.data: dict[str, Any] = {}
         self.enabled: dict[str, Compound | None] = {}  # name -> call (None for always-on skills)
-        self.finished: set[str] = set()
+        self.finished: dict[str, str] = {}  # name -> the outcome it finished with, until disabled or enabled again
         self.due: dict[str, float] = {}
         self.host: SkillHost | None = None
         self.now = 0.0
@@ -126,19 +88,24 @@ class SkillManager:
         if skill.always_on:
             raise KeyError(f"{call.functor} is always on")
         self._clear_outputs(skill)
-        self.finished.discard(skill.name)
+        self.finished.pop(skill.name, None)
         skill.enable(tuple(_value(arg) for arg in call.args))
         self.enabled.pop(skill.name, None)
         self.enabled[skill.name] = call
         self.due[skill.name] = self.now
 
     def disable(self, call: Compound) -> None:
+        """Stop the skill ``call``, telling it why: the outcome it finished with, or
+        :data:`~atlas_rap.skills.skill.HALTED` when it still ran."""
         skill = self.catalog.get(call.functor)
         if skill is None or self.enabled.get(skill.name) != call:
             return  # enabled again since, with other arguments: that one stays
         del self.enabled[skill.name]
-        self.finished.discard(skill.name)
-        skill.disable()
+        reason = self.finished.pop(skill.name, HALTED)
+        if _takes_reason(skill):
+            skill.disable(reason)
+        else:
+            skill.disable()  # type: ignore[call-arg]  # an override written before disable had a reason
         self._clear_outputs(skill)
 
     def running(self) -> list[Compound]:
@@ -171,7 +138,7 @@ class SkillManager:
         call = self.enabled.get(skill.name)
         if call is None or skill.name in self.finished:
             return
-        self.finished.add(skill.name)
+        self.finished[skill.name] = outcome
         self._clear_outputs(skill)
         changes: list[tuple[str, Compound]] = []
         if reason:
@@ -214,6 +181,18 @@ def dependency_order(skills: list[Skill]) -> list[Skill]:
     for skill in skills:
         visit(skill, [])
     return order
+
+
+def _takes_reason(skill: Skill) -> bool:
+    """Whether the skill's ``disable`` takes the reason it is stopped (overrides written before it did not)."""
+    method = type(skill).disable
+    takes = _TAKES_REASON.get(method)
+    if takes is None:
+        takes = _TAKES_REASON[method] = len(inspect.signature(method).parameters) > 1  # more than self
+    return takes
+
+
+_TAKES_REASON: dict[Any, bool] = {}  # each disable method seen, and whether it takes a reason
 
 
 def _value(term: Any) -> Any:

@@ -23,7 +23,15 @@ lifecycle, in 3T's words):
   Report completion with ``self.context.finish(self, outcome, reason)`` and
   post facts with ``self.context.assert_fact`` / ``retract_fact``.
 - :meth:`Skill.disable` runs when the RAP disables the skill (or its task
-  ends): stop actuators, drop state.
+  ends), told why, as py_trees' ``terminate(new_status)`` is: the outcome it
+  finished with (``":succeed"``, ``":fail"``, ...) when it had finished, or
+  :data:`HALTED` when it was stopped while still running. Stop actuators,
+  drop state. An override that takes no reason (``def disable(self)``)
+  still works: the manager calls it without one.
+
+A skill runs in a :class:`SkillContext`, given to :meth:`Skill.init` by the
+skill manager that runs it; the context reaches the manager only through
+the narrow :class:`SkillRunner`, so this module imports nothing of the manager.
 
 A skill's ``name`` is how RAPs call it; ``params`` names its arguments (for
 messages and the arity check); ``events`` lists the predicates it may
@@ -32,10 +40,72 @@ assert, so ``atlas check`` can tell a wait-for that nothing can produce.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar, Mapping, Protocol
+
+from atlas_rap.logic import Compound
+from atlas_rap.skills.beliefs import Beliefs
 
 if TYPE_CHECKING:
-    from atlas_rap.skills.manager import SkillContext
+    from atlas_rap.skillbus.skill_link import SkillHost
+
+HALTED = ":halted"
+"""The reason :meth:`Skill.disable` is given when the skill is stopped before it finished."""
+
+
+class SkillRunner(Protocol):
+    """What a :class:`SkillContext` needs of the skill manager that runs its skill
+    (``manager.SkillManager``): the time, the sequencer it serves, and where events go."""
+
+    now: float
+    host: SkillHost | None
+
+    def post(self, changes: list[tuple[str, Compound]]) -> None:
+        """Send fact changes (events) to RAP memory."""
+        ...
+
+    def finish(self, skill: Skill, outcome: str, reason: str | None) -> None:
+        """The skill is done with ``outcome`` (and says why): post its ``done`` fact; stop running it."""
+        ...
+
+
+@dataclass
+class SkillContext:
+    """What a skill may use: the world's prior map, the robot, shared beliefs and the event channel.
+
+    ``robot`` is the body the skills sense and drive (the simulation, or a
+    real robot's driver with the same methods); ``beliefs`` is shared
+    state that is not a data flow, under typed keys (:mod:`atlas_rap.skills.beliefs`:
+    the doors observed closed, the grid, the route); ``rng`` the run's one random generator.
+    """
+
+    manager: SkillRunner
+    world: Any = None
+    robot: Any = None
+    rng: Any = None
+    beliefs: Beliefs = field(default_factory=Beliefs)
+
+    def now(self) -> float:
+        return self.manager.now
+
+    def assert_fact(self, fact: Compound) -> None:
+        """Post a fact to RAP memory (an event)."""
+        self.manager.post([("assert", fact)])
+
+    def retract_fact(self, fact: Compound) -> None:
+        self.manager.post([("retract", fact)])
+
+    def retract_matching(self, pattern: Compound) -> None:
+        """Retract every fact in memory that matches ``pattern``."""
+        host = self.manager.host
+        if host is not None:
+            facts = list(host.memory.facts(pattern))
+            if facts:
+                self.manager.post([("retract", fact) for fact in facts])
+
+    def finish(self, skill: Skill, outcome: str = ":succeed", reason: str | None = None) -> None:
+        """The skill is done: post ``(done CALL OUTCOME)`` (and why); it stops being run."""
+        self.manager.finish(skill, outcome, reason)
 
 
 class Skill:
@@ -65,8 +135,9 @@ class Skill:
         """Every period while enabled: inputs in, outputs out."""
         return {}
 
-    def disable(self) -> None:
-        """When the skill is disabled."""
+    def disable(self, reason: str = HALTED) -> None:
+        """When the skill is disabled: ``reason`` is the outcome it finished with, or
+        :data:`HALTED` when it was stopped while still running."""
 
     def __repr__(self) -> str:
         return f"<Skill {self.name}>"
