@@ -68,6 +68,7 @@ from atlas_rap.lang.reader import Forms, SList, read_text
 from atlas_rap.lang.validator import MAX_SECONDS, to_term
 from atlas_rap.logic import Compound, Term, Var, is_anonymous, substitute, term_to_str, variables
 from atlas_rap.shipped import resolve_user_path
+from atlas_rap.trace_events import Event
 
 if TYPE_CHECKING:  # downward only
     from atlas_rap.layers import RunOptions
@@ -450,7 +451,7 @@ class Session:
         if self._sources is None or self._sources[0] != len(self.trace.records):
             sources: dict[str, str] = {}
             for record in self.trace.records:
-                if record.get("event") == "fact-asserted":
+                if record.get("event") == Event.FACT_ASSERTED:
                     sources[record["fact"]] = str(record.get("by", ""))
             self._sources = (len(self.trace.records), sources)
         by = self._sources[1].get(term_to_str(fact), "")

@@ -16,6 +16,7 @@ from rich.tree import Tree
 from atlas_rap.sequencer.introspect import STATUS_MARKS, TaskView, describe
 from atlas_rap.sequencer.net import FAILURE_OUTCOMES
 from atlas_rap.sequencer.task import Failure
+from atlas_rap.trace_events import Event
 
 _STATUS_STYLES = {"pending": "dim", "running": "cyan", "succeeded": "green", "failed": "red", "halted": "yellow"}
 
@@ -58,25 +59,25 @@ class LiveTrace:
         """The line for one record, or None for records this view leaves out."""
         event = record["event"]
         task_id = record.get("id")
-        if event == "task-posted":
+        if event == Event.TASK_POSTED:
             parent = record.get("parent")
             self._depth[task_id] = self._depth.get(parent, -1) + 1 if parent is not None else 0
         indent = _indent(self._depth.get(task_id, 0)) if task_id is not None else ""
         who = f"[{task_id}] {record.get('task', '')}"
         text = Text(f"{record['t']:9.2f}  ", style="dim")
-        if event == "task-posted":
+        if event == Event.TASK_POSTED:
             extra = "" if record.get("parent") is not None else f" (priority {record['priority']:g}"
             if extra:
                 extra += f", deadline {record['deadline']:g} s)" if "deadline" in record else ")"
             return text.append(f"{indent}○ {who} posted{extra}")
-        if event == "task-selected":
+        if event == Event.TASK_SELECTED:
             return text.append(f"{indent}  {who} selected", style="dim") if self.verbose else None
-        if event == "method-selected":
+        if event == Event.METHOD_SELECTED:
             return text.append(f"{indent}▶ {who} method {record['method']} (attempt {record['attempt']})",
                                style="cyan")
-        if event == "task-succeeded":
+        if event == Event.TASK_SUCCEEDED:
             return text.append(f"{indent}✓ {who} succeeded", style="green")
-        if event == "task-failed":
+        if event == Event.TASK_FAILED:
             because = record.get("because")
             if because is not None and because == self._because:  # a parent failing for its child's cause
                 because = " (the same cause)"
@@ -84,45 +85,45 @@ class LiveTrace:
                 self._because = because
                 because = f" (because {because})" if because is not None else ""
             return text.append(f"{indent}✗ {who} failed: {record['reason']}{because}", style="bold red")
-        if event == "task-halted":
+        if event == Event.TASK_HALTED:
             return text.append(f"{indent}⊘ {who} halted: {record['reason']}", style="yellow")
-        if event == "step-outcome":
+        if event == Event.STEP_OUTCOME:
             failed = record["outcome"] in FAILURE_OUTCOMES
             why = f": {record['reason']}" if "reason" in record else ""
             return text.append(f"{indent}  → {record['step']} {record['outcome']}{why}",
                                style="red" if failed else "dim")
-        if event == "skill-enabled":
+        if event == Event.SKILL_ENABLED:
             return text.append(f"{indent}  ⚙ enable {record['skill']}", style="magenta")
-        if event == "skill-disabled":
+        if event == Event.SKILL_DISABLED:
             return text.append(f"{indent}  ⚙ disable {record['skill']}", style="dim") if self.verbose else None
-        if event == "skill-preempted":
+        if event == Event.SKILL_PREEMPTED:
             then = "it waits to resume" if record["outcome"] == ":halted" else "its step fails"
             return text.append(f"{indent}  ⚠ [{record['winner_id']}] {record['winner']} took {record['skill']} "
                                f"from {who}: {then}", style="yellow")
-        if event == "task-waiting":
+        if event == Event.TASK_WAITING:
             return text.append(f"{indent}⏸ {who} waits for {_waited_for(record)}", style="yellow")
-        if event == "task-resumed":
+        if event == Event.TASK_RESUMED:
             after = f"after {record['waited']:g} s"
             if "skill" in record:
                 then = f": it chooses its method again ({record['rechoose']})" if "rechoose" in record else ""
                 return text.append(f"{indent}⏵ {who} has {record['skill']} {after}{then}", style="yellow")
             return text.append(f"{indent}⏵ {who} tries again {after} ({record['by']})", style="yellow")
-        if event in ("skill-waiting", "skill-resumed"):
-            mark = "⏸" if event == "skill-waiting" else "⏵"
+        if event in (Event.SKILL_WAITING, Event.SKILL_RESUMED):
+            mark = "⏸" if event == Event.SKILL_WAITING else "⏵"
             return text.append(f"  {mark} {record['skill']}: {record['reason']}", style="yellow")
-        if event == "memory-error":
+        if event == Event.MEMORY_ERROR:
             return text.append(f"  ✗ memory error on {record['fact']}: {record['error']}", style="bold red")
-        if event == "layer-switched":
+        if event == Event.LAYER_SWITCHED:
             was = f" (was {record['previous']})" if record.get("previous") else ""
             return text.append(f"  ⇄ Layer {record['layer']} primary{was}: {record['reason']}", style="bold cyan")
-        if event.startswith("plan-") or event == "replanned":
+        if event.startswith("plan-") or event == Event.REPLANNED:
             line = _plan_line(text, indent, record)
             if line is not None:
                 return line
-        if event in ("fact-asserted", "fact-retracted"):
+        if event in (Event.FACT_ASSERTED, Event.FACT_RETRACTED):
             if not self.verbose and record["fact"].startswith(QUIET_FACTS):
                 return None
-            sign = "+" if event == "fact-asserted" else "-"
+            sign = "+" if event == Event.FACT_ASSERTED else "-"
             by = f"  ({record['by']})" if "by" in record else ""
             return text.append(f"  {sign} {record['fact']}", style="blue").append(by, style="dim")
         return text.append(f"{event} " + " ".join(f"{k}={v}" for k, v in record.items() if k not in ("t", "event")))
@@ -143,32 +144,32 @@ def _plan_line(text: Text, indent: str, record: dict) -> Text | None:
     event = record["event"]
     version = f" v{record['version']}" if record.get("version", 1) > 1 else ""
     n = f"{record['plan']}{version}" if event.startswith("plan-step") else record["plan"]
-    if event == "plan-requested":
+    if event == Event.PLAN_REQUESTED:
         deadline = f" by t={record['deadline']:g} s" if "deadline" in record else ""
         return text.append(f"{indent}  ◆ plan {n}: planning for {' '.join(record['goals'])}{deadline}", style="cyan")
-    if event == "plan-ready":
+    if event == Event.PLAN_READY:
         steps = f"{record['steps']} step{'' if record['steps'] == 1 else 's'}"
         return text.append(f"{indent}  ◆ plan {n}{version} ready after {record['latency']:g} s: "
                            f"{steps}, makespan {record['makespan']:g} s: "
                            + ", ".join(record["actions"]), style="bold cyan")
-    if event == "plan-step-started":
+    if event == Event.PLAN_STEP_STARTED:
         agent = f" [{record['agent']}]" if record.get("agent") else ""
         return text.append(f"{indent}  ◆ plan {n} s{record['step']} {record['action']}{agent} starts", style="cyan")
-    if event == "plan-step-done":
+    if event == Event.PLAN_STEP_DONE:
         return text.append(f"{indent}  ◆ plan {n} s{record['step']} {record['action']} done", style="green")
-    if event == "plan-step-failed":
+    if event == Event.PLAN_STEP_FAILED:
         return text.append(f"{indent}  ◆ plan {n} s{record['step']} {record['action']} failed: {record['reason']}",
                            style="red")
-    if event == "replanned":
+    if event == Event.REPLANNED:
         moved = "; ".join(f"{r['action']} {r['from']}→{r['to']}" for r in record["reassigned"])
         parts = [f"kept {len(record['kept'])}", f"new {len(record['new'])}", f"halted {len(record['halted'])}",
                  f"done before {len(record['done'])}"] + ([f"re-assigned {moved}"] if moved else [])
         return text.append(f"{indent}  ◆ plan {n} re-planned{version} ({record['cause']}): " + ", ".join(parts),
                            style="bold yellow")
-    if event == "plan-abandoned":
+    if event == Event.PLAN_ABANDONED:
         what = "gave up " + " ".join(record["goals"]) if record["scope"] == "goal" else "abandoned"
         return text.append(f"{indent}  ◆ plan {n} {what}: {record['reason']}", style="bold red")
-    if event == "plan-done":
+    if event == Event.PLAN_DONE:
         return text.append(f"{indent}  ◆ plan {n} done: {' '.join(record['goals'])}", style="bold green")
     return None  # another plan record: the generic line
 

@@ -48,6 +48,8 @@ from foxglove.messages import (
     Vector3,
 )
 
+from atlas_rap.trace_events import Event
+
 MAP_FRAME = "map"
 """The world's frame: x, y in metres as in the world file."""
 
@@ -64,8 +66,8 @@ _ROUTE = Color(r=0.95, g=0.75, b=0.05, a=1.0)
 _TEXT = Color(r=0.1, g=0.1, b=0.1, a=1.0)
 _NO_ROTATION = Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
 
-_ERROR_EVENTS = frozenset({"task-failed", "plan-abandoned", "memory-error"})
-_WARNING_EVENTS = frozenset({"plan-step-failed", "skill-preempted", "task-halted"})
+_ERROR_EVENTS = frozenset({Event.TASK_FAILED, Event.PLAN_ABANDONED, Event.MEMORY_ERROR})
+_WARNING_EVENTS = frozenset({Event.PLAN_STEP_FAILED, Event.SKILL_PREEMPTED, Event.TASK_HALTED})
 
 
 def nanoseconds(t: float) -> int:

@@ -39,6 +39,7 @@ import numpy as np
 from atlas_rap.logic import Compound, Var, term_to_str
 from atlas_rap.model import Point
 from atlas_rap.skills.beliefs import GRID, HOLD, POSE, ROUTES, Beliefs, PlannedRoute
+from atlas_rap.trace_events import Event
 
 if TYPE_CHECKING:
     from atlas_rap.sequencer import Sequencer
@@ -209,7 +210,7 @@ class LayerStack:
         previous, self.primary = self.primary, layer
         now = self.sequencer.now()
         self.timeline.append(Switch(now, layer, previous, reason))
-        self.sequencer.trace.emit("layer-switched", layer=layer, previous=previous, reason=reason)
+        self.sequencer.trace.emit(Event.LAYER_SWITCHED, layer=layer, previous=previous, reason=reason)
         driver = self._driving_layer()
         if driver != self._driver:
             self._driver = driver

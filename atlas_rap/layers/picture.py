@@ -26,12 +26,14 @@ from __future__ import annotations
 from bisect import bisect_left
 from typing import TYPE_CHECKING
 
+from atlas_rap.trace_events import Event
+
 if TYPE_CHECKING:  # the engine does not import its observers
     from atlas_rap.layers.engine import MissionEngine
 
-_KINDS = {"task-selected": "started", "task-succeeded": "succeeded", "task-failed": "failed"}
-_TIMELINE_TASK_EVENTS = frozenset({"task-selected", "method-selected", "task-succeeded", "task-failed", "task-halted",
-                                   "task-waiting", "task-resumed", "skill-preempted"})
+_KINDS = {Event.TASK_SELECTED: "started", Event.TASK_SUCCEEDED: "succeeded", Event.TASK_FAILED: "failed"}
+_TIMELINE_TASK_EVENTS = frozenset({Event.TASK_SELECTED, Event.METHOD_SELECTED, Event.TASK_SUCCEEDED, Event.TASK_FAILED, Event.TASK_HALTED,
+                                   Event.TASK_WAITING, Event.TASK_RESUMED, Event.SKILL_PREEMPTED})
 
 
 class RunPicture:
@@ -49,7 +51,7 @@ class RunPicture:
 
     def __call__(self, record: dict) -> None:
         event = record["event"]
-        if event == "task-posted":
+        if event == Event.TASK_POSTED:
             parent = record.get("parent")
             depth = self.depth[record["id"]] = self.depth.get(parent, 0) + 1 if parent is not None else 0
             if depth <= 1:
@@ -59,10 +61,10 @@ class RunPicture:
             self._keep_for_timeline(record)
         if event in _KINDS and self.depth.get(record["id"], 9) <= 1:
             self.events.append(record)
-        elif event.startswith("plan-") or event == "replanned":
+        elif event.startswith("plan-") or event == Event.REPLANNED:
             self.plan_events.append(record)
             self.timeline.append(record)
-            if event == "plan-step-started" and record.get("step_task") is not None:
+            if event == Event.PLAN_STEP_STARTED and record.get("step_task") is not None:
                 self._step_tasks.add(record["step_task"])
 
     def _keep_for_timeline(self, record: dict) -> None:
@@ -71,13 +73,13 @@ class RunPicture:
         (methods, halt, waits, skills taken)."""
         event, task = record["event"], record["id"]
         if self.depth.get(task, 9) <= 1:
-            if event == "task-selected":
+            if event == Event.TASK_SELECTED:
                 if task in self._selected:
                     return
                 self._selected.add(task)
             self.timeline.append(record)
-        elif task in self._step_tasks and event in ("method-selected", "task-halted", "task-waiting", "task-resumed",
-                                                    "skill-preempted"):
+        elif task in self._step_tasks and event in (Event.METHOD_SELECTED, Event.TASK_HALTED, Event.TASK_WAITING, Event.TASK_RESUMED,
+                                                    Event.SKILL_PREEMPTED):
             self.timeline.append(record)
 
     def render(self, out_png: str, title: str) -> None:
@@ -120,7 +122,7 @@ class RunPicture:
         path = self.engine.simulation.path
         times = [p[0] for p in path]
         marks, started = [], set()
-        plan_steps = {r["step_task"] for r in self.plan_events if r["event"] == "plan-step-started"}
+        plan_steps = {r["step_task"] for r in self.plan_events if r["event"] == Event.PLAN_STEP_STARTED}
         for record in self.events:
             if record["id"] in plan_steps:
                 continue

@@ -74,6 +74,7 @@ from typing import TYPE_CHECKING, Any, Iterable
 from atlas_rap.errors import AtlasError, RunError
 from atlas_rap.outputs import AtomicFile, OutputError, write_all
 from atlas_rap.skills.beliefs import GRID, ROUTE, SONAR, TOPOLOGY
+from atlas_rap.trace_events import Event
 
 if TYPE_CHECKING:  # the engine does not import its observers
     from atlas_rap.layers.engine import MissionEngine
@@ -439,7 +440,7 @@ class RunRecorder:
         t = record["t"]
         send = self.world.send
         send("/atlas/trace", self.world.m.log_line(record), t)
-        if record["event"] == "layer-switched":
+        if record["event"] == Event.LAYER_SWITCHED:
             send("/atlas/primary_layer", {"layer": record.get("layer"), "previous": record.get("previous"),
                                           "reason": record.get("reason", "")}, t)
 

@@ -9,13 +9,13 @@ build`` and the experiment. How a run stopped is a :class:`RunEnd`.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from enum import Enum
 
 from atlas_rap.layers.executive import Pace, Stop
 from atlas_rap.layers.system import System
 from atlas_rap.sequencer import Task
 from atlas_rap.sequencer.introspect import waiting_for
 from atlas_rap.sequencer.task import SUCCEEDED
+from atlas_rap.trace_events import TextEnum
 
 __all__ = ["DEFAULT_TIME_LIMIT", "RunEnd", "RunResult", "advance", "finish", "halt_live", "run", "take_fault"]
 
@@ -23,7 +23,7 @@ DEFAULT_TIME_LIMIT = 3600.0
 """Simulated seconds a mission may run before its remaining tasks fail (``--until``)."""
 
 
-class RunEnd(str, Enum):
+class RunEnd(TextEnum):
     """How a run stopped. A ``str``: its value is what traces, JSON and messages have always said."""
 
     DONE = "done"
@@ -38,9 +38,6 @@ class RunEnd(str, Enum):
     """Ctrl-C during the run; the live tasks were halted."""
     ERROR = "error"
     """A memory rule broke; the run's notes say how."""
-
-    __str__ = str.__str__
-    __format__ = str.__format__
 
 
 @dataclass

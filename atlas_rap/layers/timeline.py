@@ -59,6 +59,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
 
+from atlas_rap.trace_events import Event
+
 __all__ = ["NO_AGENT", "OUTCOME_COLOURS", "MethodChange", "PlanLine", "Preemption", "StepBar", "TaskBar", "WaitSpan",
            "lanes", "legend_labels", "method_changes", "pack_rows", "plan_lines", "preemptions", "render_timeline",
            "short_action", "stack_labels", "step_bars", "task_bars", "wait_spans"]
@@ -222,19 +224,19 @@ def step_bars(records: Iterable[Mapping[str, Any]]) -> list[StepBar]:
     for record in records:
         event = record.get("event")
         t = float(record.get("t", 0.0))
-        if event not in _PLAN_RECORDS and event != "task-halted":
+        if event not in _PLAN_RECORDS and event != Event.TASK_HALTED:
             continue
         plan = int(record.get("plan", 0))
         if "version" in record and event in _PLAN_RECORDS:
             versions.setdefault(plan, set()).add(int(record["version"]))
-        if event == "plan-step-started":
+        if event == Event.PLAN_STEP_STARTED:
             key = _step_key(record)
             if key in current:  # started again (the same task): the first start counts
                 continue
             current[key] = _segment(segments, key, record.get("agent"), t, plan, int(record.get("version", 1)),
                                     int(record.get("step", 0)), str(record.get("action", "")),
                                     record.get("step_task"))
-        elif event in ("plan-step-done", "plan-step-failed"):
+        elif event in (Event.PLAN_STEP_DONE, Event.PLAN_STEP_FAILED):
             key = _step_key(record)
             seg = current.get(key)
             if seg is None or seg["outcome"] != "running":
@@ -246,13 +248,13 @@ def step_bars(records: Iterable[Mapping[str, Any]]) -> list[StepBar]:
                     seg = current[key] = _hand_over(segments, seg, agent, cut, ver or seg["version"],
                                                     int(record.get("step", seg["step"])),
                                                     str(record.get("action", seg["action"])))
-            seg.update(end=t, outcome="done" if event == "plan-step-done" else "failed",
+            seg.update(end=t, outcome="done" if event == Event.PLAN_STEP_DONE else "failed",
                        reason=str(record.get("reason", "")))
-        elif event == "task-halted":
+        elif event == Event.TASK_HALTED:
             seg = current.get(("task", record.get("id")))
             if seg is not None and seg["outcome"] == "running":
                 seg.update(end=t, outcome="halted", reason=str(record.get("reason", "")))
-        elif event == "replanned":
+        elif event == Event.REPLANNED:
             ver = int(record.get("version", 1))
             last_replan[plan] = (t, ver)
             halted = set(map(str, record.get("halted") or ()))
@@ -269,7 +271,7 @@ def step_bars(records: Iterable[Mapping[str, Any]]) -> list[StepBar]:
                         current[key] = _hand_over(segments, seg, new, t, ver, _step_number(entry.get("step")),
                                                   action)
                         break
-        elif event == "plan-abandoned" and record.get("scope", "plan") == "plan":
+        elif event == Event.PLAN_ABANDONED and record.get("scope", "plan") == "plan":
             for seg in current.values():
                 if seg["plan"] == plan and seg["outcome"] == "running":
                     seg.update(end=t, outcome="halted", reason="the plan was abandoned")
@@ -316,11 +318,11 @@ def plan_lines(records: Iterable[Mapping[str, Any]]) -> list[PlanLine]:
     out: list[PlanLine] = []
     for record in records:
         event = record.get("event")
-        if event not in ("replanned", "plan-abandoned"):
+        if event not in (Event.REPLANNED, Event.PLAN_ABANDONED):
             continue
         plan, ver, t = int(record.get("plan", 0)), int(record.get("version", 1)), float(record.get("t", 0.0))
         prefix = f"p{plan} " if len(plans) > 1 else ""
-        if event == "replanned":
+        if event == Event.REPLANNED:
             label = f"{prefix}re-plan v{ver}: {short_cause(str(record.get('cause', '')))}"
             out.append(PlanLine(t, "replanned", label.rstrip(": "), plan, ver))
         else:
@@ -340,7 +342,7 @@ def method_changes(records: Iterable[Mapping[str, Any]]) -> dict[int, list[Metho
     out: dict[int, list[MethodChange]] = {}
     last: dict[int, str] = {}
     for record in records:
-        if record.get("event") != "method-selected":
+        if record.get("event") != Event.METHOD_SELECTED:
             continue
         task, method = record.get("id"), str(record.get("method", ""))
         if int(record.get("attempt", 1)) > 1:
@@ -361,13 +363,13 @@ def wait_spans(records: Iterable[Mapping[str, Any]]) -> dict[int, list[WaitSpan]
         event, task = record.get("event"), record.get("id")
         t = float(record.get("t", 0.0))
         skill = None if record.get("skill") is None else str(record["skill"])
-        if event == "task-waiting" and skill not in waiting.get(task, {}):
+        if event == Event.TASK_WAITING and skill not in waiting.get(task, {}):
             spans = out.setdefault(task, [])
             waiting.setdefault(task, {})[skill] = len(spans)
             spans.append(WaitSpan(t, None, "retry" if skill is None else "skill", task, skill or ""))
-        elif event == "task-resumed":
+        elif event == Event.TASK_RESUMED:
             _end_waits(out, waiting, task, [skill], t)
-        elif event in _TASK_ENDS or event == "method-selected":
+        elif event in _TASK_ENDS or event == Event.METHOD_SELECTED:
             _end_waits(out, waiting, task, list(waiting.get(task, ())), t)
     return {task: [s for s in spans if s.end is None or s.end > s.start] for task, spans in out.items()}
 
@@ -376,7 +378,7 @@ def preemptions(records: Iterable[Mapping[str, Any]]) -> dict[int, list[Preempti
     """The skills taken from each task (``skill-preempted``), by the holder's task id in time order."""
     out: dict[int, list[Preemption]] = {}
     for record in records:
-        if record.get("event") == "skill-preempted":
+        if record.get("event") == Event.SKILL_PREEMPTED:
             task = record.get("id")
             out.setdefault(task, []).append(Preemption(float(record.get("t", 0.0)), task, str(record.get("skill", "")),
                                                        str(record.get("winner", "")), str(record.get("outcome", ""))))
@@ -392,7 +394,7 @@ class _Waits(NamedTuple):
 
     @classmethod
     def read(cls, records: Sequence[Mapping[str, Any]]) -> _Waits:
-        parents = {r.get("id"): r.get("parent") for r in records if r.get("event") == "task-posted"}
+        parents = {r.get("id"): r.get("parent") for r in records if r.get("event") == Event.TASK_POSTED}
         return cls(wait_spans(records), preemptions(records), parents)
 
     def on(self, task: Any, start: float, end: float | None) -> dict[str, tuple]:
@@ -443,7 +445,7 @@ def task_bars(records: Iterable[Mapping[str, Any]], skip: Iterable[int] = ()) ->
     info: dict[int, dict[str, Any]] = {}
     for record in records:
         event = record.get("event")
-        if event == "task-posted":
+        if event == Event.TASK_POSTED:
             tid, parent = record["id"], record.get("parent")
             depth[tid] = depth.get(parent, 0) + 1 if parent is not None else 0
             if depth[tid] <= 1 and tid not in skip:
@@ -453,7 +455,7 @@ def task_bars(records: Iterable[Mapping[str, Any]], skip: Iterable[int] = ()) ->
         elif record.get("id") in info:
             item = info[record["id"]]
             t = float(record.get("t", 0.0))
-            if event == "task-selected" and item["start"] is None:
+            if event == Event.TASK_SELECTED and item["start"] is None:
                 item["start"] = t
             elif event in _TASK_ENDS and item["end"] is None:
                 item.update(end=t, outcome=_TASK_ENDS[event], reason=str(record.get("reason", "")))
@@ -938,9 +940,9 @@ def _step_key(record: Mapping[str, Any]) -> object:
     return ("step", record.get("plan"), record.get("version"), record.get("step"))
 
 
-_PLAN_RECORDS = frozenset({"plan-requested", "plan-ready", "plan-step-started", "plan-step-done", "plan-step-failed",
-                           "replanned", "plan-abandoned", "plan-done"})
-_TASK_ENDS = {"task-succeeded": "done", "task-failed": "failed", "task-halted": "halted"}
+_PLAN_RECORDS = frozenset({Event.PLAN_REQUESTED, Event.PLAN_READY, Event.PLAN_STEP_STARTED, Event.PLAN_STEP_DONE, Event.PLAN_STEP_FAILED,
+                           Event.REPLANNED, Event.PLAN_ABANDONED, Event.PLAN_DONE})
+_TASK_ENDS = {Event.TASK_SUCCEEDED: "done", Event.TASK_FAILED: "failed", Event.TASK_HALTED: "halted"}
 
 
 def _wrap(text: str, width: int, lines: int) -> list[str]:

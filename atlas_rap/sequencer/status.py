@@ -16,14 +16,7 @@ This module imports nothing, so every part of the sequencer can use it.
 
 from __future__ import annotations
 
-from enum import Enum
-
-
-class TextEnum(str, Enum):
-    """A ``str`` enum whose members print as their value on every Python (``enum.StrEnum`` is 3.11+)."""
-
-    __str__ = str.__str__
-    __format__ = str.__format__
+from atlas_rap.trace_events import TextEnum
 
 
 class Status(TextEnum):

@@ -45,6 +45,7 @@ from typing import Any
 from atlas_rap.model import World
 from atlas_rap.pictures import DPI as _DPI
 from atlas_rap.pictures import map_layout, save_figure_png
+from atlas_rap.trace_events import Event
 
 __all__ = ["PLAN_EVENTS", "TASK_MARK_KINDS", "PlanNote", "PlanStepMark", "TaskMark", "plan_legend_rows",
            "plan_marks", "render_run"]
@@ -63,8 +64,8 @@ class TaskMark:
     kind: str
 
 
-PLAN_EVENTS = frozenset({"plan-ready", "plan-step-started", "plan-step-done", "plan-step-failed", "replanned",
-                         "plan-abandoned", "plan-done"})
+PLAN_EVENTS = frozenset({Event.PLAN_READY, Event.PLAN_STEP_STARTED, Event.PLAN_STEP_DONE, Event.PLAN_STEP_FAILED, Event.REPLANNED,
+                         Event.PLAN_ABANDONED, Event.PLAN_DONE})
 """The trace events of the plan executive that the picture shows."""
 
 
@@ -607,7 +608,7 @@ def plan_marks(
         plan = int(record.get("plan", 0))
         ver = int(record.get("version", version.get(plan, 1)))
         version[plan] = ver
-        if event == "plan-step-started":
+        if event == Event.PLAN_STEP_STARTED:
             key = _step_key(record)
             if key in started:  # started again (the same task): the first start counts
                 continue
@@ -615,24 +616,24 @@ def plan_marks(
             started[key] = {"time": t, "x": x, "y": y, "plan": plan, "version": ver,
                             "step": int(record.get("step", 0)), "action": str(record.get("action", "")),
                             "agent": record.get("agent"), "outcome": "running", "end": None, "reason": ""}
-        elif event in ("plan-step-done", "plan-step-failed"):
+        elif event in (Event.PLAN_STEP_DONE, Event.PLAN_STEP_FAILED):
             step = started.get(_step_key(record))
             if step is not None and step["outcome"] == "running":
-                step.update(outcome="done" if event == "plan-step-done" else "failed", end=t,
+                step.update(outcome="done" if event == Event.PLAN_STEP_DONE else "failed", end=t,
                             reason=str(record.get("reason", "")))
         else:
             x, y = where(t)
-            if event == "replanned":
+            if event == Event.REPLANNED:
                 halted = set(map(str, record.get("halted", ())))
                 for step in started.values():
                     if step["plan"] == plan and step["outcome"] == "running" and step["action"] in halted:
                         step.update(outcome="halted", end=t, reason=f"re-plan v{ver} dropped it")
-            elif event == "plan-abandoned" and record.get("scope", "plan") == "plan":
+            elif event == Event.PLAN_ABANDONED and record.get("scope", "plan") == "plan":
                 for step in started.values():
                     if step["plan"] == plan and step["outcome"] == "running":
                         step.update(outcome="halted", end=t, reason="the plan was abandoned")
-            kind = {"plan-ready": "ready", "replanned": "replanned", "plan-abandoned": "abandoned",
-                    "plan-done": "finished"}[event]
+            kind = {Event.PLAN_READY: "ready", Event.REPLANNED: Event.REPLANNED, Event.PLAN_ABANDONED: "abandoned",
+                    Event.PLAN_DONE: "finished"}[event]
             notes.append(PlanNote(t, x, y, plan, ver, kind, _note_text(kind, t, plan, ver, record)))
     steps = sorted((PlanStepMark(**s) for s in started.values()), key=lambda m: m.time)
     return steps, notes

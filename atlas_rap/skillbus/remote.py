@@ -54,6 +54,7 @@ from atlas_rap.skillbus.messages import (MAX_MESSAGE, Ack, DecodeError, Disable,
 from atlas_rap.skillbus.protocol import ALIVE, END, GONE, HELLO, Peer, Position, log
 from atlas_rap.skillbus.skill_link import SkillHost
 from atlas_rap.skillbus.zenoh_bus import BusError, Conversation, close_session, open_session
+from atlas_rap.trace_events import Event
 
 HOST_LOST = "skill host lost"
 """The reason a step gets when the host running its skill is lost."""
@@ -300,7 +301,7 @@ class HostLink(Peer):
         if not self.alive:
             self.waiting.pop(host_call, None)
             self.waiting[host_call] = call
-            self.fleet.trace("skill-waiting", skill=term_to_str(call), robot=self.robot,
+            self.fleet.trace(Event.SKILL_WAITING, skill=term_to_str(call), robot=self.robot,
                              reason=f"{HOST_LOST}: waiting up to {self.fleet.host_grace:g} s for it to come back")
             return
         self.enabled.pop(host_call, None)
@@ -345,7 +346,7 @@ class HostLink(Peer):
         """A new session with the host that came back: the skills that waited for it are enabled."""
         waiting, self.waiting = list(self.waiting.items()), {}
         for host_call, call in waiting:
-            self.fleet.trace("skill-resumed", skill=term_to_str(call), robot=self.robot,
+            self.fleet.trace(Event.SKILL_RESUMED, skill=term_to_str(call), robot=self.robot,
                              reason="its skill host is back")
             self.enable(host_call, call)
 

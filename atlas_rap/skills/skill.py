@@ -47,7 +47,11 @@ from atlas_rap.logic import Compound
 from atlas_rap.skills.beliefs import Beliefs
 
 if TYPE_CHECKING:
+    import numpy as np
+
+    from atlas_rap.sim.world import World
     from atlas_rap.skillbus.skill_link import SkillHost
+    from atlas_rap.skills.robot import Robot
 
 HALTED = ":halted"
 """The reason :meth:`Skill.disable` is given when the skill is stopped before it finished."""
@@ -73,16 +77,18 @@ class SkillRunner(Protocol):
 class SkillContext:
     """What a skill may use: the world's prior map, the robot, shared beliefs and the event channel.
 
-    ``robot`` is the body the skills sense and drive (the simulation, or a
-    real robot's driver with the same methods); ``beliefs`` is shared
+    ``world`` is what the robot believes of the world (a
+    :class:`~atlas_rap.sim.world.World`), ``robot`` the body the skills sense and
+    drive (:class:`~atlas_rap.skills.robot.Robot`: the simulation, or a real
+    robot's driver with the same methods); ``beliefs`` is shared
     state that is not a data flow, under typed keys (:mod:`atlas_rap.skills.beliefs`:
     the doors observed closed, the grid, the route); ``rng`` the run's one random generator.
     """
 
     manager: SkillRunner
-    world: Any = None
-    robot: Any = None
-    rng: Any = None
+    world: World | None = None
+    robot: Robot | None = None
+    rng: np.random.Generator | None = None
     beliefs: Beliefs = field(default_factory=Beliefs)
 
     def now(self) -> float:
