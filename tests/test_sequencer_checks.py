@@ -121,7 +121,7 @@ def test_a_wait_for_that_nothing_can_produce_is_a_warning_not_an_error(tmp_path)
         "(define-rap (unused) (method (task-net (wait-for (never-posted)))))\n"
         "(post (go))\n"), encoding="utf-8")
     mission = load_mission(path)
-    (warning,) = mission.warnings
+    (warning,) = mission.library.warnings
     assert warning.severity == "warning"
     assert "this wait-for can never match: nothing asserts dokced facts" in warning.message
     assert at(warning) == (3, 40)
@@ -134,7 +134,7 @@ def test_a_wait_for_on_a_fact_that_a_skill_script_asserts_is_not_warned(tmp_path
         "(define-rap (go) (method (task-net\n"
         "  (sequence (dock h) (wait-for (docked h)) (wait-for (or (x) (docked h)))))))\n"
         "(post (go))\n", encoding="utf-8")
-    assert load_mission(path).warnings == []
+    assert load_mission(path).library.warnings == []
 
 
 # -- memory: arithmetic in facts, rules that trigger each other --------------------
@@ -168,7 +168,7 @@ def test_arithmetic_with_a_value_in_initial_memory_and_at_time_is_fine(tmp_path)
     path = tmp_path / "m.rap"
     path.write_text(POST_GO + "(initial-memory (level (+ 1 2)))\n(at-time 2 (assert (level (* 2 (- 3)))))\n",
                     encoding="utf-8")
-    assert load_mission(path).warnings == []
+    assert load_mission(path).library.warnings == []
 
 
 CYCLE = (
@@ -180,7 +180,7 @@ CYCLE = (
 def test_memory_rules_that_trigger_each_other_are_warned_at_the_first_rule_of_the_cycle(tmp_path):
     path = tmp_path / "m.rap"
     path.write_text(POST_GO + CYCLE, encoding="utf-8")
-    (warning,) = load_mission(path).warnings
+    (warning,) = load_mission(path).library.warnings
     assert warning.severity == "warning"
     assert at(warning) == (4, 1)
     file = warning.location.file
@@ -198,7 +198,7 @@ def test_a_rule_that_triggers_itself_is_warned_and_the_hint_names_its_when(tmp_p
         "(define-memory-rule echo (on (seen ?x)) (assert (seen ?x)))\n"
         "(define-memory-rule count (on (count ?n)) (when (< ?n 10)) (assert (count (+ ?n 1))))\n"),
         encoding="utf-8")
-    (warning,) = load_mission(path).warnings
+    (warning,) = load_mission(path).library.warnings
     assert at(warning) == (7, 1)
     assert warning.message.startswith("memory rule count (")
     assert warning.message.endswith(":7:1) can trigger itself: it asserts a fact its own (on ...) matches")
