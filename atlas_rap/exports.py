@@ -4,7 +4,7 @@
 names in ``__all__`` as ``atlas_rap.lang`` does, but their modules pull in
 numpy, scipy, pymunk or click, and importing one module of a package runs
 the package's ``__init__`` first: importing every module there would make
-``atlas check`` and ``atlas_rap.maps.render`` pay for all of them. So the
+``atlas check`` and ``atlas_rap.views.map_render`` pay for all of them. So the
 package's ``__getattr__`` imports a name's module when the name is asked for::
 
     _EXPORTS = {"grid": ("OccupancyGrid",), "topology": ("Topology", "build_topology")}

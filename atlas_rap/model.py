@@ -3,7 +3,7 @@
 These frozen dataclasses are the contract between the world files
 (``sim.world`` reads YAML into them), the physics (``sim.physics`` builds a
 pymunk space from them), the skills (which plan routes over places and
-doors) and the pictures (``sim.render``). Units are SI: metres, seconds,
+doors) and the pictures (``views.world_render``). Units are SI: metres, seconds,
 radians; angles are counter-clockwise from the +x axis.
 
 The robot's *prior map* is the places and doors with their connections

@@ -47,7 +47,7 @@ def emit(record: dict) -> None:
 
 
 def bench_experiment(runs: int) -> None:
-    from atlas_rap.layers.experiment import Settings, skill_acquisition, write_results
+    from atlas_rap.views.experiment import Settings, skill_acquisition, write_results
 
     best, data = float("inf"), None
     for _ in range(runs):
@@ -78,7 +78,7 @@ def one_errand(mission: Path, **options) -> tuple[float, float]:
 
 
 def bench_mapping(runs: int) -> None:
-    from atlas_rap.layers.experiment import Settings, errand_file
+    from atlas_rap.views.experiment import Settings, errand_file
 
     kinds = {"without": {}, "mapping": {"mapping": True}, "exploring": {"prior_map": False}}
     with tempfile.TemporaryDirectory() as out:

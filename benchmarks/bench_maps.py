@@ -83,7 +83,8 @@ def bench_sonar_updates(runs: int) -> dict:
 
 def bench_real_maps(pictures: Path) -> list[dict]:
     """Every level of each real map in ../shared/data/maps, with pictures; [] when the data is absent."""
-    from atlas_rap.maps.levels import abstract_map, write_levels
+    from atlas_rap.maps.abstraction import abstract_map
+    from atlas_rap.views.map_levels import write_levels
     from atlas_rap.maps.rosmap import load_ros_map
 
     folder = HERE.parent.parent / "shared" / "data" / "maps"

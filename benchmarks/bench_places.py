@@ -178,7 +178,8 @@ def bench_speed(cells: list[float], runs: int) -> None:
 
 
 def bench_output(runs: int) -> None:
-    from atlas_rap.maps.levels import abstract_map, write_levels
+    from atlas_rap.maps.abstraction import abstract_map
+    from atlas_rap.views.map_levels import write_levels
     from atlas_rap.maps.rosmap import load_ros_map
     from atlas_rap.shipped import shipped_root
 

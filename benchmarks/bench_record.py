@@ -2,7 +2,7 @@
 
 Runs ``rap_library/missions/deliver.rap`` in-process (the engine, as
 ``atlas run`` drives it; loading and interpreter start-up left out) with
-and without a :class:`~atlas_rap.layers.recording.RunRecorder` writing an
+and without a :class:`~atlas_rap.views.recording.RunRecorder` writing an
 MCAP file (its close included), alternating the two so that both see the
 same machine, and prints one JSON object a line:
 
@@ -39,7 +39,7 @@ def emit(record: dict) -> None:
 def run_once(record_to: Path | None, prior_map: bool) -> tuple[float, float, int]:
     """One run of deliver.rap; (wall seconds of the run and the recorder's close, simulated seconds, MCAP bytes)."""
     from atlas_rap.layers import MissionEngine, RunOptions
-    from atlas_rap.layers.recording import RunRecorder
+    from atlas_rap.views.recording import RunRecorder
 
     engine = MissionEngine(RunOptions(seed=0, prior_map=prior_map))
     recorder = RunRecorder(engine, path=record_to) if record_to is not None else None

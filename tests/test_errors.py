@@ -110,7 +110,7 @@ def test_a_plan_raises_the_plan_area(tmp_path):
 
 
 def test_a_recording_that_cannot_be_read_raises_the_run_area(tmp_path):
-    from atlas_rap.layers.mcap_reader import read_recording
+    from atlas_rap.views.mcap_reader import read_recording
 
     with pytest.raises(errors.RunError):
         read_recording(tmp_path / "missing.mcap")

@@ -210,7 +210,7 @@ def test_walls_thicker_than_the_map_cost_no_more_than_walls_as_thick_as_it():
     import numpy as np
 
     from atlas_rap.maps.frame import GridFrame
-    from atlas_rap.maps.levels import abstract_map
+    from atlas_rap.maps.abstraction import abstract_map
     from atlas_rap.maps.rooms import RoomSettings
 
     p_occ = np.full((60, 80), 0.05, dtype=np.float32)

@@ -1,4 +1,4 @@
-"""Figures of the skill-acquisition experiment (layers.figures): timelines as spans, and the four PNGs."""
+"""Figures of the skill-acquisition experiment (views.figures): timelines as spans, and the four PNGs."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pytest
 from matplotlib.colors import to_rgb
 from matplotlib.image import imread
 
-from atlas_rap.layers.figures import (
+from atlas_rap.views.figures import (
     LAYER_COLOURS,
     LAYERS,
     plot_durations,

@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from atlas_rap.layers import MissionEngine, RunOptions
-from atlas_rap.layers.experiment import Settings, errand_file, skill_acquisition
+from atlas_rap.views.experiment import Settings, errand_file, skill_acquisition
 from atlas_rap.sequencer import Trace
 from atlas_rap.shipped import shipped_root
 from atlas_rap.skills.beliefs import GRID, Belief, Beliefs

@@ -1,4 +1,4 @@
-"""Writing every level of a map (maps.levels.write_levels) is cheap, and what it writes reads back the same.
+"""Writing every level of a map (views.map_levels.write_levels) is cheap, and what it writes reads back the same.
 
 Issue 13, part 4: writing the levels used to cost ten to twenty times the
 abstraction. The pictures share one MapSheet and draw few artists (see
@@ -17,7 +17,8 @@ import numpy as np
 
 from atlas_rap.maps import topology as topology_module
 from atlas_rap.maps.frame import GridFrame
-from atlas_rap.maps.levels import abstract_map, save_npz, write_levels
+from atlas_rap.maps.abstraction import abstract_map
+from atlas_rap.views.map_levels import save_npz, write_levels
 from atlas_rap.maps.topology import Topology
 
 DATA = ("grid.npz", "topology.json", "topology.graphml")

@@ -1,4 +1,4 @@
-"""Pictures of map levels (maps.render): each writes a decodable, reproducible PNG that shows what it should."""
+"""Pictures of map levels (views.map_render): each writes a decodable, reproducible PNG that shows what it should."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from matplotlib.image import imread
 from scipy import ndimage
 
 from atlas_rap.maps.frame import GridFrame
-from atlas_rap.maps.render import (
+from atlas_rap.views.map_render import (
     MapSheet,
     render_distance_transform,
     render_edges,
@@ -396,6 +396,6 @@ def test_rotated_frame_and_nested_folders(tmp_path):
 
 
 def test_importing_the_module_does_not_import_matplotlib():
-    code = "import sys, atlas_rap.maps.render; print('matplotlib' in sys.modules, 'scipy' in sys.modules)"
+    code = "import sys, atlas_rap.views.map_render; print('matplotlib' in sys.modules, 'scipy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False False"

@@ -24,7 +24,7 @@ from planner_cases import (
     sequential_plan,
 )
 
-from atlas_rap.planner.dot import plan_dot
+from atlas_rap.views.plan_dot import plan_dot
 from atlas_rap.logic import Compound, Subst, Term, Var, substitute
 from atlas_rap.planner.agents import AgentProblem, assign_agents
 from atlas_rap.planner.checks import check_problem

@@ -12,13 +12,13 @@ from cli_process import assert_no_traceback, atlas
 from matplotlib.image import imread
 from planner_cases import DELIVERY, write_ap
 
-from atlas_rap.planner.dot import plan_dot
+from atlas_rap.views.plan_dot import plan_dot
 from atlas_rap.lang import load
 from atlas_rap.logic import Compound
-from atlas_rap.planner.order_picture import GOAL, INIT, drawn_edges, order_columns, render_order
+from atlas_rap.views.order_picture import GOAL, INIT, drawn_edges, order_columns, render_order
 from atlas_rap.planner.plan import Plan, PlanStep
 from atlas_rap.planner.problem import problem_from_program
-from atlas_rap.planner.render import (
+from atlas_rap.views.plan_render import (
     agent_colours,
     counter_labels,
     lane_rows,

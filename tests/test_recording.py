@@ -2,7 +2,7 @@
 
 The recordings are read back with the `mcap` package itself (in file order,
 to see that every channel is written in time order) and with our reader
-(`layers.mcap_reader`), and checked against the JSON-lines trace of the same
+(`views.mcap_reader`), and checked against the JSON-lines trace of the same
 run and against the run's simulated duration.
 """
 
@@ -26,8 +26,8 @@ pytest.importorskip("mcap")
 
 from mcap.reader import make_reader  # noqa: E402
 
-from atlas_rap.layers.mcap_reader import read_recording  # noqa: E402
-from atlas_rap.layers.recording import POSE_RATE, TOPICS  # noqa: E402
+from atlas_rap.views.mcap_reader import read_recording  # noqa: E402
+from atlas_rap.views.recording import POSE_RATE, TOPICS  # noqa: E402
 
 DELIVER = str(REPO / "rap_library" / "missions" / "deliver.rap")
 GRIPPER_BROKEN = str(REPO / "rap_library" / "missions" / "gripper-broken.rap")
@@ -35,7 +35,7 @@ GRIPPER_BROKEN = str(REPO / "rap_library" / "missions" / "gripper-broken.rap")
 
 def file_order(path: Path) -> dict[str, list[tuple[int, str, int]]]:
     """Per topic, (log time, schema name, the message's own timestamp in ns or -1) in the order written."""
-    from atlas_rap.layers.mcap_reader import ProtobufSchemas
+    from atlas_rap.views.mcap_reader import ProtobufSchemas
 
     decoders: dict[bytes, ProtobufSchemas] = {}
     found: dict[str, list[tuple[int, str, int]]] = defaultdict(list)

@@ -1,4 +1,4 @@
-"""The picture of a run with a plan (sim.render): where each plan step started and how it
+"""The picture of a run with a plan (views.world_render): where each plan step started and how it
 ended, re-plans and abandoned plans, read from the plan executive's trace records. A unit
 test of the renderer: a small world, a hand-made path and hand-made records."""
 
@@ -11,7 +11,7 @@ from matplotlib.image import imread
 from plan_records import ended as _ended
 from plan_records import started as _started
 from atlas_rap.model import Door, Place, RobotConfig, Segment, World
-from atlas_rap.sim.render import PLAN_EVENTS, plan_legend_rows, plan_marks, render_run
+from atlas_rap.views.world_render import PLAN_EVENTS, plan_legend_rows, plan_marks, render_run
 
 
 def _world() -> World:

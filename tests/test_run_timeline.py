@@ -1,4 +1,4 @@
-"""The timeline of a run with no world (layers.timeline, ``atlas run --render`` in ``(world none)``):
+"""The timeline of a run with no world (views.timeline, ``atlas run --render`` in ``(world none)``):
 plan steps in a lane per agent, re-plans and abandons as lines, tasks below; read from trace records."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from matplotlib.image import imread
 
 from plan_records import ended as _ended
 from plan_records import started as _started
-from atlas_rap.layers.timeline import (NO_AGENT, OUTCOME_COLOURS, lanes, method_changes, pack_rows, plan_lines,
+from atlas_rap.views.timeline import (NO_AGENT, OUTCOME_COLOURS, lanes, method_changes, pack_rows, plan_lines,
                                        render_timeline, short_action, short_cause, stack_labels, step_bars,
                                        task_bars)
 from cli_process import REPO, assert_no_traceback, atlas
@@ -218,7 +218,7 @@ def test_a_timeline_of_nothing_and_of_tasks_alone(tmp_path) -> None:
 
 
 def test_importing_the_module_does_not_import_matplotlib() -> None:
-    code = "import sys, atlas_rap.layers.timeline; print('matplotlib' in sys.modules)"
+    code = "import sys, atlas_rap.views.timeline; print('matplotlib' in sys.modules)"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO)
     assert done.stdout.strip() == "False", done.stderr
 
@@ -247,7 +247,8 @@ def test_atlas_run_render_a_run_without_plans(tmp_path) -> None:
 def test_the_run_picture_keeps_what_the_timeline_needs() -> None:
     """RunPicture keeps tasks at most one level down (first selection, method changes, end) and the plan
     steps' tasks' method changes, not every record."""
-    from atlas_rap.layers import MissionEngine, RunOptions, RunPicture
+    from atlas_rap.layers import MissionEngine, RunOptions
+    from atlas_rap.views import RunPicture
 
     engine = MissionEngine(RunOptions(world="none", seed=0))
     picture = RunPicture(engine)
@@ -269,7 +270,8 @@ def test_the_run_picture_keeps_what_the_timeline_needs() -> None:
 
 
 def test_the_run_picture_leaves_out_tasks_two_levels_down() -> None:
-    from atlas_rap.layers import MissionEngine, RunOptions, RunPicture
+    from atlas_rap.layers import MissionEngine, RunOptions
+    from atlas_rap.views import RunPicture
 
     engine = MissionEngine(RunOptions(world="none", seed=0))
     picture = RunPicture(engine)

@@ -1,4 +1,4 @@
-"""Pictures of runs (sim.render): the PNG exists, decodes, shows the path, and is reproducible."""
+"""Pictures of runs (views.world_render): the PNG exists, decodes, shows the path, and is reproducible."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 from matplotlib.image import imread
 
 from atlas_rap.model import Door, Place, RobotConfig, Segment, World
-from atlas_rap.sim.render import TaskMark, render_run
+from atlas_rap.views.world_render import TaskMark, render_run
 
 
 def _world() -> World:
@@ -154,6 +154,6 @@ def test_awkward_inputs(tmp_path):
 
 
 def test_importing_the_module_does_not_import_matplotlib():
-    code = "import sys, atlas_rap.sim.render; print('matplotlib' in sys.modules)"
+    code = "import sys, atlas_rap.views.world_render; print('matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"

@@ -1,4 +1,4 @@
-"""Waiting on the timeline of a run with no world (layers.timeline): the spans a task, or a task
+"""Waiting on the timeline of a run with no world (views.timeline): the spans a task, or a task
 below it, waited for a skill another task held or before retrying, and the skills taken from it,
 read from the trace records of real runs and drawn on its bar."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.image import imread
 
-from atlas_rap.layers.timeline import (OUTCOME_COLOURS, Preemption, WaitSpan, _tint, legend_labels, plan_lines,
+from atlas_rap.views.timeline import (OUTCOME_COLOURS, Preemption, WaitSpan, _tint, legend_labels, plan_lines,
                                        preemptions, render_timeline, step_bars, task_bars, wait_spans)
 from cli_process import REPO, assert_no_traceback, atlas
 from scenario import Scenario, run

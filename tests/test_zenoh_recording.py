@@ -22,8 +22,8 @@ pytest.importorskip("mcap")
 from mcap.reader import make_reader  # noqa: E402
 from bus_processes import DELIVER, Running, free_port, processes  # noqa: E402,F401  (processes: a fixture)
 
-from atlas_rap.layers.mcap_reader import read_recording  # noqa: E402
-from atlas_rap.layers.recording import POSE_RATE, WORLD_TOPICS  # noqa: E402
+from atlas_rap.views.mcap_reader import read_recording  # noqa: E402
+from atlas_rap.views.recording import POSE_RATE, WORLD_TOPICS  # noqa: E402
 
 
 def recording_host(processes, tmp_path: Path, port: int, *args: str) -> Running:

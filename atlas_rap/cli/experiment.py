@@ -48,7 +48,7 @@ def skill_acquisition_command(runs: int, seed: int, world: str, obstacles: str, 
     from rich.progress import Progress
 
     from atlas_rap.cli.console import console
-    from atlas_rap.layers.experiment import Settings, skill_acquisition, write_results
+    from atlas_rap.views.experiment import Settings, skill_acquisition, write_results
     from atlas_rap.outputs import naming, write_all
 
     settings = Settings(world=world, runs=runs, seed=seed, obstacles=None if obstacles == "none" else obstacles,
@@ -93,6 +93,6 @@ def _say_run(run: dict) -> None:
 
 
 def _result_files() -> tuple[str, ...]:
-    from atlas_rap.layers.experiment import RESULT_FILES
+    from atlas_rap.views.experiment import RESULT_FILES
 
     return RESULT_FILES

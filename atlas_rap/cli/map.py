@@ -67,7 +67,8 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
     from atlas_rap.errors import AtlasError
     from atlas_rap.layers import MissionEngine, RunOptions
     from atlas_rap.maps.inference import InferenceGrid
-    from atlas_rap.maps.levels import abstract_map, write_levels
+    from atlas_rap.maps.abstraction import abstract_map
+    from atlas_rap.views.map_levels import write_levels
     from atlas_rap.outputs import naming, write_all
     from atlas_rap.shipped import resolve_user_path
     from atlas_rap.skills.beliefs import POSES
@@ -158,7 +159,8 @@ def abstract_command(map_yaml: str, out_dir: str, robot_radius: float, world: st
     (rooms and corridors, cut at the doorways in the walls), stochastic SDT,
     topological graph (JSON, GraphML, PNG).
     """
-    from atlas_rap.maps.levels import abstract_map, write_levels
+    from atlas_rap.maps.abstraction import abstract_map
+    from atlas_rap.views.map_levels import write_levels
     from atlas_rap.maps.rosmap import load_ros_map
     from atlas_rap.outputs import naming
 
@@ -182,7 +184,7 @@ def abstract_command(map_yaml: str, out_dir: str, robot_radius: float, world: st
 def render_command(map_file: str, out_png: str) -> None:
     """Draw a map: a ROS map_server YAML, or a grid.npz written by `atlas map build`/`abstract`."""
     from atlas_rap.maps.grid import load_grid_arrays
-    from atlas_rap.maps.render import render_grid
+    from atlas_rap.views.map_render import render_grid
     from atlas_rap.maps.rosmap import load_ros_map
     from atlas_rap.outputs import naming
 
@@ -198,13 +200,13 @@ def render_command(map_file: str, out_png: str) -> None:
 
 
 def _built_files() -> tuple[str, ...]:
-    from atlas_rap.maps.levels import LEVEL_FILES
+    from atlas_rap.views.map_levels import LEVEL_FILES
 
     return ("occupancy.npz", "occupancy.yaml", "occupancy.pgm", *LEVEL_FILES)
 
 
 def _level_files() -> tuple[str, ...]:
-    from atlas_rap.maps.levels import LEVEL_FILES
+    from atlas_rap.views.map_levels import LEVEL_FILES
 
     return LEVEL_FILES
 

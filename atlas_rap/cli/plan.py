@@ -134,7 +134,7 @@ def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_f
     if as_json:
         click.echo(result.to_json(timing))
     elif as_dot:
-        from atlas_rap.planner.dot import plan_dot
+        from atlas_rap.views.plan_dot import plan_dot
 
         click.echo(plan_dot(result))
     else:
@@ -149,11 +149,11 @@ def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_f
 
         writers["--plan-file"] = lambda: write_plan_file(plan_file, result.sequence)
     if render:
-        from atlas_rap.planner.render import render_plan
+        from atlas_rap.views.plan_render import render_plan
 
         writers["--render"] = lambda: render_plan(result, render)
     if render_order:
-        from atlas_rap.planner.order_picture import render_order as draw_order
+        from atlas_rap.views.order_picture import render_order as draw_order
 
         writers["--render-order"] = lambda: draw_order(result, render_order)
     failed = write_all(writers)

@@ -27,7 +27,7 @@ def show_command(recording: str, out: str | None, as_json: bool) -> None:
     its messages by the schemas it carries.
     """
     from atlas_rap.cli.console import console
-    from atlas_rap.layers.mcap_reader import read_recording
+    from atlas_rap.views.mcap_reader import read_recording
 
     printer = console()
     data = read_recording(recording)
@@ -40,7 +40,7 @@ def show_command(recording: str, out: str | None, as_json: bool) -> None:
             printer.print(f"{topic:<21} {schema:<24} {count:>6} messages  {times[0]:8.1f} … {times[-1]:.1f} s",
                           markup=False)
     if out:
-        from atlas_rap.layers.mcap_picture import render_recording
+        from atlas_rap.views.mcap_picture import render_recording
         from atlas_rap.outputs import naming
 
         with naming("--out"):

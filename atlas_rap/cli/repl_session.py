@@ -103,7 +103,8 @@ class Session:
     def __init__(self, options: RunOptions | None = None, *, out: Console | None = None,
                  err: Console | None = None, trace_file: str | None = None, verbose: bool = False) -> None:
         from atlas_rap.cli.views import LiveTrace
-        from atlas_rap.layers import MissionEngine, RunOptions, RunPicture
+        from atlas_rap.layers import MissionEngine, RunOptions
+        from atlas_rap.views import RunPicture
         from atlas_rap.sequencer import JsonlSink, Trace
 
         self.out = out or Console(highlight=False, soft_wrap=True)

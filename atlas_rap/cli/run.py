@@ -16,7 +16,7 @@ if TYPE_CHECKING:  # downward only
     from rich.console import Console
 
     from atlas_rap.layers import MissionEngine
-    from atlas_rap.layers.recording import RunRecorder
+    from atlas_rap.views.recording import RunRecorder
     from atlas_rap.skillbus.remote import BusSettings
 
 
@@ -65,7 +65,8 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     """
     from atlas_rap.cli.console import console
     from atlas_rap.cli.views import LiveTrace, memory_table, summary, task_tree
-    from atlas_rap.layers import MissionEngine, RunPicture
+    from atlas_rap.layers import MissionEngine
+    from atlas_rap.views import RunPicture
     from atlas_rap.layers.observers import MapFile, PictureFile, observing
     from atlas_rap.sequencer import JsonlSink, agenda_tree
     from atlas_rap.shipped import resolve_user_path
@@ -121,7 +122,7 @@ def _recorder(engine: MissionEngine, record_file: str | None, live: bool, port: 
     """The MCAP recorder and live server of ``--record`` / ``--live`` (None when neither is asked for)."""
     if not (record_file or live):
         return None
-    from atlas_rap.layers.recording import RunRecorder
+    from atlas_rap.views.recording import RunRecorder
 
     recorder = RunRecorder(engine, path=record_file, live=live, port=port)
     if recorder.url:

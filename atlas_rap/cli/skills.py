@@ -75,7 +75,7 @@ def serve(world: str, listen: tuple[str, ...], connect: tuple[str, ...], robot: 
         click.echo(warning, err=True)
     recorder = None
     if record_file or live:
-        from atlas_rap.layers.recording import HostRecorder
+        from atlas_rap.views.recording import HostRecorder
 
         recorder = HostRecorder(path=record_file, live=live, port=live_port)
     try:

@@ -1,4 +1,4 @@
-"""The ATLAS layers: the run of a mission, from a program to a robot moving.
+"""The ATLAS layers and the run: from a program to a robot moving.
 
 - ``system``: :class:`RunOptions` (what a run is asked for) and :class:`System`
   (what it is made of, every part typed); ``builders``: the three ways one is
@@ -17,22 +17,20 @@
 - ``layer``: :class:`Layer` and the :class:`LayerStack` the four layers share,
   with the primary layer chosen by memory rules (``rap_library/layers.rap``);
   ``monitoring``, ``operational``, ``tactical``, ``strategic``: Layers I-IV.
-- ``experiment``: the seed's skill-acquisition experiment; ``figures``: its plots.
-- ``picture``: an observer of a run that draws it as a PNG.
-- ``recording``: an observer of a run that records it for Foxglove (MCAP, live
-  WebSocket; in one process, or split between a skill host and the sequencer;
-  ``foxglove_messages`` makes the messages); ``mcap_reader`` and
-  ``mcap_picture`` read a recording back and draw it.
+- ``skill_host``: a robot's skill host (world, skills, layers I-III) on the
+  skill bus; ``remote``: the lock-step executive of the sequencer's side.
+
+The pictures and recordings of a run (and the experiment that draws figures)
+are :mod:`atlas_rap.views`, which observes a run from above.
 """
 
 from atlas_rap.layers.clock import Clock, WallClock, wall_clock_pacer
 from atlas_rap.layers.engine import Loaded, MissionEngine
 from atlas_rap.layers.executive import Executive, Rates, VirtualExecutive
 from atlas_rap.layers.layer import LAYER_NAMES, Layer, LayerStack
-from atlas_rap.layers.picture import RunPicture
 from atlas_rap.layers.running import RunEnd, RunResult
 from atlas_rap.layers.system import DEFAULT_WORLD, RunOptions, System
 
 __all__ = ["Clock", "DEFAULT_WORLD", "Executive", "LAYER_NAMES", "Layer", "LayerStack", "Loaded", "MissionEngine",
-           "Rates", "RunEnd", "RunOptions", "RunPicture", "RunResult", "System", "VirtualExecutive", "WallClock",
+           "Rates", "RunEnd", "RunOptions", "RunResult", "System", "VirtualExecutive", "WallClock",
            "wall_clock_pacer"]

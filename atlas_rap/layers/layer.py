@@ -30,7 +30,7 @@ above it) drives instead, and the trace says so.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -223,8 +223,6 @@ class LayerStack:
 
     def primary_seconds(self, end: float) -> dict[str, float]:
         """Seconds each layer was primary, from the start of the run to ``end``."""
-        from atlas_rap.layers.figures import primary_seconds
-
         return primary_seconds(self.timeline_records(), end)
 
     def primary_summary(self, end: float) -> str:
@@ -318,3 +316,42 @@ class LayerStack:
             self.post(self.layers[driver], [("assert", Compound("no-route", ()))])
             driver = self._driving_layer()
         return answer
+
+
+def timeline_spans(timeline: Sequence[Mapping[str, Any]], end: float) -> list[tuple[str, float, float]]:
+    """(layer, start, end) spans of a timeline of primary-layer switches, in time order, up to ``end``.
+
+    Each entry's layer is primary from its ``t`` until the next entry's
+    ``t`` (the last until ``end``). Times are clipped to [0, ``end``];
+    entries are taken in order of ``t`` (ties keep their given order);
+    spans of no length are dropped and consecutive spans of one layer
+    merged into one. An empty timeline gives no spans. A layer that is
+    not one of :data:`LAYER_NAMES` is a ``ValueError``.
+    """
+    end = max(float(end), 0.0)
+    entries = sorted(timeline, key=lambda entry: float(entry["t"]))
+    spans: list[tuple[str, float, float]] = []
+    for i, entry in enumerate(entries):
+        layer = entry["layer"]
+        if layer not in LAYER_NAMES:
+            raise ValueError(f"unknown layer {layer!r} at t = {entry['t']} (the layers are {', '.join(LAYER_NAMES)})")
+        start = min(max(float(entry["t"]), 0.0), end)
+        stop = min(max(float(entries[i + 1]["t"]), 0.0), end) if i + 1 < len(entries) else end
+        if stop <= start:
+            continue
+        if spans and spans[-1][0] == layer and spans[-1][2] == start:
+            spans[-1] = (layer, spans[-1][1], stop)
+        else:
+            spans.append((layer, start, stop))
+    return spans
+
+
+def primary_seconds(timeline: Sequence[Mapping[str, Any]], end: float) -> dict[str, float]:
+    """Seconds each layer was primary up to ``end``: all of I..IV as keys, 0.0 for a layer never primary.
+
+    For a timeline that starts at t = 0 the values sum to ``end``.
+    """
+    seconds = dict.fromkeys(LAYER_NAMES, 0.0)
+    for layer, start, stop in timeline_spans(timeline, end):
+        seconds[layer] += stop - start
+    return seconds

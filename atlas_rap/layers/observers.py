@@ -31,11 +31,10 @@ from typing import TYPE_CHECKING, Protocol
 
 from atlas_rap.outputs import OutputError, write_all
 
-if TYPE_CHECKING:  # same tier and below
+if TYPE_CHECKING:  # same tier
     from atlas_rap.layers.engine import MissionEngine
-    from atlas_rap.layers.picture import RunPicture
 
-__all__ = ["MapFile", "Observation", "Observer", "PictureFile", "observing"]
+__all__ = ["MapFile", "Observation", "Observer", "Picture", "PictureFile", "observing"]
 
 
 class Observer(Protocol):
@@ -105,11 +104,17 @@ class MapFile:
         return None
 
 
+class Picture(Protocol):
+    """A picture of a run that is drawn when asked (:class:`atlas_rap.views.run_picture.RunPicture`)."""
+
+    def render(self, out_png: str, title: str) -> None: ...
+
+
 @dataclass
 class PictureFile:
     """``--render``: the picture of the run, drawn when the run ends."""
 
-    picture: RunPicture
+    picture: Picture
     path: str
     title: str
 

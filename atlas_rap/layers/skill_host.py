@@ -23,7 +23,7 @@ the same trace as in one process.
 
 Recording (``atlas skills serve --record HOST.mcap``, ``--live``): the host
 records its world (pose, tf, path, sonar, scene, topology, route) with a
-:class:`~atlas_rap.layers.recording.HostRecorder`, sampled at the host's
+:class:`~atlas_rap.views.recording.HostRecorder`, sampled at the host's
 sequencer ticks as a run in one process samples it, one file per session,
 closed when the session ends however it ends; the sequencer's side records
 the trace and the primary layer (``atlas run --connect --record``).
@@ -65,7 +65,7 @@ if TYPE_CHECKING:  # downward only: the sim is imported when a session starts
 @dataclass
 class SessionWorld:
     """What one session's world is made of, as a recording reads it
-    (:class:`~atlas_rap.layers.recording.WorldSampler`'s ``source``)."""
+    (:class:`~atlas_rap.views.recording.WorldSampler`'s ``source``)."""
 
     simulation: Simulation
     manager: SkillManager
@@ -86,7 +86,7 @@ class SkillHostServer:
     authentication, for measuring what it costs); ``zenoh_config``: Zenoh's own
     configuration file; ``lease``: seconds a silent sequencer keeps the host;
     ``max_message``: the largest message taken, in bytes; ``recorder``: a
-    :class:`~atlas_rap.layers.recording.HostRecorder` that records each session's
+    :class:`~atlas_rap.views.recording.HostRecorder` that records each session's
     world (or None); it is told of each session's start and end, and closed by :meth:`close`.
     """
 

@@ -5,9 +5,11 @@
   ``frame``: :class:`GridFrame`, where a grid lies in the world.
 - ``geometry``, ``sdt``, ``topology``, ``abstraction``: edges and polygons, the
   (stochastic) skeleton of the distance transform, the topological graph, and
-  all of them from a grid (:func:`abstract`); ``levels``: written as files.
+  all of them from a grid (:func:`abstract`, :func:`abstract_map`). The levels
+  written as files and their pictures are :mod:`atlas_rap.views` (``map_levels``,
+  ``map_render``).
 - ``rooms``: rooms and doorways; ``gridpath``: shortest paths on a grid.
-- ``rosmap``: ROS map_server files; ``render``: the PNGs.
+- ``rosmap``: ROS map_server files.
 
 The names below are imported from their modules at first use (``atlas_rap.exports``).
 """
@@ -15,14 +17,12 @@ The names below are imported from their modules at first use (``atlas_rap.export
 from atlas_rap.exports import lazy_exports, public_names
 
 _EXPORTS = {
-    "abstraction": ("Abstraction", "abstract"),
+    "abstraction": ("Abstraction", "abstract", "abstract_map"),
     "frame": ("GridFrame",),
     "geometry": ("GeometricMap", "geometric_map", "outlines"),
     "grid": ("OccupancyGrid", "SonarModel"),
     "gridpath": ("GridPlanner", "shortest_route_length"),
     "inference": ("InferenceGrid", "explored_quality"),
-    "levels": ("abstract_map", "write_levels"),
-    "render": ("render_grid",),
     "rooms": ("RoomSettings", "segment_rooms"),
     "rosmap": ("FREE", "OCCUPIED", "UNKNOWN", "RosMap", "load_ros_map", "write_ros_map"),
     "topology": ("Topology", "build_topology"),

@@ -17,10 +17,13 @@ only joins them, so that no stage imports the pipeline.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from atlas_rap.errors import MapError
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.geometry import GeometricMap, geometric_map
 from atlas_rap.maps.rooms import RoomSettings
@@ -89,3 +92,27 @@ def abstract(p_occ: np.ndarray, frame: GridFrame, robot_radius: float = 0.2, fre
     if geometry:
         geo = geometric_map(p, frame, free_below=free_below)
     return Abstraction(frame, free, SDT(dt, skel, topology.segments(), topology.place_labels), topology, geo)
+
+
+def abstract_map(p_occ: np.ndarray, frame: GridFrame, robot_radius: float = 0.2, *, geometry: bool = True,
+                 source: str = "the map", rooms: RoomSettings | None = None, reachable: np.ndarray | None = None,
+                 places: Mapping[str, Any] | None = None) -> Abstraction:
+    """The whole abstraction, or a clear error when the map has no room for the robot.
+
+    ``rooms`` are the settings of the places (doors, room sizes, walls: in
+    metres), ``reachable`` the cells a robot that mapped the space could
+    reach (maps built from sonar), ``places`` the world's named places
+    (name -> region or point) that name the map's places.
+    """
+    free = np.asarray(p_occ) < 0.5
+    if not free.any():
+        raise MapError(f"{source} has no free space (no cell with an occupancy below 0.5): "
+                         f"is it a map, and is its negate setting right?")
+    if robot_radius > max(free.shape) * frame.resolution:  # wider than the map: not even its disc fits
+        raise MapError(f"{source} has no free space wide enough for a robot of radius {robot_radius:g} m")
+    result = abstract(p_occ, frame, robot_radius, geometry=geometry, rooms=rooms, reachable=reachable)
+    if places:
+        result.topology.name_places(places)
+    if result.topology.graph.number_of_nodes() == 0:
+        raise MapError(f"{source} has no free space wide enough for a robot of radius {robot_radius:g} m")
+    return result

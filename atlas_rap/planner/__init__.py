@@ -9,7 +9,7 @@ The deliberative tier of the 3T architecture. One module per idea:
 - ``search``: greedy best-first search with hFF and helpful actions;
 - ``partial_order``: deordering and the every-linearisation check;
 - ``counterplan``: threats from uncontrolled agents, protection, risk;
-- ``plan``: plot expansion, schedule, text/JSON/DOT; ``render``: the PNG;
+- ``plan``: plot expansion, schedule, text/JSON (the DOT and PNG pictures are :mod:`atlas_rap.views`);
 - ``dispatch``: which RAP executes each step; ``plan_file``: IPC plan files
   and an independent validator;
 - ``solve``: all of it, end to end: :func:`solve`.

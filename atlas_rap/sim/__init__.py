@@ -1,10 +1,11 @@
-"""The simulated robot: worlds, pymunk physics, the sonar ring, pictures of runs.
+"""The simulated robot: worlds, pymunk physics and its parts, the sonar ring.
 
 - ``world``: world files (:func:`load_world`, :func:`world_path`, :func:`shipped_worlds`);
 - ``physics``: :class:`Simulation`, the robot in a pymunk space; ``sonar``: :class:`SonarRing`;
 - ``objects``: :class:`ObjectSim`, the camera's and the gripper's objects;
 - ``prior``: what a robot knows of its world at the start (:func:`prior_facts`);
-- ``render``: the picture of a run (:func:`render_run`).
+
+The picture of a run is :mod:`atlas_rap.views.world_render`.
 
 The names below are imported from their modules at first use (``atlas_rap.exports``).
 """
@@ -15,7 +16,6 @@ _EXPORTS = {
     "objects": ("ObjectSim",),
     "physics": ("Simulation",),
     "prior": ("prior_facts",),
-    "render": ("render_run",),
     "sonar": ("SonarRing",),
     "world": ("load_world", "shipped_worlds", "world_path"),
 }

@@ -14,7 +14,7 @@ and its abstraction and writes:
 ``atlas map abstract`` and ``atlas map build`` both end here.
 
 Writing is kept cheap (issue 13): the pictures share one
-:class:`atlas_rap.maps.render.MapSheet` (the figure, its axes and ticks,
+:class:`atlas_rap.views.map_render.MapSheet` (the figure, its axes and ticks,
 the reduced grids and the faint background are made once; each picture
 then costs some 30-60 ms, mostly matplotlib's text and zlib), the topology
 files are written without Python work per cell, and ``grid.npz`` by
@@ -29,16 +29,11 @@ from __future__ import annotations
 import io
 import zipfile
 import zlib
-from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from atlas_rap.errors import MapError
-from atlas_rap.maps.abstraction import Abstraction, abstract
-from atlas_rap.maps.frame import GridFrame
-from atlas_rap.maps.rooms import RoomSettings
+from atlas_rap.maps.abstraction import Abstraction
 from atlas_rap.outputs import atomic_write
 
 LEVEL_FILES = ("grid.npz", "grid.png", "edges.png", "polygons.png", "distance-transform.png", "places.png",
@@ -51,30 +46,6 @@ two to three times faster; an array that would not shrink by a fifth (noise) is 
 2000 x 2000 plan with noisy probabilities: 18 MB in 0.2 s, against 15.5 MB in 0.8 s)."""
 
 
-def abstract_map(p_occ: np.ndarray, frame: GridFrame, robot_radius: float = 0.2, *, geometry: bool = True,
-                 source: str = "the map", rooms: RoomSettings | None = None, reachable: np.ndarray | None = None,
-                 places: Mapping[str, Any] | None = None) -> Abstraction:
-    """The whole abstraction, or a clear error when the map has no room for the robot.
-
-    ``rooms`` are the settings of the places (doors, room sizes, walls: in
-    metres), ``reachable`` the cells a robot that mapped the space could
-    reach (maps built from sonar), ``places`` the world's named places
-    (name -> region or point) that name the map's places.
-    """
-    free = np.asarray(p_occ) < 0.5
-    if not free.any():
-        raise MapError(f"{source} has no free space (no cell with an occupancy below 0.5): "
-                         f"is it a map, and is its negate setting right?")
-    if robot_radius > max(free.shape) * frame.resolution:  # wider than the map: not even its disc fits
-        raise MapError(f"{source} has no free space wide enough for a robot of radius {robot_radius:g} m")
-    result = abstract(p_occ, frame, robot_radius, geometry=geometry, rooms=rooms, reachable=reachable)
-    if places:
-        result.topology.name_places(places)
-    if result.topology.graph.number_of_nodes() == 0:
-        raise MapError(f"{source} has no free space wide enough for a robot of radius {robot_radius:g} m")
-    return result
-
-
 def write_levels(p_occ: np.ndarray, result: Abstraction, out_dir: str | Path, *,
                  path_xy: np.ndarray | None = None, title: str = "",
                  route_ends: tuple[tuple[float, float], tuple[float, float]] | None = None,
@@ -84,7 +55,7 @@ def write_levels(p_occ: np.ndarray, result: Abstraction, out_dir: str | Path, *,
     ``pictures=False`` writes the data only (``grid.npz``, ``topology.json``,
     ``topology.graphml``), for a caller that has no use for the PNGs.
     """
-    from atlas_rap.maps import render
+    from atlas_rap.views import map_render as render
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -40,12 +40,14 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from atlas_rap.layers.layer import LAYER_NAMES, primary_seconds, timeline_spans
+
 __all__ = [
     "FIGURE_FILES", "LAYERS", "LAYER_COLOURS", "plot_durations", "plot_map_quality", "plot_obstacle_layers",
     "plot_run_layers", "primary_seconds", "timeline_spans", "write_figures",
 ]
 
-LAYERS = ("I", "II", "III", "IV")
+LAYERS = LAYER_NAMES
 """The layers, bottom row to top row."""
 
 LAYER_COLOURS: dict[str, str] = {"I": "#4e79a7", "II": "#59a14f", "III": "#f28e2b", "IV": "#e15759"}
@@ -69,48 +71,6 @@ _INCOMPLETE = "#c0392b"
 _GRID = "#e6e6e6"
 _BAR_HEIGHT = 0.5  # of a layer's row (rows are 1 apart)
 _THIN_LINE = 1.2  # points, layer I where it is active but not primary
-
-
-# Timelines -----------------------------------------------------------------
-
-
-def timeline_spans(timeline: Sequence[Mapping[str, Any]], end: float) -> list[tuple[str, float, float]]:
-    """(layer, start, end) spans of a timeline of primary-layer switches, in time order, up to ``end``.
-
-    Each entry's layer is primary from its ``t`` until the next entry's
-    ``t`` (the last until ``end``). Times are clipped to [0, ``end``];
-    entries are taken in order of ``t`` (ties keep their given order);
-    spans of no length are dropped and consecutive spans of one layer
-    merged into one. An empty timeline gives no spans. A layer that is
-    not one of :data:`LAYERS` is a ``ValueError``.
-    """
-    end = max(float(end), 0.0)
-    entries = sorted(timeline, key=lambda entry: float(entry["t"]))
-    spans: list[tuple[str, float, float]] = []
-    for i, entry in enumerate(entries):
-        layer = entry["layer"]
-        if layer not in LAYER_COLOURS:
-            raise ValueError(f"unknown layer {layer!r} at t = {entry['t']} (the layers are {', '.join(LAYERS)})")
-        start = min(max(float(entry["t"]), 0.0), end)
-        stop = min(max(float(entries[i + 1]["t"]), 0.0), end) if i + 1 < len(entries) else end
-        if stop <= start:
-            continue
-        if spans and spans[-1][0] == layer and spans[-1][2] == start:
-            spans[-1] = (layer, spans[-1][1], stop)
-        else:
-            spans.append((layer, start, stop))
-    return spans
-
-
-def primary_seconds(timeline: Sequence[Mapping[str, Any]], end: float) -> dict[str, float]:
-    """Seconds each layer was primary up to ``end``: all of I..IV as keys, 0.0 for a layer never primary.
-
-    For a timeline that starts at t = 0 the values sum to ``end``.
-    """
-    seconds = dict.fromkeys(LAYERS, 0.0)
-    for layer, start, stop in timeline_spans(timeline, end):
-        seconds[layer] += stop - start
-    return seconds
 
 
 # Figures -------------------------------------------------------------------
@@ -244,7 +204,7 @@ def _figure(title: str, data: Mapping[str, Any]) -> tuple[Any, Any]:
 
 def _save(fig: Any, path: str | Path) -> Path:
     """Lay ``fig`` out tight and write it as a PNG at ``path`` (parent created), without a software name."""
-    from atlas_rap.pictures import save_figure_png
+    from atlas_rap.views.page import save_figure_png
 
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -14,7 +14,7 @@ the corridor (short-lived: Layer I stops the robot, Layer II goes on), then
 a box blocks the way (long-lived: Layer III re-routes and hands back to II).
 
 :func:`skill_acquisition` returns the ``figures.json`` structure
-(:mod:`atlas_rap.layers.figures` draws it); :func:`write_results` writes it
+(:mod:`atlas_rap.views.figures` draws it); :func:`write_results` writes it
 with the CSV of the runs and the figures. Ctrl-C stops the whole
 experiment; what it has is returned marked incomplete (``"complete":
 false``), and the figures say so.
@@ -33,7 +33,7 @@ from typing import Any
 from atlas_rap.layers.engine import MissionEngine
 from atlas_rap.layers.system import RunOptions
 from atlas_rap.layers.layer import LayerStack
-from atlas_rap.layers.figures import (
+from atlas_rap.views.figures import (
     FIGURE_FILES,
     plot_durations,
     plot_map_quality,

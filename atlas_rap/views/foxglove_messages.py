@@ -3,12 +3,12 @@
 Pure functions from atlas-rap values (poses, a world, an
 :class:`~atlas_rap.maps.grid.OccupancyGrid`, a
 :class:`~atlas_rap.maps.topology.Topology`, a followed route, a trace
-record) to ``foxglove.messages`` objects, for :mod:`atlas_rap.layers.recording`.
+record) to ``foxglove.messages`` objects, for :mod:`atlas_rap.views.recording`.
 Everything is in the ``map`` frame (the world's metres, z = 0) except
 what is said otherwise; ``t`` is simulated seconds.
 
 Import it only once the Foxglove SDK is known to be installed
-(:func:`atlas_rap.layers.recording.require_foxglove`): it imports
+(:func:`atlas_rap.views.recording.require_foxglove`): it imports
 ``foxglove.messages`` at the top.
 """
 

@@ -1,6 +1,6 @@
 """The page layout every PNG of atlas-rap shares: map size in inches, metres kept 1:1, resolution; PNG writing.
 
-Pictures of runs (``sim.render``) and of maps (``maps.render``) draw a map
+Pictures of runs (``views.world_render``) and of maps (``views.map_render``) draw a map
 in metres with equal aspect; :func:`map_layout` decides how big it is and
 which range of metres it shows, so all pictures look alike.
 :func:`write_png` writes an RGB image as a PNG quickly (see there why not

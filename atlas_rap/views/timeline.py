@@ -42,12 +42,12 @@ time, read from the trace records (the plan executive's, see
   the bar. The legend names each only when the chart has one
   (:func:`legend_labels`), so a run without waits is drawn as before. (An
   ``atlas run`` picture keeps these records for the tasks it shows, not
-  for tasks two levels down: ``layers.picture``.)
+  for tasks two levels down: ``views.run_picture``.)
 
 The title is the mission and seed, the time axis simulated seconds.
 :func:`render_timeline` draws with matplotlib's object-oriented API on an Agg
 canvas (imported inside it) and writes the PNG with
-``planner.render.save_figure``, so the same records give the same bytes.
+``views.plan_render.save_figure``, so the same records give the same bytes.
 """
 
 from __future__ import annotations
@@ -551,7 +551,7 @@ def render_timeline(records: Iterable[Mapping[str, Any]], out_png: str | Path, t
     ``out_png``; return its path. ``title`` is e.g. ``"evahr.rap, seed 0"``; ``end`` is
     the time the run has reached (bars still running reach it; default the last record's).
     The parent directory of ``out_png`` is created if needed."""
-    from atlas_rap.planner.render import save_figure
+    from atlas_rap.views.plan_render import save_figure
 
     records = list(records)
     out = Path(out_png)
@@ -940,8 +940,8 @@ def _step_key(record: Mapping[str, Any]) -> object:
     return ("step", record.get("plan"), record.get("version"), record.get("step"))
 
 
-_PLAN_RECORDS = frozenset({Event.PLAN_REQUESTED, Event.PLAN_READY, Event.PLAN_STEP_STARTED, Event.PLAN_STEP_DONE, Event.PLAN_STEP_FAILED,
-                           Event.REPLANNED, Event.PLAN_ABANDONED, Event.PLAN_DONE})
+_PLAN_RECORDS = frozenset({Event.PLAN_REQUESTED, Event.PLAN_READY, Event.PLAN_STEP_STARTED, Event.PLAN_STEP_DONE,
+                           Event.PLAN_STEP_FAILED, Event.REPLANNED, Event.PLAN_ABANDONED, Event.PLAN_DONE})
 _TASK_ENDS = {Event.TASK_SUCCEEDED: "done", Event.TASK_FAILED: "failed", Event.TASK_HALTED: "halted"}
 
 
@@ -968,6 +968,6 @@ def _plain(text: str) -> str:
 
 
 def _dpi() -> float:
-    from atlas_rap.pictures import DPI
+    from atlas_rap.views.page import DPI
 
     return DPI

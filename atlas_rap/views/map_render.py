@@ -34,7 +34,7 @@ a block wins, the smallest distance, the lowest skeleton probability, any
 edge cell); the title says "shown 1:k" when that happened.
 
 How a picture is drawn, and why it is quick: all the pictures of one map
-can share one :class:`MapSheet` (``sheet=``; :func:`atlas_rap.maps.levels.write_levels`
+can share one :class:`MapSheet` (``sheet=``; :func:`atlas_rap.views.map_levels.write_levels`
 passes one to every call, a call without one makes its own). The sheet is
 a matplotlib figure (``Figure`` + Agg canvas, no pyplot) with the axes in
 metres, their ticks and labels and the grid's outline, rendered once. A
@@ -45,7 +45,7 @@ picture's own artists are rendered -- one collection per kind of thing
 (edges, nodes, node letters, place names, polygons) rather than one artist
 per element -- with its titles, legend and colorbar. The result is cropped
 to what it shows plus a margin (what ``bbox_inches="tight"`` gives,
-without drawing twice) and written by :func:`atlas_rap.pictures.write_png`.
+without drawing twice) and written by :func:`atlas_rap.views.page.write_png`.
 The sheet also keeps what several pictures share: the reduced grids and the
 faint background. For a map of about 400 × 400 cells the sheet costs some
 50 ms and each picture on it about 40 ms (most of it matplotlib laying out
@@ -68,9 +68,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from atlas_rap.maps.frame import GridFrame
-from atlas_rap.pictures import DPI as _DPI
-from atlas_rap.pictures import PAD_INCHES as _PAD_INCHES
-from atlas_rap.pictures import map_layout, save_figure_png, write_png
+from atlas_rap.views.page import DPI as _DPI
+from atlas_rap.views.page import PAD_INCHES as _PAD_INCHES
+from atlas_rap.views.page import map_layout, save_figure_png, write_png
 
 if TYPE_CHECKING:
     from typing import Self

@@ -27,7 +27,7 @@ What it shows, and the choices made:
   may happen; a note under the chart names each one (``PlanThreat.describe``).
 
 :func:`save_figure` lays the page out round what it shows and writes it with
-:func:`atlas_rap.pictures.write_png`, so the same plan gives the same bytes.
+:func:`atlas_rap.views.page.write_png`, so the same plan gives the same bytes.
 matplotlib and networkx are imported inside the functions that draw.
 """
 
@@ -37,7 +37,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from atlas_rap.logic import term_to_str
-from atlas_rap.pictures import DPI
+from atlas_rap.views.page import DPI
 from atlas_rap.planner.plan import Plan, PlanStep
 
 NO_AGENT = "(no agent)"
@@ -278,11 +278,11 @@ def _draw_threats(ax, plan: Plan, rows: dict[int, int], by_id: dict) -> None:
 def save_figure(fig, path: str | Path, pad: float = PAD) -> Path:
     """Lay ``fig`` out round what it shows (every axes keeps its size in inches, the page
     grows or shrinks to ``pad`` inches round all its text) and write it as a PNG with
-    :func:`atlas_rap.pictures.write_png`: the same figure gives the same bytes. Closes nothing:
+    :func:`atlas_rap.views.page.write_png`: the same figure gives the same bytes. Closes nothing:
     the figure must have an Agg canvas (``FigureCanvasAgg(fig)``)."""
     import numpy as np
 
-    from atlas_rap.pictures import write_png
+    from atlas_rap.views.page import write_png
 
     canvas = fig.canvas
     renderer = canvas.get_renderer()

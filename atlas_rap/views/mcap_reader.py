@@ -1,6 +1,6 @@
 """Read a recording (``atlas run --record``) back: its channels, and its messages as plain dicts.
 
-Use it to check a recording or to draw one (``layers.mcap_picture``) without
+Use it to check a recording or to draw one (``views.mcap_picture``) without
 Foxglove and without the protobuf library. The ``mcap`` package
 (``pip install 'atlas-rap[foxglove]'``) reads the file; a protobuf message
 is decoded with the schema the file itself carries (a

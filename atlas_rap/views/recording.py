@@ -1,7 +1,7 @@
 """Record a run for Foxglove: an MCAP file (``atlas run --record``), a live WebSocket view (``--live``), or both.
 
 A :class:`RunRecorder` watches a :class:`~atlas_rap.layers.engine.MissionEngine`
-the way :class:`~atlas_rap.layers.picture.RunPicture` does: it is a trace
+the way :class:`~atlas_rap.views.run_picture.RunPicture` does: it is a trace
 sink (every trace record becomes a log line), and its :meth:`RunRecorder.pace`
 is the engine's ``pace`` hook, called at every sequencer tick (10 Hz of
 simulated time), where it samples the world. Make it before the mission is
@@ -256,7 +256,7 @@ class WorldSampler:
 
     def __init__(self, source: Any, outputs: list[_Output], *, live: _Output | None = None,
                  pose_rate: float = POSE_RATE, grid_period: float = GRID_PERIOD, start: float = 0.0) -> None:
-        from atlas_rap.layers import foxglove_messages
+        from atlas_rap.views import foxglove_messages
 
         self.m = foxglove_messages
         self.source = source

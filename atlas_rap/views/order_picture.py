@@ -9,7 +9,7 @@ graph for Graphviz), left to right in columns:
   group share a column, and ``goal`` is the last column.
 - **Steps** are boxes with their action (``s3 (go-to office)``), filled
   with their agent's colour (the colours of the Gantt chart and ``--dot``,
-  :func:`~atlas_rap.planner.render.agent_colours`; a legend names them).
+  :func:`~atlas_rap.views.plan_render.agent_colours`; a legend names them).
   Counterplan steps are outlined orange and name the threat they counter
   and the fact they keep. Simultaneous steps sit together, tied by a purple
   dotted line.
@@ -31,7 +31,7 @@ sweeps, the best order kept), their heights to keep edges level with what
 they join (weighted least squares under the spacing, by pool adjacent
 violators; a long edge's slots then at one height where there is room).
 Everything is deterministic: the same plan gives the same PNG bytes
-(:func:`~atlas_rap.planner.render.save_figure`).
+(:func:`~atlas_rap.views.plan_render.save_figure`).
 """
 
 from __future__ import annotations
@@ -40,9 +40,9 @@ import textwrap
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from atlas_rap.pictures import DPI
+from atlas_rap.views.page import DPI
 from atlas_rap.planner.plan import Plan
-from atlas_rap.planner.render import (
+from atlas_rap.views.plan_render import (
     ARROW_COLOUR,
     COUNTER_COLOUR,
     SIMULTANEOUS_COLOUR,

@@ -10,10 +10,10 @@ a failed or interrupted run)::
 
 It marks where each task at most one level below a posted one started
 (first selection) and ended, on the robot's path, and where each plan step
-started and how it ended (the plan executive's records, ``sim.render.PLAN_EVENTS``).
+started and how it ended (the plan executive's records, ``views.world_render.PLAN_EVENTS``).
 
 A run with no world (``--world none``: virtual skills only) has no map, so
-:meth:`RunPicture.render` draws its timeline instead (``layers.timeline``):
+:meth:`RunPicture.render` draws its timeline instead (``views.timeline``):
 a lane per agent of the plan steps, re-plans and abandoned plans, and the
 tasks at most one level below a posted one, in simulated time. For it the
 picture keeps those tasks' posting, first selection, methods, waits, skills
@@ -32,8 +32,9 @@ if TYPE_CHECKING:  # the engine does not import its observers
     from atlas_rap.layers.engine import MissionEngine
 
 _KINDS = {Event.TASK_SELECTED: "started", Event.TASK_SUCCEEDED: "succeeded", Event.TASK_FAILED: "failed"}
-_TIMELINE_TASK_EVENTS = frozenset({Event.TASK_SELECTED, Event.METHOD_SELECTED, Event.TASK_SUCCEEDED, Event.TASK_FAILED, Event.TASK_HALTED,
-                                   Event.TASK_WAITING, Event.TASK_RESUMED, Event.SKILL_PREEMPTED})
+_TIMELINE_TASK_EVENTS = frozenset({Event.TASK_SELECTED, Event.METHOD_SELECTED, Event.TASK_SUCCEEDED,
+                                   Event.TASK_FAILED, Event.TASK_HALTED, Event.TASK_WAITING, Event.TASK_RESUMED,
+                                   Event.SKILL_PREEMPTED})
 
 
 class RunPicture:
@@ -78,18 +79,18 @@ class RunPicture:
                     return
                 self._selected.add(task)
             self.timeline.append(record)
-        elif task in self._step_tasks and event in (Event.METHOD_SELECTED, Event.TASK_HALTED, Event.TASK_WAITING, Event.TASK_RESUMED,
-                                                    Event.SKILL_PREEMPTED):
+        elif task in self._step_tasks and event in (Event.METHOD_SELECTED, Event.TASK_HALTED, Event.TASK_WAITING,
+                                                    Event.TASK_RESUMED, Event.SKILL_PREEMPTED):
             self.timeline.append(record)
 
     def render(self, out_png: str, title: str) -> None:
         """Draw the run so far: world, doors as they are, obstacles, path, task marks; with no
         world, the timeline of the run (plan steps by agent, re-plans, tasks)."""
-        from atlas_rap.sim.render import render_run
+        from atlas_rap.views.world_render import render_run
 
         engine = self.engine
         if engine.world is None:
-            from atlas_rap.layers.timeline import render_timeline
+            from atlas_rap.views.timeline import render_timeline
 
             end = engine.now() if engine.built else None
             render_timeline(self.timeline, out_png, f"{title}, seed {engine.seed}", end=end)
@@ -117,7 +118,7 @@ class RunPicture:
     def marks(self) -> list:
         """Where each marked task started (first selection) and ended, on the robot's path
         (a plan step's task is drawn as the plan step, not again as a task)."""
-        from atlas_rap.sim.render import TaskMark
+        from atlas_rap.views.world_render import TaskMark
 
         path = self.engine.simulation.path
         times = [p[0] for p in path]

@@ -43,8 +43,8 @@ from pathlib import Path
 from typing import Any
 
 from atlas_rap.model import World
-from atlas_rap.pictures import DPI as _DPI
-from atlas_rap.pictures import map_layout, save_figure_png
+from atlas_rap.views.page import DPI as _DPI
+from atlas_rap.views.page import map_layout, save_figure_png
 from atlas_rap.trace_events import Event
 
 __all__ = ["PLAN_EVENTS", "TASK_MARK_KINDS", "PlanNote", "PlanStepMark", "TaskMark", "plan_legend_rows",
@@ -64,8 +64,8 @@ class TaskMark:
     kind: str
 
 
-PLAN_EVENTS = frozenset({Event.PLAN_READY, Event.PLAN_STEP_STARTED, Event.PLAN_STEP_DONE, Event.PLAN_STEP_FAILED, Event.REPLANNED,
-                         Event.PLAN_ABANDONED, Event.PLAN_DONE})
+PLAN_EVENTS = frozenset({Event.PLAN_READY, Event.PLAN_STEP_STARTED, Event.PLAN_STEP_DONE, Event.PLAN_STEP_FAILED,
+                         Event.REPLANNED, Event.PLAN_ABANDONED, Event.PLAN_DONE})
 """The trace events of the plan executive that the picture shows."""
 
 

@@ -1,11 +1,11 @@
 """The partial order of a plan as Graphviz DOT text (``atlas plan --dot``), coloured as the
-pictures of :mod:`~atlas_rap.planner.render` are, for people who lay plans out with Graphviz."""
+pictures of :mod:`~atlas_rap.views.plan_render` are, for people who lay plans out with Graphviz."""
 
 from __future__ import annotations
 
 from atlas_rap.logic import term_to_str
 from atlas_rap.planner.plan import Plan
-from atlas_rap.planner.render import COUNTER_COLOUR, agent_colours, counter_labels
+from atlas_rap.views.plan_render import COUNTER_COLOUR, agent_colours, counter_labels
 
 
 def plan_dot(plan: Plan) -> str:

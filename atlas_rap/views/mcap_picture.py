@@ -4,7 +4,7 @@ What Foxglove's 3D panel shows at the end of the run, as a PNG, for people
 without Foxglove and for the README (``docs/foxglove-recording.png``):
 the last occupancy grid, the scene (walls, doors, places, obstacles), the
 topology, every route the robot drove, its path, the last sonar ring and
-the robot. It reads the file back with :mod:`atlas_rap.layers.mcap_reader`
+the robot. It reads the file back with :mod:`atlas_rap.views.mcap_reader`
 (so it also checks that a recording can be read without Foxglove)::
 
     render_recording("run.mcap", "run.png")        # or: atlas record show run.mcap --out run.png
@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from atlas_rap.layers.mcap_reader import Recording, read_recording
-from atlas_rap.pictures import DPI, map_layout, save_figure_png
+from atlas_rap.views.mcap_reader import Recording, read_recording
+from atlas_rap.views.page import DPI, map_layout, save_figure_png
 
 _LINE_LIST = 2
 _LOOKS = {  # how the scene's entities' lines are drawn
