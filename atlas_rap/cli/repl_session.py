@@ -48,6 +48,9 @@ Choices where the issue is silent:
   the world itself asserted (its map, what its skills and layers sensed):
   the world asserts it again. Times (``at-time``, deadlines) count from the
   moment of saving, as the loading session's clock starts at 0.
+
+Over 25 KB on purpose: the REPL's session: every command is a method over one session's
+state.
 """
 
 from __future__ import annotations

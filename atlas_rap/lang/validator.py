@@ -36,6 +36,9 @@ Choices where LANGUAGE.md is silent (also in the README's language notes):
   or a label. Its goals come first, then the options: ``:deadline`` a number
   > 0, ``:max-failures`` a whole number >= 1, each at most once.
 - ``(deadline GOAL SECONDS)``: GOAL is a goal as in ``goals``, SECONDS > 0.
+
+Over 25 KB on purpose: the rules of every form of the language, each beside the hint its
+error gives, in one pass over the syntax tree that the loader, the checks and the REPL call as one.
 """
 
 from __future__ import annotations

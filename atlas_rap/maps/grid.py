@@ -29,6 +29,9 @@ transducer that is itself off the map takes a slower, masked path.
 
 Cells use :class:`~atlas_rap.maps.frame.GridFrame`'s convention: row 0 at the
 top, ``origin`` the lower-left corner of the lower-left cell.
+
+Over 25 KB on purpose: the occupancy grid: the vectorised Bayesian sonar update (its hot
+path), entropy, quality and its file forms, over one array layout.
 """
 
 from __future__ import annotations

@@ -36,6 +36,9 @@ and return the nodes passed and metric waypoints for the follow-route
 skill. Topologies are saved as JSON (:meth:`Topology.to_json`, read back
 equal by :meth:`Topology.from_json`) and GraphML (:meth:`Topology.to_graphml`).
 :meth:`Topology.facts` gives ``place`` and ``connected`` facts for the RAP memory.
+
+Over 25 KB on purpose: the topological map: building it, its places and routes, and its JSON
+and GraphML forms, over one graph representation.
 """
 
 from __future__ import annotations

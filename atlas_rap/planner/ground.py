@@ -64,6 +64,9 @@ search, the partial order and counterplanning see plain STRIPS actions:
   The compilation is exponential in the number of conditional effects whose
   condition the variant leaves open: more than MAX_VARIANTS (2^8) variants
   for one ground action is a located error at the action.
+
+Over 25 KB on purpose: grounding, operators to actions, with the reachability and static-
+fact pruning that share its indexes (what an operator's form says is already in ``operator_parts``).
 """
 
 from __future__ import annotations

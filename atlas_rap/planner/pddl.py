@@ -72,6 +72,9 @@ Choices where PDDL leaves room:
 - Action arguments that are names must be domain constants; ``:init`` and
   ``:goal`` arguments must be objects or constants; a goal's only variables
   are those of its quantifiers.
+
+Over 25 KB on purpose: the PDDL reader and writer: one grammar's forms and their located
+errors.
 """
 
 from __future__ import annotations

@@ -72,6 +72,9 @@ machine), ``plan-step-started``,
 ``plan-step-done``, ``plan-step-failed``, ``replanned``, ``plan-abandoned``
 (with ``scope`` ``goal`` or ``plan``) and ``plan-done``; each with ``plan``
 (the plan's number in the run), ``version`` and ``id`` (the task that asked).
+
+Over 25 KB on purpose: a plan's execution: its steps, their tasks, monitoring and repair,
+which share the plan's state.
 """
 
 from __future__ import annotations

@@ -70,6 +70,10 @@ user would expect:
   live task fails saying the run stopped, every skill is disabled, and
   :attr:`Sequencer.fault` keeps the message for the summary. A fact whose
   own arithmetic fails fails only the task that asserted it.
+
+Over 25 KB on purpose: the sequencer's core: the agenda loop, method choice, a task's life
+and what the parts' host protocols ask of it; what it could shed is already in ``net``,
+``resources``, ``waiting`` and ``retrying``.
 """
 
 from __future__ import annotations

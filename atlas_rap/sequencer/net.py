@@ -29,6 +29,9 @@ from it waits the same way and runs again. Bindings made by a
 ``wait-for`` join the method's bindings, so later steps can use them.
 Every skill a method enabled is disabled when the method ends, however it
 ends: no skill is ever left running by a dead method.
+
+Over 25 KB on purpose: task nets: their nodes, orderings and the method run that executes
+them, which share the step state machine.
 """
 
 from __future__ import annotations

@@ -66,6 +66,9 @@ problems, then the ``base:`` line.
 ``bounds`` is the box around the walls, the places and the robot's start,
 with a margin of :data:`BOUNDS_MARGIN`. Without ``robot.start`` the robot
 starts at the first place's point, facing east.
+
+Over 25 KB on purpose: the world file format: its reader, its checks and their located
+messages, which must agree field by field.
 """
 
 from __future__ import annotations

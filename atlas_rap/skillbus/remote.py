@@ -34,6 +34,9 @@ sequencer's time) and the waiting skills are enabled there; when the grace
 runs out, they fail with ``skill host lost (not back within N s)``. The
 trace shows the wait (``skill-waiting``). No wait on the bus is without a
 timeout.
+
+Over 25 KB on purpose: the sequencer's side of the bus: the fleet, each host's link and the
+lock-step protocol they share.
 """
 
 from __future__ import annotations

@@ -54,6 +54,10 @@ a second a picture.
 
 matplotlib and scipy are imported inside the functions, so importing this
 module stays cheap. The same inputs give the same PNG bytes.
+
+Over 25 KB on purpose: every map picture draws on one reused :class:`MapSheet` (its figure,
+axes and fonts made once per size, which is what makes writing all the levels fast), and the
+renderers share its drawing helpers; apart, they would reach into each other's internals.
 """
 
 from __future__ import annotations

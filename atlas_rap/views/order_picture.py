@@ -32,6 +32,9 @@ they join (weighted least squares under the spacing, by pool adjacent
 violators; a long edge's slots then at one height where there is room).
 Everything is deterministic: the same plan gives the same PNG bytes
 (:func:`~atlas_rap.views.plan_render.save_figure`).
+
+Over 25 KB on purpose: one picture (a plan's partial order), whose named steps share the
+layout they compute.
 """
 
 from __future__ import annotations

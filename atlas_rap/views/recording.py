@@ -63,6 +63,9 @@ process, or a skill host's session (``atlas skills serve --record HOST.mcap``,
 another host (``atlas run --connect --record``) the sequencer's
 :class:`RunRecorder` records the trace and the primary layer; both files
 are in the same simulated time, so Foxglove opens them together.
+
+Over 25 KB on purpose: the recorder: the world sampler, the outputs (file and live) and the
+skill host's recorder share one channel set and one timing.
 """
 
 from __future__ import annotations

@@ -48,6 +48,9 @@ The title is the mission and seed, the time axis simulated seconds.
 :func:`render_timeline` draws with matplotlib's object-oriented API on an Agg
 canvas (imported inside it) and writes the PNG with
 ``views.plan_render.save_figure``, so the same records give the same bytes.
+
+Over 25 KB on purpose: one picture, whose named steps (rows, lanes, bars, labels, legend)
+share the layout they compute.
 """
 
 from __future__ import annotations

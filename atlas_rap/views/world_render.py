@@ -31,6 +31,9 @@ matplotlib is imported inside :func:`render_run` (object-oriented
 ``Figure`` + Agg canvas, no pyplot and no global state), so importing this
 module stays cheap. The same inputs give the same PNG bytes: no software
 version or date is written into the file.
+
+Over 25 KB on purpose: the picture of a run: the world, path, places, task marks, plan
+events and their legend share one layout.
 """
 
 from __future__ import annotations
