@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Any
 
 from atlas_rap.layers.layer import LAYER_NAMES, primary_seconds, timeline_spans
+from atlas_rap.views.page import plain_text
 
 __all__ = [
     "FIGURE_FILES", "LAYERS", "LAYER_COLOURS", "plot_durations", "plot_map_quality", "plot_obstacle_layers",
@@ -158,7 +159,7 @@ def plot_obstacle_layers(data: Mapping[str, Any], path: str | Path) -> Path:
         t = float(event["t"])
         ax.axvline(t, color=_EVENT, linestyle=":", linewidth=1.4, zorder=4)
         right_half = duration > 0 and t > 0.7 * duration
-        ax.text(t, label_top - 0.2 - 0.32 * (i % 2), f" {_plain(event['what'])} ", fontsize=8, color=_EVENT,
+        ax.text(t, label_top - 0.2 - 0.32 * (i % 2), f" {plain_text(event['what'])} ", fontsize=8, color=_EVENT,
                 ha="right" if right_half else "left", va="center", zorder=5)
     ax.set_ylim(0.5, label_top)
     ax.set_xlim(0.0, duration if duration > 0 else 1.0)
@@ -192,7 +193,7 @@ def _figure(title: str, data: Mapping[str, Any]) -> tuple[Any, Any]:
     ax = fig.add_subplot()
     ax.set_title(title, fontsize=11, loc="left")
     if data.get("complete") is False:
-        note = _plain(f"incomplete: {data.get('incomplete') or 'the experiment stopped early'}")
+        note = plain_text(f"incomplete: {data.get('incomplete') or 'the experiment stopped early'}")
         ax.set_title(note + "\n", fontsize=10, loc="right", color=_INCOMPLETE)  # a line above the title
     ax.grid(True, color=_GRID, linewidth=0.6, zorder=0)
     ax.set_axisbelow(True)
@@ -221,7 +222,7 @@ def _title(figure: str, data: Mapping[str, Any]) -> str:
     about = [str(data["world"])] if data.get("world") else []
     if data.get("seed") is not None:
         about.append(f"seed {data['seed']}")
-    return _plain(f"{figure} \u2014 {', '.join(about)}" if about else figure)
+    return plain_text(f"{figure} \u2014 {', '.join(about)}" if about else figure)
 
 
 def _runs(data: Mapping[str, Any]) -> list[Mapping[str, Any]]:
@@ -270,7 +271,3 @@ def _layer_rows(ax: Any, bars: Sequence[tuple[str, float, float]], x_min: float,
     ax.set_ylabel("primary layer")
     ax.grid(False, axis="y")
 
-
-def _plain(text: Any) -> str:
-    """Text shown as written: a ``$`` would otherwise start matplotlib's mathtext."""
-    return str(text).replace("$", r"\$")

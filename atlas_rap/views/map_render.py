@@ -74,7 +74,7 @@ import numpy as np
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.views.page import DPI as _DPI
 from atlas_rap.views.page import PAD_INCHES as _PAD_INCHES
-from atlas_rap.views.page import map_layout, save_figure_png, write_png
+from atlas_rap.views.page import map_layout, plain_text, save_figure_png, write_png
 
 if TYPE_CHECKING:
     from typing import Self
@@ -515,7 +515,7 @@ class MapSheet:
             from matplotlib.textpath import TextPath, text_to_path
 
             prop = FontProperties(weight="bold", size=fontsize)
-            s = _plain(text)
+            s = plain_text(text)
             path = TextPath((0, 0), s, prop=prop)
             w, h, d = text_to_path.get_text_width_height_descent(s, prop, ismath=False)
             _, lp_h, lp_d = text_to_path.get_text_width_height_descent("lp", prop, ismath=False)
@@ -765,7 +765,7 @@ class _Picture:
 
         ax = self.ax
         above = ax.transAxes + ScaledTranslation(0, 6 / 72, self.fig.dpi_scale_trans)  # axes.titlepad: 6 pt
-        return [ax.text(0.0, 1.0, _plain(self.title), transform=above, ha="left", va="baseline", fontsize=11),
+        return [ax.text(0.0, 1.0, plain_text(self.title), transform=above, ha="left", va="baseline", fontsize=11),
                 ax.text(1.0, 1.0, self.detail, transform=above, ha="right", va="baseline", fontsize=7.5,
                         color="#666666")]
 
@@ -968,7 +968,7 @@ def _draw_nodes(pic: _Picture, nodes: dict[Any, tuple[np.ndarray, str]]) -> None
         if kind:
             pic.labels(xy, kind, colour=_darker(colour), fontsize=fontsize, offset=(4, 3), ha="left", va="bottom")
         meaning = f" ({_NODE_MEANING[kind]})" if kind in _NODE_MEANING else ""
-        pic.legend_marker(marker, colour, f"{_plain(kind)} node{meaning}" if kind else "node (no kind)", size=size)
+        pic.legend_marker(marker, colour, f"{plain_text(kind)} node{meaning}" if kind else "node (no kind)", size=size)
 
 
 # Arrays -------------------------------------------------------------------------
@@ -1296,10 +1296,6 @@ def _polygon_centroid(xy: np.ndarray) -> np.ndarray:
         return xy.mean(axis=0)
     return np.array([((x + x1) * cross).sum(), ((y + y1) * cross).sum()]) / (6 * area)
 
-
-def _plain(text: str) -> str:
-    """Text shown as written: a ``$`` would otherwise start matplotlib's mathtext."""
-    return str(text).replace("$", r"\$")
 
 
 def _darker(colour: Any, factor: float = 0.65) -> tuple[float, float, float]:

@@ -6,7 +6,8 @@ which range of metres it shows, so all pictures look alike.
 :func:`write_png` writes an RGB image as a PNG quickly (see there why not
 through PIL); :func:`save_figure_png` writes a matplotlib figure as
 matplotlib lays it out. Both write a file whole or not at all
-(``atlas_rap.outputs``).
+(``atlas_rap.outputs``). :func:`plain_text` and :func:`cut_text` are the text
+helpers every picture shares.
 """
 
 from __future__ import annotations
@@ -95,3 +96,13 @@ def save_figure_png(fig, path: str | Path, **options) -> Path:
     with atomic_write(path) as stream:
         fig.savefig(stream, format="png", metadata={"Software": None}, **options)
     return Path(path)
+
+
+def plain_text(text: object) -> str:
+    """Text shown as written in a matplotlib picture: a ``$`` would otherwise start its mathtext."""
+    return str(text).replace("$", r"\$")
+
+
+def cut_text(text: str, limit: int) -> str:
+    """``text`` cut to at most ``limit`` characters, with an ellipsis where it was cut."""
+    return text if len(text) <= limit else text[: limit - 1] + "\u2026"

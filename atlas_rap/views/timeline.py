@@ -63,6 +63,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from atlas_rap.trace_events import Event
+from atlas_rap.views.page import cut_text, plain_text
 
 __all__ = ["NO_AGENT", "OUTCOME_COLOURS", "MethodChange", "PlanLine", "Preemption", "StepBar", "TaskBar", "WaitSpan",
            "lanes", "legend_labels", "method_changes", "pack_rows", "plan_lines", "preemptions", "render_timeline",
@@ -292,7 +293,7 @@ def step_bars(records: Iterable[Mapping[str, Any]]) -> list[StepBar]:
         label = f"{prefix}s{seg['step']} {short_action(seg['action'], agent)}"
         if seg["from_agent"]:
             label += f" (from {seg['from_agent']})"
-        label += "".join(f" \u2192 {_cut(c.method, 16)}" for c in ticks if c.changed)
+        label += "".join(f" \u2192 {cut_text(c.method, 16)}" for c in ticks if c.changed)
         bars.append(StepBar(seg["lane"], seg["start"], seg["end"], seg["outcome"], label, seg["action"], seg["plan"],
                             seg["version"], seg["step"], seg["task"], seg["reason"], seg["from_agent"], ticks,
                             **waits.on(seg["task"], seg["start"], seg["end"])))
@@ -490,7 +491,7 @@ def short_action(action: str, agent: str | None = None) -> str:
         text = text[1:-1]
     if agent:
         text = re.sub(rf"(?:(?<=\s)|(?<=\()){re.escape(agent)}(?=[\s)]|$)\s?", "", text).strip()
-    return _cut(text, MAX_ACTION_CHARS)
+    return cut_text(text, MAX_ACTION_CHARS)
 
 
 def short_cause(text: str) -> str:
@@ -696,7 +697,7 @@ def _figure(total_rows: float, header_h: float, axis: _TimeAxis, title: str) -> 
     head.set_xlim(axis.xmin, axis.xmax)
     head.set_ylim(0, header_h)
     head.axis("off")
-    head.set_title(_plain(f"{title} \u2014 timeline of the run (no world to draw)"), fontsize=11, loc="left",
+    head.set_title(plain_text(f"{title} \u2014 timeline of the run (no world to draw)"), fontsize=11, loc="left",
                    pad=4)
     key.axis("off")
     return fig, ax, head, key
@@ -723,7 +724,7 @@ def _draw_steps(ax, steps: Sequence[tuple[StepBar, float, str]], axis: _TimeAxis
                   bar.end is None, edge=True)
         x0, x1 = bar.start, bar.end if bar.end is not None else axis.t_end
         _draw_waits(ax, bar, x1, yc, STEP_BAR)
-        label = _plain(bar.label)
+        label = plain_text(bar.label)
         if where == "inside":
             ax.text(x0 + 0.05 * sec_per_inch, yc, label, ha="left", va="center", fontsize=FONT, color="white",
                     fontweight="bold", zorder=4, clip_on=False, **_inside_halo(bar))
@@ -753,7 +754,7 @@ def _draw_reason(ax, task: TaskBar, x1: float, yc: float, axis: _TimeAxis) -> No
     """Why ``task`` failed or was halted, briefly: beside the end of its bar, or over the bar, ending
     where it ends, when there is no room after it."""
     sec_per_inch = axis.sec_per_inch
-    words = _plain(_cut(f"{task.outcome}: {short_cause(task.reason).split('; ')[0]}", MAX_REASON_CHARS))
+    words = plain_text(cut_text(f"{task.outcome}: {short_cause(task.reason).split('; ')[0]}", MAX_REASON_CHARS))
     width = len(words) * CHAR_WIDTH * 6.5 / 72 * sec_per_inch
     style = {"fontsize": 6.5, "color": _darker(task.outcome), "zorder": 4, "path_effects": _halo()}
     if x1 + width + 0.1 * sec_per_inch <= axis.xmax:  # beside the end of the bar
@@ -769,7 +770,7 @@ def _draw_plan_lines(ax, head, notes: Sequence[PlanLine], labels: _LineLabels, a
         ax.axvline(note.time, color=colour, linestyle=style, linewidth=width, zorder=1.5)
         head.plot([note.time, note.time], [0, bottom + h], color=colour, linestyle=style, linewidth=width,
                   clip_on=False, solid_capstyle="butt")
-        head.text(note.time + 0.04 * axis.sec_per_inch, bottom + h - 0.02, _plain("\n".join(note.lines)),
+        head.text(note.time + 0.04 * axis.sec_per_inch, bottom + h - 0.02, plain_text("\n".join(note.lines)),
                   ha="left", va="top", fontsize=LINE_FONT, color=colour, linespacing=1.05)
 
 
@@ -784,7 +785,7 @@ def _darker(outcome: str) -> str:
 
 
 def _task_text(task: TaskBar) -> str:
-    return _cut(_one_line(task.text), MAX_TASK_CHARS)
+    return cut_text(_one_line(task.text), MAX_TASK_CHARS)
 
 
 def _draw_bar(ax, x0: float, x1: float, yc: float, height: float, outcome: str, running: bool, edge: bool) -> None:
@@ -809,7 +810,7 @@ def _draw_ticks(ax, ticks: Sequence[MethodChange], yc: float, height: float, nam
         ax.plot([t, t], [yc - height / 2 - 0.12, yc + height / 2 + 0.12], color=_TICK_COLOUR, linewidth=1.3,
                 zorder=3, solid_capstyle="butt")
         if named and method != previous and t >= free_from:
-            text = _plain(f"\u2192 {_cut(method, 16)}")
+            text = plain_text(f"\u2192 {cut_text(method, 16)}")
             ax.text(t + 0.03 * sec_per_inch, yc - height / 2 - 0.08, text, ha="left", va="bottom", fontsize=6,
                     color=_TICK_COLOUR, zorder=4, path_effects=_halo(2.0))
             free_from = t + (len(text) * CHAR_WIDTH * 6 / 72 + 0.08) * sec_per_inch
@@ -818,7 +819,7 @@ def _draw_ticks(ax, ticks: Sequence[MethodChange], yc: float, height: float, nam
 def _left_label(ax, y: float, text: str, column: float, *, bold: bool = False, italic: bool = False,
                 indent: float = 0, colour: str = "#212529", size: float = LEFT_FONT) -> None:
     """Text in the column (``column`` points wide) left of the chart, at row ``y``, ``indent`` points in."""
-    ax.annotate(_plain(text), (0, y), xycoords=("axes fraction", "data"), xytext=(-column + indent, 0),
+    ax.annotate(plain_text(text), (0, y), xycoords=("axes fraction", "data"), xytext=(-column + indent, 0),
                 textcoords="offset points", ha="left", va="center", fontsize=size, color=colour,
                 fontweight="bold" if bold else "normal", fontstyle="italic" if italic else "normal",
                 annotation_clip=False, zorder=4, path_effects=_halo())
@@ -952,7 +953,7 @@ def _wrap(text: str, width: int, lines: int) -> list[str]:
     wrapped = textwrap.wrap(text, width, break_long_words=True, break_on_hyphens=False) or [""]
     if len(wrapped) > lines:
         wrapped = wrapped[:lines]
-        wrapped[-1] = _cut(wrapped[-1] + " \u2026", width) if len(wrapped[-1]) < width - 1 \
+        wrapped[-1] = cut_text(wrapped[-1] + " \u2026", width) if len(wrapped[-1]) < width - 1 \
             else wrapped[-1][: width - 1] + "\u2026"
     return wrapped
 
@@ -960,14 +961,6 @@ def _wrap(text: str, width: int, lines: int) -> list[str]:
 def _one_line(text: Any) -> str:
     return " ".join(str(text).split())
 
-
-def _cut(text: str, limit: int) -> str:
-    return text if len(text) <= limit else text[: limit - 1] + "\u2026"
-
-
-def _plain(text: str) -> str:
-    """Text shown as written: a ``$`` would otherwise start matplotlib's mathtext."""
-    return str(text).replace("$", r"\$")
 
 
 def _dpi() -> float:

@@ -46,9 +46,9 @@ from pathlib import Path
 from typing import Any
 
 from atlas_rap.model import World
-from atlas_rap.views.page import DPI as _DPI
-from atlas_rap.views.page import map_layout, save_figure_png
 from atlas_rap.trace_events import Event
+from atlas_rap.views.page import DPI as _DPI
+from atlas_rap.views.page import cut_text, map_layout, plain_text, save_figure_png
 
 __all__ = ["PLAN_EVENTS", "TASK_MARK_KINDS", "PlanNote", "PlanStepMark", "TaskMark", "plan_legend_rows",
            "plan_marks", "render_run"]
@@ -199,7 +199,7 @@ def render_run(
         for spine in ax.spines.values():
             spine.set_color("#999999")
         heading = world.name if not title else f"{world.name} \u2014 {title}"
-        ax.set_title(_plain(heading), fontsize=11, loc="left")
+        ax.set_title(plain_text(heading), fontsize=11, loc="left")
 
         handles: list[Any] = []
         _draw_places(ax, world)
@@ -282,7 +282,7 @@ def _draw_places(ax, world: World) -> None:
         # The name goes just below the point, clear of a robot standing there
         # (task-mark numbers go up and to the right).
         ax.annotate(
-            _plain(place.name),
+            plain_text(place.name),
             (place.point[0], place.point[1] - world.robot.radius),
             xytext=(0, -2),
             textcoords="offset points",
@@ -330,7 +330,7 @@ def _draw_doors(ax, world: World, doors_open: Mapping[str, bool], handles: list)
                         solid_capstyle="butt", zorder=4)
                 colour, kind = _DOOR_CLOSED, "door closed"
         ax.annotate(
-            _plain(door.name), door.center, xytext=(4, -4), textcoords="offset points",
+            plain_text(door.name), door.center, xytext=(4, -4), textcoords="offset points",
             ha="left", va="top", fontsize=6.5, color=colour, fontstyle="italic",
             path_effects=_halo(2.0), zorder=6,
         )
@@ -380,7 +380,7 @@ def _draw_objects(ax, objects, handles: list) -> None:
         face = colour if is_color_like(colour) else "#868e96"
         ax.plot([x], [y], linestyle="none", marker="s" if kind == "bin" else "o", markersize=7 if kind == "bin" else 6,
                 markerfacecolor=face, markeredgecolor="#212529", markeredgewidth=0.7, zorder=4.5)
-        ax.annotate(_plain(name), (x, y), xytext=(4, -9), textcoords="offset points", fontsize=6.5,
+        ax.annotate(plain_text(name), (x, y), xytext=(4, -9), textcoords="offset points", fontsize=6.5,
                     color="#343a40", zorder=4.5)
     handles.append(Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="#ffffff",
                           markeredgecolor="#212529", label="object at the end (its colour; bins square)"))
@@ -498,13 +498,13 @@ def _draw_plan(fig, ax, steps: list[PlanStepMark], notes: list[PlanNote], handle
     for kind, text in rows[:_MAX_LISTED_PLAN_ROWS]:
         if kind in _STEP_COLOURS:
             handles.append(Line2D([], [], linestyle="none", marker="s", markersize=6.5, color=_STEP_COLOURS[kind],
-                                  markeredgecolor="white", markeredgewidth=0.6, label=_plain(text)))
+                                  markeredgecolor="white", markeredgewidth=0.6, label=plain_text(text)))
         elif kind in _NOTE_STYLE:
             marker, colour, size = _NOTE_STYLE[kind]
             handles.append(Line2D([], [], linestyle="none", marker=marker, markersize=size, color=colour,
-                                  markeredgecolor="white", markeredgewidth=0.6, label=_plain(text)))
+                                  markeredgecolor="white", markeredgewidth=0.6, label=plain_text(text)))
         else:
-            handles.append(Line2D([], [], linestyle="none", label=_plain(text)))
+            handles.append(Line2D([], [], linestyle="none", label=plain_text(text)))
     if len(rows) > _MAX_LISTED_PLAN_ROWS:
         handles.append(Line2D([], [], linestyle="none", label=f"\u2026 and {len(rows) - _MAX_LISTED_PLAN_ROWS} more"))
 
@@ -570,7 +570,7 @@ def _place_groups(fig, ax, points: list[tuple[float, float]], styles: list[tuple
         best = min(candidates, key=lambda c: _overlap((px + c[0], py + c[1], px + c[0] + w, py + c[1] + h), taken))
         taken.append((px + best[0], py + best[1], px + best[0] + w, py + best[1] + h))
         ax.annotate(
-            _plain(text), (gx, gy), xytext=(best[0], best[1] + lower), textcoords="offset points",
+            plain_text(text), (gx, gy), xytext=(best[0], best[1] + lower), textcoords="offset points",
             ha="left", va="bottom", fontsize=fontsize, color=colour, fontweight="bold",
             path_effects=_halo(2.2), zorder=9,
         )
@@ -663,7 +663,7 @@ def plan_legend_rows(steps: Sequence[PlanStepMark], notes: Sequence[PlanNote] = 
             text = f"{head} from {m.time:.1f} s"
         else:
             text = f"{head} {m.time:.1f}\u2013{m.end:.1f} s" + (f": {_one_line(m.reason)}" if m.reason else "")
-        rows.append((m.time, 1, i, (m.outcome, _cut(text))))
+        rows.append((m.time, 1, i, (m.outcome, cut_text(text, _MAX_ROW_CHARS))))
     return [row for *_, row in sorted(rows, key=lambda r: r[:3])]
 
 
@@ -690,27 +690,23 @@ def _note_text(kind: str, t: float, plan: int, version: int, record: Mapping[str
     if kind == "ready":
         goals = " ".join(map(str, record.get("goals", ())))
         text = f"plan {plan} at {t:.1f} s: {record.get('steps', '?')} steps, makespan {record.get('makespan', '?')}"
-        return _cut(text + (f", for {goals}" if goals else ""))
+        return cut_text(text + (f", for {goals}" if goals else ""), _MAX_ROW_CHARS)
     if kind == "replanned":
         counts = ", ".join(f"{len(record.get(k) or ())} {k}" for k in ("kept", "new", "halted", "reassigned")
                            if record.get(k))
         counts = f"; {counts}" if counts else ""
         cause = _one_line(str(record.get("cause", "")))
-        return _cut(f"re-planned at {t:.1f} s (plan {plan} v{version}{counts}): {cause}")
+        return cut_text(f"re-planned at {t:.1f} s (plan {plan} v{version}{counts}): {cause}", _MAX_ROW_CHARS)
     if kind == "abandoned":
         what = "gave up " + " ".join(map(str, record.get("goals", ()))) if record.get("scope") == "goal" \
             else f"plan {plan} abandoned"
-        return _cut(f"{what} at {t:.1f} s: {_one_line(str(record.get('reason', '')))}")
+        return cut_text(f"{what} at {t:.1f} s: {_one_line(str(record.get('reason', '')))}", _MAX_ROW_CHARS)
     given_up = " ".join(map(str, record.get("abandoned", ())))
-    return _cut(f"plan {plan} done at {t:.1f} s" + (f", gave up {given_up}" if given_up else ""))
+    return cut_text(f"plan {plan} done at {t:.1f} s" + (f", gave up {given_up}" if given_up else ""), _MAX_ROW_CHARS)
 
 
 def _one_line(text: str) -> str:
     return " ".join(str(text).split())
-
-
-def _cut(text: str) -> str:
-    return text if len(text) <= _MAX_ROW_CHARS else text[: _MAX_ROW_CHARS - 1] + "\u2026"
 
 
 # Helpers --------------------------------------------------------------------
@@ -722,18 +718,14 @@ def _overlap(box: tuple[float, float, float, float], others: list[tuple[float, f
     return sum(max(0.0, min(x1, b[2]) - max(x0, b[0])) * max(0.0, min(y1, b[3]) - max(y0, b[1])) for b in others)
 
 
-def _plain(text: str) -> str:
-    """Text shown as written: a ``$`` would otherwise start matplotlib's mathtext."""
-    return str(text).replace("$", r"\$")
-
 
 def _short(text: str) -> str:
     """A task label for the legend: one line, cut short, in parentheses (once)."""
     text = " ".join(str(text).split())
     if text.startswith("(") and text.endswith(")"):
         text = text[1:-1]
-    text = text if len(text) <= _MAX_LABEL_CHARS else text[: _MAX_LABEL_CHARS - 1] + "\u2026"
-    return _plain(f"({text})")
+    text = cut_text(text, _MAX_LABEL_CHARS)
+    return plain_text(f"({text})")
 
 
 def _ranges(numbers: list[int]) -> str:
