@@ -13,11 +13,14 @@ from atlas_rap.cli.options import (LIVE_PORT, POSITIVE, SEED, OutputFile, check_
                                    run_options, world_help)
 
 if TYPE_CHECKING:  # downward only
+    from collections.abc import Mapping
+
     from rich.console import Console
 
-    from atlas_rap.layers import MissionEngine
-    from atlas_rap.views.recording import RunRecorder
+    from atlas_rap.layers import MissionEngine, RunResult
+    from atlas_rap.outputs import OutputError
     from atlas_rap.skillbus.remote import BusSettings
+    from atlas_rap.views.recording import RunRecorder
 
 
 @click.command()
@@ -64,12 +67,13 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     caused it) or the input is bad, 130 when interrupted.
     """
     from atlas_rap.cli.console import console
-    from atlas_rap.cli.views import LiveTrace, memory_table, summary, task_tree
+    from atlas_rap.cli.views import LiveTrace
     from atlas_rap.layers import MissionEngine
-    from atlas_rap.views import RunPicture
     from atlas_rap.layers.observers import MapFile, PictureFile, observing
-    from atlas_rap.sequencer import JsonlSink, agenda_tree
+    from atlas_rap.layers.running import RunEnd
+    from atlas_rap.sequencer import JsonlSink
     from atlas_rap.shipped import resolve_user_path
+    from atlas_rap.views import RunPicture
 
     out, err = console(), console(err=True)
     options = run_options(world=world, seed=seed, topology=topology_file, bus=bus, no_prior_map=no_prior_map,
@@ -97,24 +101,36 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
             err.print(warning.render(), style="yellow", markup=False)
         started = time.perf_counter()
         result = engine.run_mission(until, pace=recorder.pace if recorder is not None else None)
-    if show_agenda:
+    written = {"--map-out": (map_out if engine.grid is not None else None, "map"), "--trace": (trace_file, "trace"),
+               "--render": (render, "picture"), "--record": (record_file, "recording")}
+    _report(out, err, engine, result, name, time.perf_counter() - started, written, run.failed,
+            agenda=show_agenda, memory=show_memory)
+    if result.ended_by == RunEnd.INTERRUPTED:
+        sys.exit(130)
+    sys.exit(1 if run.failed or not result.ok else 0)
+
+
+def _report(out: Console, err: Console, engine: MissionEngine, result: RunResult, name: str, seconds: float,
+            written: dict[str, tuple[str | None, str]], failed: Mapping[str, OutputError], *, agenda: bool,
+            memory: bool) -> None:
+    """What ``atlas run`` prints when the run has ended: the agenda and memory when asked, the summary,
+    the outputs written (option -> (path, what)), then the outputs that could not be."""
+    from atlas_rap.cli.views import memory_table, summary, task_tree
+    from atlas_rap.sequencer import agenda_tree
+
+    if agenda:
         out.print(task_tree(agenda_tree(engine.sequencer)))
-    if show_memory:
+    if memory:
         out.print(memory_table(engine.sequencer.memory))
-    for line in summary(result, name, time.perf_counter() - started):
+    for line in summary(result, name, seconds):
         out.print(line)
     if engine.stack is not None and engine.stack.timeline:
         out.print("  primary layer: " + engine.stack.primary_summary(result.time), style="dim")
-    for option, path, what in (("--map-out", map_out if engine.grid is not None else None, "map"),
-                               ("--trace", trace_file, "trace"), ("--render", render, "picture"),
-                               ("--record", record_file, "recording")):
-        if path and option not in run.failed:
+    for option, (path, what) in written.items():
+        if path and option not in failed:
             out.print(f"{what} written to {path}", style="dim")
-    for error in run.failed.values():  # after the summary: the run's outcome is not lost
+    for error in failed.values():  # after the summary: the run's outcome is not lost
         err.print(str(error), markup=False)
-    if result.ended_by == "interrupted":
-        sys.exit(130)
-    sys.exit(1 if run.failed or not result.ok else 0)
 
 
 def _recorder(engine: MissionEngine, record_file: str | None, live: bool, port: int,
