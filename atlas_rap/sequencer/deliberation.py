@@ -87,7 +87,7 @@ from atlas_rap.logic import Compound, Term, Var, is_ground, term_to_str
 from atlas_rap.planner.dispatch import match_steps
 from atlas_rap.planner.plan import Plan, PlanStep
 from atlas_rap.sequencer.host import PlanHost
-from atlas_rap.sequencer.status import Outcome
+from atlas_rap.sequencer.status import Outcome, PlanStepState
 from atlas_rap.sequencer.task import SUCCEEDED, Failure, SkillWait, Task
 from atlas_rap.sequencer.trace import Event
 
@@ -139,8 +139,8 @@ class Deliberator(Protocol):
 class StepRun:
     """One step of the plan being carried out: its RAP task and how it stands.
 
-    ``status``: ``waiting`` (for the steps ordered before it), ``running``,
-    ``done``, ``failed`` or ``halted``. The execution is the spawned task's
+    ``status``: a :class:`~atlas_rap.sequencer.status.PlanStepState` (waiting
+    for the steps ordered before it, running, done, failed or halted). The execution is the spawned task's
     "step": the interpreter tells it when the task ends (:meth:`child_ended`).
     """
 
@@ -148,7 +148,7 @@ class StepRun:
     step: PlanStep
     call: Compound
     before: list[int] = field(default_factory=list)
-    status: str = "waiting"
+    status: PlanStepState = PlanStepState.WAITING
     task: Task | None = None
 
     @property
@@ -244,7 +244,7 @@ class PlanExecution:
         """What the plan waits for, for introspection."""
         if self.planning:
             return [f"plan {self.number}: the planner ({self.cause})"]
-        running = [s.describe() for s in self.steps.values() if s.status == "running"]
+        running = [s.describe() for s in self.steps.values() if s.status == PlanStepState.RUNNING]
         return running or [f"plan {self.number}"]
 
     # -- planning -----------------------------------------------------------------
@@ -316,14 +316,14 @@ class PlanExecution:
 
     def _adopt(self, old: dict[int, StepRun]) -> None:
         """Take the new plan over the old: keep running steps it keeps, halt the others; trace it."""
-        running = [s for s in old.values() if s.status == "running"]
+        running = [s for s in old.values() if s.status == PlanStepState.RUNNING]
         kept, new, reassigned = [], [], []
         for run in self.steps.values():
             match = next((o for o in running if o.call == run.call), None) or next(
                 (o for o in running if o.work == run.work), None)
             if match is not None:
                 running.remove(match)
-                run.status, run.task = "running", match.task
+                run.status, run.task = PlanStepState.RUNNING, match.task
                 match.task.step = run  # the running task now reports to the new plan
                 kept.append(run.action)
                 if match.step.agent != run.step.agent:
@@ -331,14 +331,15 @@ class PlanExecution:
                                        "to": run.step.agent, "running": True})
                 continue
             new.append(run.action)
-            earlier = next((o for o in old.values() if o.status in ("waiting", "failed", "halted")
+            earlier = next((o for o in old.values()
+                            if o.status in (PlanStepState.WAITING, PlanStepState.FAILED, PlanStepState.HALTED)
                             and o.work == run.work and o.step.agent != run.step.agent), None)
             if earlier is not None:
                 reassigned.append({"step": f"s{run.step.id}", "action": run.action, "from": earlier.step.agent,
                                    "to": run.step.agent})
         halted = [o.action for o in running]
         for o in running:
-            o.status = "halted"
+            o.status = PlanStepState.HALTED
             self.host.halt(o.task, f"re-plan {self.version} of plan {self.number} dropped this step")
         self.host.trace.emit(Event.REPLANNED, plan=self.number, version=self.version, id=self.owner.id,
                              cause=self.cause, done=list(self.done),
@@ -353,27 +354,28 @@ class PlanExecution:
             return
         host = self.host
         for run in self.steps.values():
-            if run.status != "waiting" or any(self.steps[b].status != "done" for b in run.before):
+            if run.status != PlanStepState.WAITING or any(
+                    self.steps[b].status != PlanStepState.DONE for b in run.before):
                 continue
-            run.status = "running"
+            run.status = PlanStepState.RUNNING
             run.task = host.spawn(run.call, self.owner, run)
             host.trace.emit(Event.PLAN_STEP_STARTED, plan=self.number, version=self.version, step=run.step.id,
                             action=run.action, agent=run.step.agent, id=self.owner.id, step_task=run.task.id,
                             task=run.task.text)
             if self.ended or self.planning:
                 return
-        if all(run.status == "done" for run in self.steps.values()):
+        if all(run.status == PlanStepState.DONE for run in self.steps.values()):
             self._all_done()
 
     def step_ended(self, run: StepRun, task: Task) -> None:
         """A step's RAP task ended (the interpreter calls this through the task's step)."""
-        if self.ended or run.status != "running" or self.steps.get(run.step.id) is not run:
+        if self.ended or run.status != PlanStepState.RUNNING or self.steps.get(run.step.id) is not run:
             return
         host = self.host
         fields = {"plan": self.number, "version": self.version, "step": run.step.id, "action": run.action,
                   "agent": run.step.agent, "id": self.owner.id, "step_task": task.id, "task": task.text}
         if task.status == SUCCEEDED:
-            run.status = "done"
+            run.status = PlanStepState.DONE
             self.done.append(run.action)
             host.trace.emit(Event.PLAN_STEP_DONE, **fields)
             unmet = self._unmet_links(run.step.id)
@@ -382,7 +384,7 @@ class PlanExecution:
                 return
             self._dispatch()
             return
-        run.status = "failed"
+        run.status = PlanStepState.FAILED
         self.failed[self.plan.sequence[run.step.source]] = None  # type: ignore[union-attr]
         reason = _root_reason(task.failure)
         host.trace.emit(Event.PLAN_STEP_FAILED, reason=reason, **fields)
@@ -391,14 +393,15 @@ class PlanExecution:
     def step_waiting(self, run: StepRun, wait: SkillWait, what: str) -> None:
         """A running step waits for a skill: if it still waits when the rest of the plan no longer fits
         before the deadline, the plan is repaired."""
-        if self.ended or self.deadline_at is None or self.plan is None or run.status != "running":
+        if self.ended or self.deadline_at is None or self.plan is None or run.status != PlanStepState.RUNNING:
             return
         host = self.host
         rest = self.plan.makespan - run.step.start
         latest = self.deadline_at - rest
 
         def check() -> None:
-            if wait.live and run.status == "running" and not self.ended and self.steps.get(run.step.id) is run:
+            if (wait.live and run.status == PlanStepState.RUNNING and not self.ended
+                    and self.steps.get(run.step.id) is run):
                 self._changed(f"step s{run.step.id} {run.action} waits for {what}, and the {_num(rest)} s of plan "
                               f"left from it no longer fit before the deadline at t={_num(self.deadline_at or 0.0)} s")
 
@@ -436,7 +439,8 @@ class PlanExecution:
         """Whether a change breaks a live causal link or loses an agent the plan still uses: the cause."""
         if fact.functor == AGENT_FAILED and kind == "assert" and fact.args:
             agent = term_to_str(fact.args[0])
-            users = [r for r in self.steps.values() if r.status in ("waiting", "running") and r.step.agent == agent]
+            users = [r for r in self.steps.values()
+                     if r.status in (PlanStepState.WAITING, PlanStepState.RUNNING) and r.step.agent == agent]
             return f"agent {agent} was lost ({term_to_str(fact)})" if users else None
         text = term_to_str(fact)
         change = "asserted" if kind == "assert" else "retracted"
@@ -448,7 +452,8 @@ class PlanExecution:
             return f"{text} was {change}, which {need} needs"
         needed = Compound("not", (fact,)) if kind == "assert" else fact
         for run in self.steps.values():  # a fact no operator changes is in no link, but a step needs it
-            if run.status == "waiting" and needed in run.step.needs and wanted not in self.provided[run.step.id]:
+            if (run.status == PlanStepState.WAITING and needed in run.step.needs
+                    and wanted not in self.provided[run.step.id]):
                 return f"{text} was {change}, which step s{run.step.id} needs"
         return None
 
@@ -465,7 +470,7 @@ class PlanExecution:
         """
         source = self.steps[done].step.source
         mine = {i for i, run in self.steps.items() if run.step.source == source}
-        if any(self.steps[i].status != "done" for i in mine):
+        if any(self.steps[i].status != PlanStepState.DONE for i in mine):
             return None
         memory, relations = self.host.memory, self.host.relations
         believed = []
@@ -494,9 +499,9 @@ class PlanExecution:
         return all(known in beliefs for known in self.host.memory.facts(pattern))
 
     def _live(self, producer: int | str, consumer: int | str) -> bool:
-        if producer != "init" and self.steps[producer].status != "done":  # type: ignore[index]
+        if producer != "init" and self.steps[producer].status != PlanStepState.DONE:  # type: ignore[index]
             return False
-        return consumer == "goal" or self.steps[consumer].status == "waiting"  # type: ignore[index]
+        return consumer == "goal" or self.steps[consumer].status == PlanStepState.WAITING  # type: ignore[index]
 
     def _later(self, cause: str) -> None:
         """Handle a change of memory after the change is done (not inside the rules' run)."""
@@ -557,8 +562,8 @@ class PlanExecution:
 
     def _halt_running(self, why: str) -> None:
         for run in self.steps.values():
-            if run.status == "running" and run.task is not None:
-                run.status = "halted"
+            if run.status == PlanStepState.RUNNING and run.task is not None:
+                run.status = PlanStepState.HALTED
                 self.host.halt(run.task, why)
 
     def _close(self) -> None:

@@ -39,6 +39,16 @@ class StepState(TextEnum):
     DONE = "done"  #: ended (well or not), or halted
 
 
+class PlanStepState(TextEnum):
+    """Where a step of a plan being carried out (``deliberation.StepRun``) is."""
+
+    WAITING = "waiting"  #: for the steps ordered before it
+    RUNNING = "running"  #: its RAP task is running
+    DONE = "done"  #: its task succeeded
+    FAILED = "failed"  #: its task failed (the plan is repaired or abandoned)
+    HALTED = "halted"  #: its task was halted (a new plan dropped or moved the step)
+
+
 class Outcome(TextEnum):
     """The outcomes the sequencer gives a step (skills may report others, as plain strings)."""
 
