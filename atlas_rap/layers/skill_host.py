@@ -38,7 +38,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Protocol
 
 from atlas_rap.layers.builders import simulated_robot
 from atlas_rap.layers.clock import Clock
@@ -60,6 +61,23 @@ if TYPE_CHECKING:  # downward only: the sim is imported when a session starts
     from atlas_rap.sim.world import World
     from atlas_rap.skills.manager import SkillManager
 
+
+
+class Paced(Protocol):
+    """What records a session as it runs: its ``pace`` hook, called at each sequencer tick."""
+
+    def pace(self, now: float) -> None: ...
+
+
+class SessionRecorder(Protocol):
+    """A recording of each sequencer's session on this host (``atlas skills serve --record``:
+    :class:`atlas_rap.views.recording.HostRecorder`)."""
+
+    def begin(self, source: SessionWorld, number: int, start: float) -> Paced: ...
+
+    def end(self) -> Path | None: ...
+
+    def close(self) -> object: ...
 
 
 @dataclass
@@ -93,7 +111,7 @@ class SkillHostServer:
     def __init__(self, world: str, *, robot: str = keys.DEFAULT_ROBOT, secret: Secret | None, seed: int = 0,
                  listen: Sequence[str] = (), connect: Sequence[str] = (), zenoh_config: str | None = None,
                  lease: float = LEASE, max_message: int = MAX_MESSAGE, rates: Rates = Rates(),
-                 recorder: Any = None) -> None:
+                 recorder: SessionRecorder | None = None) -> None:
         from atlas_rap.sim.world import load_world
 
         self.robot = keys.check_robot(robot)

@@ -23,12 +23,18 @@ enabled skills write the same output, the one later in dependency order
 from __future__ import annotations
 
 import inspect
-from typing import Any, Iterable
+from typing import TYPE_CHECKING, Any, Iterable
 
 from atlas_rap.errors import AtlasError
 from atlas_rap.logic import Compound, String
 from atlas_rap.skillbus.skill_link import SkillHost
 from atlas_rap.skills.skill import HALTED, Skill, SkillContext
+
+if TYPE_CHECKING:  # downward only
+    import numpy as np
+
+    from atlas_rap.sim.world import World
+    from atlas_rap.skills.robot import Robot
 
 __all__ = ["SkillContext", "SkillManager", "dependency_order"]  # SkillContext lives in skills.skill now
 
@@ -41,7 +47,8 @@ class SkillManager:
     the executive calls :meth:`tick` at the skills' base rate.
     """
 
-    def __init__(self, skills: Iterable[Skill], *, world: Any = None, robot: Any = None, rng: Any = None) -> None:
+    def __init__(self, skills: Iterable[Skill], *, world: World | None = None, robot: Robot | None = None,
+                 rng: np.random.Generator | None = None) -> None:
         self.catalog: dict[str, Skill] = {}
         for skill in skills:
             if not skill.name:
