@@ -370,7 +370,7 @@ class Session:
     def _map(self, rest: str) -> None:
         from atlas_rap.outputs import output_file
 
-        if self.engine.world_name == "none":
+        if self.engine.ensure_system().world_name == "none":
             raise AtlasError(":map needs a world: start the REPL with --world W, or load a mission that names one")
         path = output_file(shlex.split(rest)[0] if rest else "repl-map.png", ":map")
         self.picture.render(str(path), "atlas repl")
@@ -406,7 +406,7 @@ class Session:
             write_text(path, self.saved_text(), ":save")
         except OSError as exc:
             raise AtlasError(f"cannot write {path}: {exc.strerror}") from None
-        self.note(f"saved the session (world {self.engine.world_name}, memory, definitions and "
+        self.note(f"saved the session (world {self.engine.ensure_system().world_name}, memory, definitions and "
                   f"{len(self.sequencer.live_roots())} live task(s)) to {path}")
 
     def _help(self, rest: str) -> None:

@@ -172,8 +172,9 @@ class MissionEngine:
 
     @property
     def world_name(self) -> str:
-        """The running world, as people name it (``none`` for virtual skills only)."""
-        return self.ensure_system().world_name
+        """The running world, as people name it (``none`` for virtual skills only; the System must
+        be built: :meth:`ensure_system`)."""
+        return self._system.world_name
 
     def start(self) -> None:
         """Start the world once: the prior map (places, doors) goes into memory."""
