@@ -1,0 +1,259 @@
+"""Monte Carlo localisation on a known map: where the robot is, as a particle belief, from odometry and sonar.
+
+The filter of *Probabilistic Robotics* (Thrun, Burgard and Fox 2005, ch. 8)
+as nav2's AMCL runs it, vectorised in numpy over the particles and beams:
+
+- **Motion** (:meth:`ParticleFilter.predict`): the odometry motion model
+  (rotate, translate, rotate) with AMCL's four noise parameters,
+  :class:`MotionNoise` ``alpha1``-``alpha4``: rotation noise from rotation
+  and from translation, translation noise from translation and from rotation.
+- **Sensing** (:meth:`ParticleFilter.correct`): a likelihood field
+  (:class:`LikelihoodField`): the distance from each beam's end to the
+  nearest occupied cell of the map (scipy's Euclidean distance transform,
+  computed once), scored by a Gaussian hit term mixed with a uniform
+  random term. A sonar reading at its maximum range is no echo (nothing
+  there, or a specular reflection that never came back), and says nothing
+  about where the robot is, so it is left out rather than scored as a miss.
+- **Resampling** (:meth:`ParticleFilter.resample`): low-variance
+  (systematic) resampling, only when the effective sample size falls below
+  a share of the particles; the number of particles adapts by KLD-sampling
+  (Fox 2003) between ``min_particles`` and ``max_particles``.
+- **Recovery**: the short- and long-term averages of the measurement
+  likelihood (AMCL's ``recovery_alpha_fast`` / ``recovery_alpha_slow``)
+  inject random particles over the free space when the likelihood drops,
+  so a kidnapped robot is found again.
+
+:meth:`ParticleFilter.estimate` is the belief as a pose and a 3 x 3
+covariance (heading averaged on the circle). Everything here works on a
+map (an occupied mask and its :class:`~atlas_rap.maps.frame.GridFrame`);
+:func:`wall_mask` draws one from a world's walls.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from atlas_rap.maps.frame import GridFrame
+from atlas_rap.model import Segment
+
+__all__ = ["FilterSettings", "LikelihoodField", "MotionNoise", "ParticleFilter", "SonarLikelihood", "wall_mask"]
+
+Pose = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class MotionNoise:
+    """The odometry motion model's noise, as AMCL's ``alpha1``-``alpha4`` (standard deviations squared
+    per unit): rotation from rotation, rotation from translation, translation from translation,
+    translation from rotation."""
+
+    alpha1: float = 0.05
+    alpha2: float = 0.05
+    alpha3: float = 0.05
+    alpha4: float = 0.05
+
+
+@dataclass(frozen=True)
+class SonarLikelihood:
+    """How a sonar reading is scored against the map: ``z_hit`` of a Gaussian of ``sigma_hit`` metres
+    around the nearest obstacle, ``z_rand`` of a uniform over ``[0, max_range]`` (unexplained echoes:
+    people, cross-talk). ``max_distance`` caps the field (farther is as unlikely as anything)."""
+
+    z_hit: float = 0.8
+    z_rand: float = 0.2
+    sigma_hit: float = 0.2
+    max_distance: float = 2.0
+
+
+@dataclass(frozen=True)
+class FilterSettings:
+    """The particle count (KLD-sampling between the bounds, with error ``kld_error`` at quantile
+    ``kld_z`` over bins of ``bin_size`` metres and ``bin_angle`` radians), when to resample (effective
+    sample size below ``resample_below`` of the particles) and the recovery averages."""
+
+    min_particles: int = 100
+    max_particles: int = 3000
+    kld_error: float = 0.05
+    kld_z: float = 2.326  # the normal's upper 0.01 quantile
+    bin_size: float = 0.25
+    bin_angle: float = math.radians(10.0)
+    resample_below: float = 0.5
+    alpha_slow: float = 0.001
+    alpha_fast: float = 0.1
+
+
+def wall_mask(walls: tuple[Segment, ...] | list[Segment], frame: GridFrame, thickness: float = 0.1) -> np.ndarray:
+    """The cells of ``frame`` that ``walls`` cover, drawn ``thickness`` metres thick: a map to localise on."""
+    from skimage.draw import line
+
+    mask = np.zeros(frame.shape, dtype=bool)
+    for wall in walls:
+        (r0, c0), (r1, c1) = (frame.world_to_cell(*wall.a), frame.world_to_cell(*wall.b))
+        rr, cc = line(int(r0), int(c0), int(r1), int(c1))
+        keep = (rr >= 0) & (rr < frame.height) & (cc >= 0) & (cc < frame.width)
+        mask[rr[keep], cc[keep]] = True
+    grow = int(round(thickness / frame.resolution / 2))
+    return ndimage.binary_dilation(mask, iterations=grow) if grow > 0 else mask
+
+
+class LikelihoodField:
+    """The distance (metres) from every cell of a map to its nearest occupied cell, looked up at points."""
+
+    def __init__(self, occupied: np.ndarray, frame: GridFrame, max_distance: float = 2.0) -> None:
+        occupied = np.asarray(occupied, dtype=bool)
+        if occupied.shape != frame.shape:
+            raise ValueError(f"the map is {occupied.shape}, its frame {frame.shape}")
+        self.frame = frame
+        self.max_distance = float(max_distance)
+        distance = ndimage.distance_transform_edt(~occupied) * frame.resolution if occupied.any() \
+            else np.full(frame.shape, self.max_distance)
+        self.distance = np.minimum(distance, self.max_distance).astype(np.float32)
+        self.free = ~occupied
+
+    def at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """The distance to the nearest obstacle at world points (``max_distance`` off the map)."""
+        rows, cols = self.frame.world_to_cell(x, y)
+        rows, cols = np.asarray(rows, dtype=np.int64), np.asarray(cols, dtype=np.int64)
+        inside = (rows >= 0) & (rows < self.frame.height) & (cols >= 0) & (cols < self.frame.width)
+        out = np.full(rows.shape, self.max_distance, dtype=np.float32)
+        out[inside] = self.distance[rows[inside], cols[inside]]
+        return out
+
+
+class ParticleFilter:
+    """Adaptive Monte Carlo localisation of one robot on one map (see the module docstring).
+
+    ``start`` and ``spread`` (standard deviations of x, y, heading) seed the
+    particles around a known start; ``rng`` is the run's generator, so the
+    same seed gives the same belief. ``robot_radius`` is where the sonar
+    sits (readings are measured from the rim), ``max_range`` its range.
+    """
+
+    def __init__(self, field: LikelihoodField, start: Pose, rng: np.random.Generator, *,
+                 spread: Pose = (0.1, 0.1, math.radians(5.0)), robot_radius: float = 0.2, max_range: float = 5.0,
+                 motion: MotionNoise = MotionNoise(), sensor: SonarLikelihood = SonarLikelihood(),
+                 settings: FilterSettings = FilterSettings()) -> None:
+        self.field, self.rng = field, rng
+        self.robot_radius, self.max_range = float(robot_radius), float(max_range)
+        self.motion, self.sensor, self.settings = motion, sensor, settings
+        n = settings.max_particles
+        self.particles = np.column_stack([rng.normal(start[i], spread[i], n) for i in range(3)])
+        self.particles[:, 2] = _wrap(self.particles[:, 2])
+        self.weights = np.full(n, 1.0 / n)
+        self.w_slow = self.w_fast = 0.0
+        free_rows, free_cols = np.nonzero(field.free)
+        self._free_cells = np.column_stack([free_rows, free_cols])
+
+    @property
+    def count(self) -> int:
+        """How many particles the belief has now."""
+        return len(self.particles)
+
+    def predict(self, before: Pose, after: Pose) -> None:
+        """Move every particle by the odometry's motion from ``before`` to ``after``, with noise."""
+        dx, dy = after[0] - before[0], after[1] - before[1]
+        trans = math.hypot(dx, dy)
+        rot1 = _wrap(math.atan2(dy, dx) - before[2]) if trans > 1e-3 else 0.0
+        if abs(rot1) > math.pi / 2:  # driving backwards: the same line the other way
+            rot1, trans = _wrap(rot1 - math.pi), -trans
+        rot2 = _wrap(after[2] - before[2] - rot1)
+        a = self.motion
+        n, rng = self.count, self.rng
+        r1 = rot1 - rng.normal(0.0, math.sqrt(a.alpha1 * rot1 ** 2 + a.alpha2 * trans ** 2), n)
+        t = trans - rng.normal(0.0, math.sqrt(a.alpha3 * trans ** 2 + a.alpha4 * (rot1 ** 2 + rot2 ** 2)), n)
+        r2 = rot2 - rng.normal(0.0, math.sqrt(a.alpha1 * rot2 ** 2 + a.alpha2 * trans ** 2), n)
+        p = self.particles
+        heading = p[:, 2] + r1
+        p[:, 0] += t * np.cos(heading)
+        p[:, 1] += t * np.sin(heading)
+        p[:, 2] = _wrap(heading + r2)
+
+    def correct(self, ranges: np.ndarray, angles: np.ndarray) -> float:
+        """Weigh every particle by one sonar scan (readings at ``max_range`` left out); the scan's mean
+        likelihood per beam, which the recovery averages follow. A scan with no echo changes nothing."""
+        ranges, angles = np.asarray(ranges, dtype=float), np.asarray(angles, dtype=float)
+        echo = ranges < self.max_range - 1e-6
+        if not echo.any():
+            return 0.0
+        reach = ranges[echo] + self.robot_radius
+        p = self.particles
+        bearing = p[:, 2:3] + angles[echo][None, :]
+        d = self.field.at(p[:, 0:1] + reach * np.cos(bearing), p[:, 1:2] + reach * np.sin(bearing))
+        s = self.sensor
+        likelihood = s.z_hit * np.exp(-0.5 * (d / s.sigma_hit) ** 2) + s.z_rand / self.max_range
+        log_w = np.log(likelihood).sum(axis=1)
+        # how well the scan fits, per beam (a geometric mean, comparable from scan to scan whatever the
+        # number of echoes): what the recovery averages follow
+        mean_likelihood = float(np.dot(self.weights, np.exp(log_w / int(echo.sum()))))
+        weights = self.weights * np.exp(log_w - log_w.max())
+        self.weights = weights / weights.sum()
+        st = self.settings  # both averages start at 0, as AMCL's: no recovery until they have a history
+        self.w_slow += st.alpha_slow * (mean_likelihood - self.w_slow)
+        self.w_fast += st.alpha_fast * (mean_likelihood - self.w_fast)
+        return mean_likelihood
+
+    @property
+    def effective_size(self) -> float:
+        """The effective sample size of the weights, 1 / sum(w^2)."""
+        return float(1.0 / np.square(self.weights).sum())
+
+    def resample(self, force: bool = False) -> bool:
+        """Resample when the effective sample size has fallen (or ``force``); whether it did."""
+        st = self.settings
+        if not force and self.effective_size >= st.resample_below * self.count:
+            return False
+        n_max = st.max_particles
+        positions = (self.rng.random() + np.arange(n_max)) / n_max  # low-variance: one random offset
+        chosen = np.minimum(np.searchsorted(np.cumsum(self.weights), positions), self.count - 1)
+        drawn = self.particles[self.rng.permutation(chosen)]
+        inject = max(0.0, 1.0 - self.w_fast / self.w_slow) if self.w_slow > 0 else 0.0
+        if inject > 0:
+            random = self.rng.random(n_max) < inject
+            drawn[random] = self._random_poses(int(random.sum()))
+        n = self._kld_count(drawn)
+        self.particles = drawn[:n].copy()
+        self.weights = np.full(n, 1.0 / n)
+        return True
+
+    def estimate(self) -> tuple[Pose, np.ndarray]:
+        """The belief as a pose (weighted mean; heading on the circle) and its 3 x 3 covariance."""
+        w, p = self.weights, self.particles
+        x, y = float(w @ p[:, 0]), float(w @ p[:, 1])
+        heading = math.atan2(float(w @ np.sin(p[:, 2])), float(w @ np.cos(p[:, 2])))
+        residual = np.column_stack([p[:, 0] - x, p[:, 1] - y, _wrap(p[:, 2] - heading)])
+        covariance = (residual * w[:, None]).T @ residual
+        return (x, y, heading), covariance
+
+    def _random_poses(self, n: int) -> np.ndarray:
+        """``n`` poses spread uniformly over the map's free cells, headings uniform."""
+        cells = self._free_cells[self.rng.integers(0, len(self._free_cells), n)]
+        jitter = self.rng.random((n, 2)) - 0.5
+        x, y = self.field.frame.cell_to_world(cells[:, 0] + jitter[:, 0], cells[:, 1] + jitter[:, 1])
+        return np.column_stack([np.atleast_1d(x), np.atleast_1d(y), self.rng.uniform(-math.pi, math.pi, n)])
+
+    def _kld_count(self, drawn: np.ndarray) -> int:
+        """How many of ``drawn`` (in random order) KLD-sampling keeps: the first n such that n reaches
+        the bound for the number of (x, y, heading) bins the first n occupy."""
+        st = self.settings
+        bins = np.column_stack([np.floor(drawn[:, 0] / st.bin_size), np.floor(drawn[:, 1] / st.bin_size),
+                                np.floor((drawn[:, 2] + math.pi) / st.bin_angle)]).astype(np.int64)
+        _, first = np.unique(bins, axis=0, return_index=True)
+        new_bin = np.zeros(len(drawn), dtype=np.int64)
+        new_bin[first] = 1
+        k = np.cumsum(new_bin)  # bins occupied by the first n + 1 particles
+        km1 = np.maximum(k - 1, 1).astype(float)
+        c = 2.0 / (9.0 * km1)
+        bound = km1 / (2.0 * st.kld_error) * (1.0 - c + np.sqrt(c) * st.kld_z) ** 3
+        bound = np.where(k > 1, bound, st.min_particles)
+        enough = np.flatnonzero(np.arange(1, len(drawn) + 1) >= np.maximum(bound, st.min_particles))
+        return int(min(enough[0] + 1 if enough.size else len(drawn), st.max_particles))
+
+
+def _wrap(angle):
+    """Angles into (-pi, pi]."""
+    return (np.asarray(angle) + math.pi) % (2 * math.pi) - math.pi if isinstance(angle, np.ndarray) \
+        else (angle + math.pi) % (2 * math.pi) - math.pi
