@@ -4,17 +4,16 @@ sonar ring's own noise and dropout, against the true pose the simulator keeps.""
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 import pytest
 
+from localisation_runs import drive
+
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.localisation import LikelihoodField, MotionNoise, ParticleFilter, wall_mask
 from atlas_rap.model import Segment
-from atlas_rap.sim.physics import Simulation
-from atlas_rap.sim.world import load_world
 
 
 def test_without_noise_every_particle_moves_exactly_as_the_odometry_did():
@@ -39,38 +38,11 @@ def test_the_likelihood_field_is_the_distance_to_the_nearest_wall_capped():
     assert field.at(np.array([-5.0]), np.array([-5.0]))[0] == pytest.approx(1.0)  # off the map
 
 
-def _drive(seed: int, drift: float = 0.05, seconds: float = 30.0):
-    """Drive the lab's robot with drifting odometry; the filter's and the odometry's errors at each scan."""
-    world = load_world("lab-corridor-office")
-    world = dataclasses.replace(world, robot=dataclasses.replace(world.robot, odometry_drift=drift))
-    sim = Simulation(world, seed=seed, dt=0.01)
-    frame = GridFrame.covering(world.bounds, 0.05)
-    pf = ParticleFilter(LikelihoodField(wall_mask(world.walls, frame), frame), sim.odometry,
-                        np.random.default_rng(seed), robot_radius=world.robot.radius,
-                        max_range=world.sonar.max_range)
-    angles = np.asarray(sim.sonar_angles)
-    before, belief, odometry = sim.odometry, [], []
-    for step in range(int(seconds / 0.01)):
-        t = step * 0.01
-        sim.command(*((0.0, 0.8) if t < 4 else (0.35, 0.25 * math.sin(t / 3))))  # turn, then wander on
-        sim.step()
-        if step % 10 == 9:  # the sonar's 10 Hz
-            now = sim.odometry
-            pf.predict(before, now)
-            before = now
-            pf.correct(sim.sonar(), angles)
-            pf.resample()
-            (x, y, _), _ = pf.estimate()
-            tx, ty, _ = sim.pose
-            belief.append(math.hypot(x - tx, y - ty))
-            odometry.append(math.hypot(now[0] - tx, now[1] - ty))
-    return np.array(belief), np.array(odometry), pf
-
-
 def test_the_filter_tracks_a_robot_whose_odometry_drifts_5_percent_better_than_the_odometry():
     ends, odometry_ends = [], []
     for seed in (0, 1, 2):
-        belief, odometry, pf = _drive(seed)
+        run = drive(seed)
+        belief, odometry, pf = run.belief, run.odometry, run.filter
         assert math.sqrt(np.mean(belief ** 2)) <= 0.15, (seed, belief.max())
         ends.append(belief[-1])
         odometry_ends.append(odometry[-1])
@@ -79,6 +51,6 @@ def test_the_filter_tracks_a_robot_whose_odometry_drifts_5_percent_better_than_t
 
 
 def test_the_same_seed_gives_the_same_belief():
-    first, _, a = _drive(4, seconds=6.0)
-    second, _, b = _drive(4, seconds=6.0)
-    assert np.array_equal(first, second) and np.array_equal(a.particles, b.particles)
+    first, second = drive(4, seconds=6.0), drive(4, seconds=6.0)
+    assert np.array_equal(first.belief, second.belief)
+    assert np.array_equal(first.filter.particles, second.filter.particles)
