@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from atlas_rap.maps.frame import GridFrame
-from atlas_rap.maps.localisation import LikelihoodField, ParticleFilter, wall_mask
+from atlas_rap.maps.localisation import LikelihoodField, ParticleFilter, SonarLikelihood, wall_mask
 from atlas_rap.sim.physics import Simulation
 from atlas_rap.sim.world import load_world
 
@@ -37,7 +37,8 @@ def drive(seed: int, drift: float = 0.05, seconds: float = 30.0, world_name: str
     frame = GridFrame.covering(world.bounds, 0.05)
     pf = ParticleFilter(LikelihoodField(wall_mask(world.walls, frame), frame), sim.odometry,
                         np.random.default_rng(seed), robot_radius=world.robot.radius,
-                        max_range=world.sonar.max_range)
+                        max_range=world.sonar.max_range,
+                        sensor=SonarLikelihood(beam_width=world.sonar.beam_width, rays=world.sonar.rays_per_beam))
     angles = np.asarray(sim.sonar_angles)
     before, belief, odometry, counts, spent = sim.odometry, [], [], [], 0.0
     for step in range(int(seconds / 0.01)):
