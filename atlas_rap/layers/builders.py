@@ -76,7 +76,7 @@ def build_virtual(options: RunOptions, choice: WorldChoice, trace: Trace, virtua
     if options.topology is not None:
         raise RunError("--map needs a world; this run has none (--world none)")
     sequencer = Sequencer(skills=virtual, trace=trace)
-    deliberation = planning_beside(sequencer, problem_for, worker or options.realtime)
+    deliberation = planning_beside(sequencer, problem_for, options, worker)
     driver = VirtualExecutive(sequencer, pace=wall_clock_pacer() if options.realtime else None)
     return System(options, trace, virtual, virtual, sequencer, deliberation, driver)
 
@@ -104,7 +104,7 @@ def build_simulated(options: RunOptions, choice: WorldChoice, trace: Trace, virt
         manager.context.beliefs[TOPOLOGY] = Topology.from_json(options.topology)
     skills = CombinedSkills(manager, virtual)
     sequencer = Sequencer(skills=skills, trace=trace)
-    deliberation = planning_beside(sequencer, problem_for, worker or options.realtime)
+    deliberation = planning_beside(sequencer, problem_for, options, worker)
     stack = layer_stack(options, sequencer, manager, believed)
     clock = (WallClock if options.realtime else Clock)(options.rates.physics)
     driver = Executive(simulation, manager, sequencer, options.rates, stack=stack, clock=clock)
@@ -134,7 +134,7 @@ def layer_stack(options: RunOptions, sequencer: Sequencer, manager: SkillManager
         stack.add(StrategicLayer(stack, map_in(options.map_in, believed) if options.map_in is not None else None))
     if not stack.active():
         raise RunError(f"--layers {','.join(options.layers)}: Layer IV maps, so it runs only when the "
-                         f"robot maps (--no-prior-map or --map-in); enable I, II or III as well")
+                       f"robot maps (--no-prior-map or --map-in); enable I, II or III as well")
     return stack
 
 
@@ -146,14 +146,14 @@ def map_in(path: str | Path, world: World) -> OccupancyGrid:
         grid = OccupancyGrid.load_npz(path)
     except (OSError, KeyError, ValueError) as exc:
         raise MapError(f"{path}: not an occupancy grid written by atlas run --map-out or "
-                         f"atlas map build ({exc})") from None
+                       f"atlas map build ({exc})") from None
     xmin, ymin, xmax, ymax = world.bounds
     frame = grid.frame
     inset = frame.resolution / 2
     corners = [frame.world_to_cell(x, y) for x in (xmin + inset, xmax - inset) for y in (ymin + inset, ymax - inset)]
     if not all(frame.contains_cell(row, col) for row, col in corners):
         raise MapError(f"{path}: this grid does not cover world {world.name} "
-                         f"(x {xmin:g}..{xmax:g}, y {ymin:g}..{ymax:g}); was it built in another world?")
+                       f"(x {xmin:g}..{xmax:g}, y {ymin:g}..{ymax:g}); was it built in another world?")
     return grid
 
 

@@ -207,14 +207,14 @@ class MissionEngine:
         (the default: the planner's latency charged by a rule, so runs are reproducible)."""
         self.worker_planning = worker
         if self.system is not None:
-            self.system.deliberation.worker = worker or self.options.realtime
+            self.system.deliberation.worker = self.options.plans_on_worker(worker)
 
     def _load_layer_rules(self) -> None:
         """The switching rules and their settings (``layer_rules``), before any program."""
         program = load(self.options.rules_file)
-        self._check(program, False)
-        self._define(program)
-        self._act(program)
+        check(self._system, self.library, program, require_post=False)
+        define(self._system, self.library, program)
+        act(self._system, program)
 
     @property
     def grid(self) -> OccupancyGrid | None:
@@ -281,22 +281,13 @@ class MissionEngine:
         loaded = Loaded()
         if program.of_type(ast.PlanRequest) and not definitions_only:
             program = carry_out_plans(self._system, self.library, program)
-        loaded.warnings = self._check(program, require_post and not definitions_only)
+        loaded.warnings = check(self._system, self.library, program, require_post and not definitions_only)
         self.library.warnings += loaded.warnings
-        loaded.names = self._define(program)
+        loaded.names = define(self._system, self.library, program)
         self.start()
         if not definitions_only:
-            loaded.posted = self._act(program)
+            loaded.posted = act(self._system, program)
         return loaded
-
-    def _check(self, program: Program, require_post: bool) -> list[Problem]:
-        return check(self._system, self.library, program, require_post)
-
-    def _define(self, program: Program) -> list[str]:
-        return define(self._system, self.library, program)
-
-    def _act(self, program: Program) -> list[Task]:
-        return act(self._system, program)
 
     def planning_problem(self, goals: tuple[Term, ...], lost: frozenset[str] = frozenset(),
                          loc: SourceLocation | None = None, program: Program | None = None,

@@ -73,17 +73,12 @@ def observing(observers: Mapping[str, Observer | None]) -> Iterator[Observation]
     observation = Observation({option: o for option, o in observers.items() if o is not None})
     try:
         yield observation
-    except BaseException:
-        if not observation.running:  # the run never started: every output stays as it was
+    finally:
+        if observation.running:  # written also when the run failed or was interrupted
+            observation.failed = _close(observation)
+        else:  # the run never started: every output stays as it was
             for observer in observation.observers.values():
                 observer.discard()
-            raise
-        observation.failed = _close(observation)
-        raise
-    observation.failed = _close(observation) if observation.running else {}
-    if not observation.running:
-        for observer in observation.observers.values():
-            observer.discard()
 
 
 def _close(observation: Observation) -> dict[str, OutputError]:

@@ -253,7 +253,7 @@ def build_remote(options: RunOptions, choice: WorldChoice, trace: Trace, virtual
         raise
     skills = CombinedSkills(fleet, virtual)
     sequencer = Sequencer(skills=skills, trace=trace)
-    deliberation = planning_beside(sequencer, problem_for, worker or options.realtime)
+    deliberation = planning_beside(sequencer, problem_for, options, worker)
     driver = RemoteExecutive(sequencer, fleet, realtime=options.realtime)
     return System(options, trace, virtual, skills, sequencer, deliberation, driver, world=NamedWorld(fleet.world),
                   remote=fleet)

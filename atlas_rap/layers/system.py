@@ -90,6 +90,11 @@ class RunOptions:
         """The layer-switching rules to load before any program."""
         return Path(self.layer_rules) if self.layer_rules is not None else shipped_root("rap_library") / "layers.rap"
 
+    def plans_on_worker(self, asked: bool) -> bool:
+        """Whether the planner runs on a worker thread: when ``asked`` (the REPL on a terminal), and
+        always in a run paced to the wall clock; else in simulated time, so runs are reproducible."""
+        return asked or self.realtime
+
     @property
     def maps_while_driving(self) -> bool:
         """Whether Layer IV builds a grid in this run."""
@@ -185,8 +190,9 @@ def located(exc: AtlasError, form: ast.WorldDecl, line: str | None) -> WorldFile
     return WorldFileError(Problem(first, form.loc, line, hint))
 
 
-def planning_beside(sequencer: Sequencer, problem_for: ProblemFor, worker: bool) -> Deliberation:
-    """The planner beside ``sequencer``: in simulated time, or on a worker thread (``worker``)."""
-    deliberation = Deliberation(problem_for, sequencer.timers, worker=worker)
+def planning_beside(sequencer: Sequencer, problem_for: ProblemFor, options: RunOptions, worker: bool) -> Deliberation:
+    """The planner beside ``sequencer``: on a worker thread or in simulated time
+    (:meth:`RunOptions.plans_on_worker`)."""
+    deliberation = Deliberation(problem_for, sequencer.timers, worker=options.plans_on_worker(worker))
     sequencer.deliberator = deliberation
     return deliberation

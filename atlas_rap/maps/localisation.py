@@ -260,12 +260,11 @@ class ParticleFilter:
         km1 = np.maximum(k - 1, 1).astype(float)
         c = 2.0 / (9.0 * km1)
         bound = km1 / (2.0 * st.kld_error) * (1.0 - c + np.sqrt(c) * st.kld_z) ** 3
-        bound = np.where(k > 1, bound, st.min_particles)
+        bound = np.where(k > 1, bound, st.min_particles)  # one bin: the bound says nothing
         enough = np.flatnonzero(np.arange(1, len(drawn) + 1) >= np.maximum(bound, st.min_particles))
         return int(min(enough[0] + 1 if enough.size else len(drawn), st.max_particles))
 
 
 def _wrap(angle):
-    """Angles into (-pi, pi]."""
-    return (np.asarray(angle) + math.pi) % (2 * math.pi) - math.pi if isinstance(angle, np.ndarray) \
-        else (angle + math.pi) % (2 * math.pi) - math.pi
+    """Angles (a number or an array) into [-pi, pi)."""
+    return (angle + math.pi) % (2 * math.pi) - math.pi
