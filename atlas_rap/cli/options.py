@@ -181,6 +181,10 @@ def layer_options(command):
                      help="Start from this occupancy grid (a --map-out of an earlier run, or atlas map build's)."),
         click.option("--map-out", "map_out", type=OutputFile(suffix=".npz"), metavar="GRID.npz",
                      help="Write the occupancy grid built while driving, even if the run fails or is interrupted."),
+        click.option("--localisation", "localisation", type=click.Choice(["mcl", "odometry"]), default="mcl",
+                     show_default=True,
+                     help="How the robot knows where it is: Monte Carlo localisation on its map (mcl), or its "
+                          "odometry alone (dead reckoning, to compare)."),
         click.option("--layers", "layers", default="I,II,III,IV", show_default=True, metavar="I,II,...",
                      callback=lambda ctx, param, value: parse_layers(value),
                      help="The ATLAS layers enabled (each can drive the robot alone)."),
@@ -209,7 +213,7 @@ def run_options(*, world: str | None = None, seed: int = 0, default_world: str |
                 topology: str | None = None, mapping: bool = False, realtime: bool = False,
                 bus: BusSettings | None = None, no_prior_map: bool = False, map_in: str | None = None,
                 map_out: str | None = None, layers: tuple[str, ...] | None = None,
-                layer_rules: str | None = None) -> RunOptions:
+                layer_rules: str | None = None, localisation: str = "mcl") -> RunOptions:
     """What a run is asked for, from a command's options, built once (``--map-out`` checked)."""
     from atlas_rap.layers import RunOptions
 
@@ -219,4 +223,4 @@ def run_options(*, world: str | None = None, seed: int = 0, default_world: str |
     return RunOptions(world=world, default_world=default_world or defaults.default_world, seed=seed,
                       topology=topology, mapping=mapping, prior_map=not no_prior_map, map_in=map_in, map_out=map_out,
                       layers=tuple(layers) if layers is not None else defaults.layers, layer_rules=layer_rules,
-                      realtime=realtime, bus=bus)
+                      realtime=realtime, bus=bus, localisation=localisation)

@@ -41,8 +41,8 @@ if TYPE_CHECKING:
 @layer_options
 @bus_options
 def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str | None, verbose: bool,
-         speed: float, no_prior_map: bool, map_in: str | None, map_out: str | None, layers: tuple[str, ...],
-         layer_rules: str | None, bus: BusSettings | None) -> None:
+         speed: float, no_prior_map: bool, map_in: str | None, map_out: str | None, localisation: str,
+         layers: tuple[str, ...], layer_rules: str | None, bus: BusSettings | None) -> None:
     """Load FILEs, then read forms, queries and commands (:help lists them).
 
     Type any top-level form (define-rap, post, include, plan, ...),
@@ -60,7 +60,8 @@ def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str |
     width = None if interactive else 200
     out, err = console(width=width), console(err=True, width=width)
     options = run_options(world=world, seed=seed, default_world="none", bus=bus, no_prior_map=no_prior_map,
-                          map_in=map_in, map_out=map_out, layers=layers, layer_rules=layer_rules)
+                          map_in=map_in, map_out=map_out, layers=layers, layer_rules=layer_rules,
+                          localisation=localisation)
     check_bus_options(bus, **{"--world": world, "--no-prior-map": no_prior_map, "--map-in": map_in,
                       "--layers": tuple(layers) != ("I", "II", "III", "IV")})
     session = Session(options, out=out, err=err, trace_file=trace_file, verbose=verbose)

@@ -58,8 +58,8 @@ if TYPE_CHECKING:  # downward only
 def run(mission_file: str, world: str | None, seed: int, trace_file: str | None, quiet: bool, verbose: bool,
         until: float, realtime: bool | None, show_agenda: bool, show_memory: bool, topology_file: str | None,
         render: str | None, record_file: str | None, live: bool, live_port: int, no_prior_map: bool,
-        map_in: str | None, map_out: str | None, layers: tuple[str, ...], layer_rules: str | None,
-        bus: BusSettings | None) -> None:
+        map_in: str | None, map_out: str | None, localisation: str, layers: tuple[str, ...],
+        layer_rules: str | None, bus: BusSettings | None) -> None:
     """Run a mission: post its tasks, run the RAPs, print a live trace and a summary.
 
     Exits 0 when every posted task succeeded, 1 when one failed (the
@@ -78,7 +78,7 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
     out, err = console(), console(err=True)
     options = run_options(world=world, seed=seed, topology=topology_file, bus=bus, no_prior_map=no_prior_map,
                           realtime=live if realtime is None else realtime, map_in=map_in, map_out=map_out,
-                          layers=layers, layer_rules=layer_rules)
+                          layers=layers, layer_rules=layer_rules, localisation=localisation)
     check_bus_options(bus, **{
         "--world": world, "--map": topology_file, "--render": render,
         "--live (the host serves the world live: atlas skills serve --live)": live, "--no-prior-map": no_prior_map,
@@ -117,6 +117,7 @@ def _report(out: Console, err: Console, engine: MissionEngine, result: RunResult
     the outputs written (option -> (path, what)), then the outputs that could not be."""
     from atlas_rap.cli.views import memory_table, summary, task_tree
     from atlas_rap.sequencer import agenda_tree
+    from atlas_rap.views.pose_error import pose_errors
 
     if agenda:
         out.print(task_tree(agenda_tree(engine.sequencer)))
@@ -126,6 +127,9 @@ def _report(out: Console, err: Console, engine: MissionEngine, result: RunResult
         out.print(line)
     if engine.stack is not None and engine.stack.timeline:
         out.print("  primary layer: " + engine.stack.primary_summary(result.time), style="dim")
+    errors = pose_errors(engine.system)
+    if errors is not None:
+        out.print("  " + errors.line(), style="dim")
     for option, (path, what) in written.items():
         if path and option not in failed:
             out.print(f"{what} written to {path}", style="dim")

@@ -33,7 +33,7 @@ from atlas_rap.layers.system import RunOptions, System, WorldChoice, located, pl
 from atlas_rap.layers.tactical import TacticalLayer
 from atlas_rap.sequencer import Sequencer, Trace
 from atlas_rap.skillbus.skill_link import CombinedSkills
-from atlas_rap.skills.beliefs import TOPOLOGY
+from atlas_rap.skills.beliefs import LOCALISATION, TOPOLOGY
 from atlas_rap.skills.manager import SkillManager
 from atlas_rap.skills.virtual import VirtualSkills
 
@@ -98,6 +98,7 @@ def build_simulated(options: RunOptions, choice: WorldChoice, trace: Trace, virt
         raise located(exc, choice.form, choice.line) from None
     believed = world if options.prior_map else world.without_map()
     simulation, manager = simulated_robot(world, believed, options.seed, options.rates)
+    manager.context.beliefs[LOCALISATION] = options.localisation
     if options.topology is not None:
         from atlas_rap.maps.topology import Topology
 

@@ -64,6 +64,9 @@ class RunOptions:
     - ``layers``: the layers enabled; ``layer_rules``: the file of switching
       rules (None: the shipped ``rap_library/layers.rap``).
     - ``realtime``: pace simulated time to the wall clock.
+    - ``localisation``: how the robot knows where it is (``--localisation``): ``mcl``, Monte
+      Carlo localisation on its map, or ``odometry``, dead reckoning alone
+      (:mod:`atlas_rap.skills.localising`).
     - ``bus``: the skill hosts to use instead of a world here (``--connect``,
       ``--robot``, tokens: :class:`~atlas_rap.skillbus.remote.BusSettings`).
     """
@@ -81,6 +84,7 @@ class RunOptions:
     layer_rules: str | Path | None = None
     realtime: bool = False
     bus: BusSettings | None = None
+    localisation: str = "mcl"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "layers", tuple(self.layers))  # any iterable of layer names

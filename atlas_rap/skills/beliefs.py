@@ -160,6 +160,20 @@ class Sighting:
     time: float
 
 
+@dataclass(frozen=True, eq=False)
+class PoseEstimate:
+    """Where the robot believes it is, as the localiser (:mod:`atlas_rap.skills.localising`) has it at
+    ``time``: the ``pose`` (x, y, heading), its 3 x 3 ``covariance`` (m², rad²; ROS's
+    ``PoseWithCovariance`` in the plane), the ``particles`` (n x 3; None when the pose is not
+    estimated: odometry without noise is the pose) and whether the robot counts as ``localised``."""
+
+    time: float
+    pose: tuple[float, float, float]
+    covariance: Any
+    particles: Any = None
+    localised: bool = True
+
+
 class ObjectDevices(Protocol):
     """The robot's colour camera and gripper on the world's objects (in a simulated world,
     :class:`atlas_rap.sim.objects.ObjectSim`): what the camera skill looks with and the
@@ -183,7 +197,12 @@ class ObjectDevices(Protocol):
 
 # -- the keys ---------------------------------------------------------------------------
 
-POSE: Belief[tuple] = Belief("pose", tuple, "(x, y, heading) the robot believes it has (odometry)")
+POSE: Belief[tuple] = Belief("pose", tuple, "(x, y, heading) the robot believes it has (the localiser's estimate)")
+POSE_ESTIMATE: Belief[PoseEstimate] = Belief("pose-estimate", PoseEstimate,
+                                             "the localiser's belief: pose, covariance, particles, localised or not")
+LOCALISATION: Belief[str] = Belief("localisation", str, "how the localiser knows the pose: 'mcl' (default) or "
+                                                        "'odometry' (dead reckoning; atlas run --localisation)")
+POSE_TRACK: Belief[list] = Belief("pose-track", list, "the believed poses (t, x, y, heading) so far, every period of the localiser")
 SONAR: Belief[tuple] = Belief("sonar", tuple, "the latest sonar ring: (ranges from the rim, body-frame angles)")
 CLOSED_DOORS: Belief[set] = Belief("closed-doors", set, "door names seen closed (door monitor); routes avoid them")
 GRID: Belief[Any] = Belief("grid", "atlas_rap.maps.grid:OccupancyGrid", "the occupancy grid built from sonar (Layer IV)")

@@ -34,7 +34,7 @@ _NAVIGATION, _CAMERA, _HANDLING = "atlas_rap.skills.navigation", "atlas_rap.skil
 
 STOCK: tuple[StockSkill, ...] = (
     StockSkill("sonar-ring", f"{_SENSING}:SonarSensor", always_on=True),
-    StockSkill("odometry", f"{_SENSING}:Odometry", always_on=True),
+    StockSkill("localiser", "atlas_rap.skills.localising:Localiser", events=("localised", "lost"), always_on=True),
     StockSkill("bumper", f"{_SENSING}:Bumper", always_on=True),
     StockSkill("safety-reflex", "atlas_rap.skills.safety:SafetyReflex", always_on=True),
     StockSkill("drive", f"{_SENSING}:Drive", always_on=True),

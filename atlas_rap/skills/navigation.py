@@ -21,7 +21,7 @@ import math
 from typing import Any, Mapping
 
 from atlas_rap.logic import Compound, Var
-from atlas_rap.skills.beliefs import CLOSED_DOORS, GOAL, ROUTE, ROUTES, TOPOLOGY, FollowedRoute, Goal, PlannedRoute
+from atlas_rap.skills.beliefs import CLOSED_DOORS, GOAL, POSE, ROUTE, ROUTES, TOPOLOGY, FollowedRoute, Goal, PlannedRoute
 from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.motion import FollowRoute, _Driving
 from atlas_rap.skills.routes import PriorMapRoutes, TopologyRoutes
@@ -58,7 +58,7 @@ class NavigateTo(FollowRoute):
     def _plan(self) -> None:
         """Ask the route source for a route from here; take it, or keep the reason there is none."""
         context = self.context
-        x, y, _ = context.robot.odometry
+        x, y, _ = context.beliefs[POSE]
         self.revision = self.source.revision
         answer = self.source.route(self.goal, (x, y), context.beliefs.get(CLOSED_DOORS) or set())
         if not isinstance(answer, PlannedRoute):

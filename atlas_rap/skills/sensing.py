@@ -1,10 +1,11 @@
 """Sensor and actuator skills: the robot's body as skills (always on).
 
 They connect the skill network to the robot: ``sonar`` (the ring's ranges
-and their body-frame angles), ``pose`` (odometry), ``bump`` (the bumper),
+and their body-frame angles), ``bump`` (the bumper),
 and the ``drive`` actuator, which sends the final velocity command
 (``safe-command``, after the safety reflex) to the wheels and stops the
-robot when no skill commands it.
+robot when no skill commands it. The ``pose`` comes from the localiser
+(:mod:`atlas_rap.skills.localising`), from the odometry and the sonar.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from atlas_rap.skills.beliefs import POSE, SONAR
+from atlas_rap.skills.beliefs import SONAR
 from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.skill import Skill
 
@@ -33,18 +34,6 @@ class SonarSensor(Skill):
         reading = (self.context.robot.sonar(), self.angles)
         self.context.beliefs[SONAR] = reading
         return {"sonar": reading}
-
-
-@registered("odometry")
-class Odometry(Skill):
-    """Where the robot believes it is: ``pose`` = (x, y, heading) from odometry."""
-
-    outputs = ("pose",)
-
-    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
-        pose = self.context.robot.odometry
-        self.context.beliefs[POSE] = pose
-        return {"pose": pose}
 
 
 @registered("bumper")
