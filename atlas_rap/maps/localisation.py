@@ -82,7 +82,13 @@ class SonarLikelihood:
 class FilterSettings:
     """The particle count (KLD-sampling between the bounds, with error ``kld_error`` at quantile
     ``kld_z`` over bins of ``bin_size`` metres and ``bin_angle`` radians), when to resample (effective
-    sample size below ``resample_below`` of the particles) and the recovery averages."""
+    sample size below ``resample_below`` of the particles) and the recovery averages.
+
+    Recovery injects random particles when the fast average of the scans' likelihood falls below
+    ``recovery_below`` of the slow one, the more the further below (none at the threshold, all at
+    zero). AMCL injects ``1 - w_fast / w_slow`` of them at every dip of the fast average, which
+    scatters a belief that was tracking well; nav2 turns its recovery off by default (both alphas 0)
+    for that reason. The threshold keeps recovery on for a kidnap, which halves the fit or worse."""
 
     min_particles: int = 100
     max_particles: int = 3000
@@ -94,6 +100,7 @@ class FilterSettings:
     resample_below: float = 0.5
     alpha_slow: float = 0.001
     alpha_fast: float = 0.1
+    recovery_below: float = 0.5
 
 
 def wall_mask(walls: tuple[Segment, ...] | list[Segment], frame: GridFrame, thickness: float = 0.1) -> np.ndarray:
@@ -154,11 +161,15 @@ class LikelihoodField:
 class ParticleFilter:
     """Adaptive Monte Carlo localisation of one robot on one map (see the module docstring).
 
+    ``GUESSES``: how many uniform poses each injected particle is chosen from (:meth:`_guessed_poses`).
+
     ``start`` and ``spread`` (standard deviations of x, y, heading) seed the
     particles around a known start; ``rng`` is the run's generator, so the
     same seed gives the same belief. ``robot_radius`` is where the sonar
     sits (readings are measured from the rim), ``max_range`` its range.
     """
+
+    GUESSES = 10
 
     def __init__(self, field: LikelihoodField, start: Pose, rng: np.random.Generator, *,
                  spread: Pose = (0.1, 0.1, math.radians(5.0)), robot_radius: float = 0.2, max_range: float = 5.0,
@@ -172,6 +183,7 @@ class ParticleFilter:
         self.particles[:, 2] = _wrap(self.particles[:, 2])
         self.weights = np.full(n, 1.0 / n)
         self.w_slow = self.w_fast = 0.0
+        self._scan: tuple[np.ndarray, np.ndarray] | None = None  # the latest scan with an echo
         self.use_map(field)
 
     def use_map(self, field: LikelihoodField) -> None:
@@ -214,6 +226,24 @@ class ParticleFilter:
         echo = ranges < self.max_range - 1e-6
         if not echo.any():
             return 0.0
+        self._scan = (ranges, angles)
+        log_w = self.log_likelihood(self.particles, ranges, angles)
+        # how well the scan fits, per beam (a geometric mean, comparable from scan to scan whatever the
+        # number of echoes): what the recovery averages follow
+        mean_likelihood = float(np.dot(self.weights, np.exp(log_w / int(echo.sum()))))
+        weights = self.weights * np.exp(log_w - log_w.max())
+        self.weights = weights / weights.sum()
+        st = self.settings
+        if self.w_slow == 0.0:  # the first scan sets both averages: AMCL starts them at 0, so its slow
+            self.w_slow = self.w_fast = mean_likelihood  # one needs minutes before a kidnap can show
+        else:
+            self.w_slow += st.alpha_slow * (mean_likelihood - self.w_slow)
+            self.w_fast += st.alpha_fast * (mean_likelihood - self.w_fast)
+        return mean_likelihood
+
+    def log_likelihood(self, p: np.ndarray, ranges: np.ndarray, angles: np.ndarray) -> np.ndarray:
+        """The log-likelihood of one scan (echoes only) at each pose of ``p`` (n x 3)."""
+        echo = ranges < self.max_range - 1e-6
         s, frame = self.sensor, self.field.frame
         rays = s.rays if s.rays > 1 else 1
         offsets = np.linspace(-s.beam_width / 2, s.beam_width / 2, rays) if rays > 1 else np.zeros(1)
@@ -223,7 +253,6 @@ class ParticleFilter:
         bearing = (angles[echo][:, None] + offsets[None, :]).ravel()
         reach = np.repeat((ranges[echo] + self.robot_radius) / frame.resolution, rays)
         ray_x, ray_y = reach * np.cos(bearing), reach * np.sin(bearing)
-        p = self.particles
         heading = p[:, 2] - yaw
         cos, sin = np.cos(heading)[:, None], np.sin(heading)[:, None]
         dx, dy = p[:, 0] - ox, p[:, 1] - oy
@@ -233,16 +262,13 @@ class ParticleFilter:
         v = (dy / frame.resolution)[:, None] + sin * ray_x + cos * ray_y
         # the best fit across each beam's cone (the nearest obstacle is the likeliest), summed over beams
         score = self._log_score.take(self.field.index(u, v)).reshape(len(p), -1, rays)
-        log_w = score.max(axis=2).sum(axis=1, dtype=np.float64)
-        # how well the scan fits, per beam (a geometric mean, comparable from scan to scan whatever the
-        # number of echoes): what the recovery averages follow
-        mean_likelihood = float(np.dot(self.weights, np.exp(log_w / int(echo.sum()))))
-        weights = self.weights * np.exp(log_w - log_w.max())
-        self.weights = weights / weights.sum()
-        st = self.settings  # both averages start at 0, as AMCL's: no recovery until they have a history
-        self.w_slow += st.alpha_slow * (mean_likelihood - self.w_slow)
-        self.w_fast += st.alpha_fast * (mean_likelihood - self.w_fast)
-        return mean_likelihood
+        return score.max(axis=2).sum(axis=1, dtype=np.float64)
+
+    @property
+    def surprised(self) -> bool:
+        """Whether the scans fit much worse of late than they used to (the fast average of their
+        likelihood under ``recovery_below`` of the slow one): the robot is not where the belief says."""
+        return self.w_slow > 0 and self.w_fast < self.settings.recovery_below * self.w_slow
 
     @property
     def effective_size(self) -> float:
@@ -258,10 +284,10 @@ class ParticleFilter:
         positions = (self.rng.random() + np.arange(n_max)) / n_max  # low-variance: one random offset
         chosen = np.minimum(np.searchsorted(np.cumsum(self.weights), positions), self.count - 1)
         drawn = self.particles[self.rng.permutation(chosen)]
-        inject = max(0.0, 1.0 - self.w_fast / self.w_slow) if self.w_slow > 0 else 0.0
+        inject = max(0.0, 1.0 - self.w_fast / (st.recovery_below * self.w_slow)) if self.surprised else 0.0
         if inject > 0:
             random = self.rng.random(n_max) < inject
-            drawn[random] = self._random_poses(int(random.sum()))
+            drawn[random] = self._guessed_poses(int(random.sum()))
         n = self._kld_count(drawn)
         self.particles = drawn[:n].copy()
         self.weights = np.full(n, 1.0 / n)
@@ -275,6 +301,21 @@ class ParticleFilter:
         residual = np.column_stack([p[:, 0] - x, p[:, 1] - y, _wrap(p[:, 2] - heading)])
         covariance = (residual * w[:, None]).T @ residual
         return (x, y, heading), covariance
+
+    def _guessed_poses(self, n: int) -> np.ndarray:
+        """``n`` poses where the robot might be: :attr:`GUESSES` times as many drawn uniformly over the
+        free space, then ``n`` of them drawn in proportion to how well the latest scan fits them
+        (sensor-resetting localisation, Lenser and Veloso 2000). Uniform draws alone put next to no
+        particle near the robot in a building: a 16-beam ring cannot pull them in before KLD-sampling
+        has thinned them out."""
+        if n == 0 or self._scan is None:
+            return self._random_poses(n)
+        candidates = self._random_poses(n * self.GUESSES)
+        log_w = self.log_likelihood(candidates, *self._scan)
+        weights = np.exp(log_w - log_w.max())
+        positions = (self.rng.random() + np.arange(n)) / n
+        chosen = np.minimum(np.searchsorted(np.cumsum(weights / weights.sum()), positions), len(candidates) - 1)
+        return candidates[chosen]
 
     def _random_poses(self, n: int) -> np.ndarray:
         """``n`` poses spread uniformly over the map's free cells, headings uniform."""

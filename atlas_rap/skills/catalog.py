@@ -47,6 +47,7 @@ STOCK: tuple[StockSkill, ...] = (
     StockSkill("turn-to", f"{_MOTION}:TurnTo", ("heading",)),
     StockSkill("wander", f"{_MOTION}:Wander"),
     StockSkill("wall-follow", f"{_MOTION}:WallFollow", ("side",)),
+    StockSkill("spin", f"{_MOTION}:Spin"),
     StockSkill("stop", f"{_MOTION}:Stop"),
     StockSkill("navigate-to", f"{_NAVIGATION}:NavigateTo", ("place",), ("blocked",)),
     StockSkill("open-door", f"{_NAVIGATION}:OpenDoor", ("door",), ("door-open",)),

@@ -41,9 +41,11 @@ How it knows where the robot is, in the manner of nav2's AMCL
 ``(localised)`` holds while the belief's position spread (the root of the
 covariance's x and y variances) is under :data:`LOCALISED_SPREAD` metres
 and its heading spread under :data:`LOCALISED_HEADING` radians; ``(lost)``
-replaces it when either goes over twice that, and ``(localised)`` comes
-back when both are under the limits again (a hysteresis, so the facts do
-not flap). Exactly one of the two is in memory while the filter runs.
+replaces it when either goes over twice that, or when the scans fit much
+worse than they used to (``ParticleFilter.surprised``: a tight belief in
+the wrong place), and ``(localised)`` comes back when the spreads are under
+the limits and the scans fit again (a hysteresis, so the facts do not
+flap). Exactly one of the two is in memory while the filter runs.
 """
 
 from __future__ import annotations
@@ -133,9 +135,10 @@ class Localiser(Skill):
             if self._track is not None:
                 self._track.append((context.now(), *odometry))
             return {"pose": odometry}
-        if self._update(odometry):
-            self._anchor = (self.filter.estimate(), odometry)
-            (pose, covariance), _ = self._anchor
+        updated = self._update(odometry)
+        if updated is not None:
+            self._anchor = (updated, odometry)
+            pose, covariance = updated
             now = context.now()
             localised = self._localised(covariance)
             context.beliefs[POSE_ESTIMATE] = PoseEstimate(now, pose, covariance, self.filter.particles, localised)
@@ -145,24 +148,27 @@ class Localiser(Skill):
         self._track.append((context.now(), *pose))
         return {"pose": pose}
 
-    def _update(self, odometry: tuple[float, float, float]) -> bool:
+    def _update(self, odometry: Pose) -> tuple[Pose, np.ndarray] | None:
         """Move, weigh and resample the particles on a new ring, once the robot has moved enough since
-        the last update; whether it did."""
+        the last update: the estimate of the weighed particles (before resampling, so that particles
+        just injected at random count by their weight, not as much as the rest), or None."""
         reading = self.context.beliefs.get(SONAR)
         if reading is None or reading[0] is self._last_ranges:
-            return False
+            return None
         last = self._odometry
         if math.hypot(odometry[0] - last[0], odometry[1] - last[1]) < UPDATE_DISTANCE \
                 and abs(_wrap(odometry[2] - last[2])) < UPDATE_ANGLE:
-            return False
+            return None
         self._last_ranges = reading[0]
         pf = self.filter
         pf.predict(last, odometry)
         self._odometry = odometry
-        if self._prior or self._read_map():
-            pf.correct(reading[0], self._angles)
-            pf.resample()
-        return True
+        if not (self._prior or self._read_map()):
+            return pf.estimate()
+        pf.correct(reading[0], self._angles)
+        estimate = pf.estimate()
+        pf.resample()
+        return estimate
 
     def _read_map(self) -> bool:
         """Take the map being built afresh when it is due; whether there is a map to correct against."""
@@ -184,7 +190,9 @@ class Localiser(Skill):
         ``(localised)`` or ``(lost)`` is posted when that changes."""
         spread = math.sqrt(max(0.0, covariance[0, 0] + covariance[1, 1]))
         heading = math.sqrt(max(0.0, covariance[2, 2]))
-        if self.localised is False:
+        if self.filter.surprised:
+            localised = False
+        elif self.localised is False:
             localised = spread <= LOCALISED_SPREAD and heading <= LOCALISED_HEADING
         else:
             localised = spread <= 2 * LOCALISED_SPREAD and heading <= 2 * LOCALISED_HEADING

@@ -147,6 +147,19 @@ class TurnTo(Skill):
         return {"command": (0.0, max(-turn, min(turn, 2.0 * error)))}
 
 
+@registered("spin")
+class Spin(Skill):
+    """``(spin)``: turn on the spot, counter-clockwise at half the top turn rate, until disabled (nav2's
+    Spin recovery): a lost robot's sonar sweeps the room around it, and the localiser sees the whole
+    of it instead of one side."""
+
+    outputs = ("command",)
+
+    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
+        turn = self.context.world.robot.max_turn_rate if self.context.world is not None else 1.5
+        return {"command": (0.0, 0.5 * turn)}
+
+
 @registered("stop")
 class Stop(Skill):
     """``(stop)``: command zero velocity, and finish once the command is out."""
