@@ -3,7 +3,9 @@
 A robot with no prior map drives from its lab to the office and back,
 run after run, the occupancy grid carried from each run to the next
 (exactly ``atlas run errand.rap --no-prior-map --map-in/--map-out``). Per
-run it records the map quality at the end, the run's duration in simulated
+run it records the map quality at the end, the map's agreement with the
+true walls on the cells it labels (:mod:`atlas_rap.maps.agreement`), the
+pose error of the robot's belief, the run's duration in simulated
 seconds and how long each layer was primary. Layer IV maps and drives
 while the map is poor; once the rules find it good enough, mapping stops and
 Layer II follows the route, and the runs get close to the optimal time: the
@@ -40,7 +42,9 @@ from atlas_rap.views.figures import (
     plot_obstacle_layers,
     plot_run_layers,
 )
+from atlas_rap.maps.agreement import map_agreement
 from atlas_rap.outputs import atomic_write, write_text
+from atlas_rap.views.pose_error import pose_errors
 from atlas_rap.shipped import shipped_root
 
 ERRAND = """;;; The seed's errand: from the lab to the office, and back (atlas experiment skill-acquisition).
@@ -113,7 +117,10 @@ def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: 
         raise KeyboardInterrupt
     stack = engine.stack
     timeline = stack.timeline_records()
+    errors = pose_errors(engine.system)
     return {"ok": result.ok, "ended_by": result.ended_by, "map_quality": stack.layers["IV"].quality(),
+            "map_agreement": round(map_agreement(engine.grid, engine.world.walls).share, 4),
+            "pose_rmse_m": round(errors.rmse, 3) if errors is not None else 0.0,
             "duration_s": round(result.time, 2), "timeline": timeline, "start_s": 0.0, "end_s": round(result.time, 2),
             "primary_s": {k: round(v, 2) for k, v in stack.primary_seconds(result.time).items()},
             "path_m": round(_path_length(engine), 2)}, stack
@@ -184,12 +191,12 @@ def write_results(data: dict[str, Any], out: str | Path) -> list[Path]:
     write_text(written[0], json.dumps(data, indent=1) + "\n")
     with atomic_write(written[1], text=True, newline="") as handle:
         writer = csv.writer(handle)
-        writer.writerow(["run", "map_quality", "duration_s", "optimal_s", "primary_I_s", "primary_II_s",
-                         "primary_III_s", "primary_IV_s", "ok"])
+        writer.writerow(["run", "map_quality", "map_agreement", "pose_rmse_m", "duration_s", "optimal_s",
+                         "primary_I_s", "primary_II_s", "primary_III_s", "primary_IV_s", "ok"])
         for run in data["runs"]:
             p = run["primary_s"]
-            writer.writerow([run["run"], run["map_quality"], run["duration_s"], run["optimal_s"],
-                             p["I"], p["II"], p["III"], p["IV"], run["ok"]])
+            writer.writerow([run["run"], run["map_quality"], run["map_agreement"], run["pose_rmse_m"],
+                             run["duration_s"], run["optimal_s"], p["I"], p["II"], p["III"], p["IV"], run["ok"]])
     written.append(plot_map_quality(data, out / FIGURE_FILES["map_quality"]))
     written.append(plot_durations(data, out / FIGURE_FILES["durations"]))
     written.append(plot_run_layers(data, out / FIGURE_FILES["run_layers"]))
