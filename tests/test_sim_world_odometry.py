@@ -12,7 +12,7 @@ import pytest
 from atlas_rap.errors import Problem, SourceError
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, write_ros_map
 from atlas_rap.model import DEFAULT_ODOMETRY_NOISE, NO_ODOMETRY_NOISE, OdometryNoise, Teleport, World
-from atlas_rap.sim.world import load_world
+from atlas_rap.sim.world import load_world, shipped_worlds
 
 ROOMS = """\
 walls: [[0, 0, 6, 0], [6, 0, 6, 4], [6, 4, 0, 4], [0, 4, 0, 0], [3, 0, 3, 1.5], [3, 2.5, 3, 4]]
@@ -39,6 +39,11 @@ def at(problem: Problem) -> tuple[int, int]:
 
 
 # -- odometry noise -----------------------------------------------------------------------
+
+def test_every_shipped_world_has_the_default_odometry_noise():
+    for name in shipped_worlds():
+        assert load_world(name).robot.odometry_noise == DEFAULT_ODOMETRY_NOISE, name
+
 
 @pytest.mark.parametrize("robot, noise", [
     ("robot: {start: [1, 1]}\n", DEFAULT_ODOMETRY_NOISE),
