@@ -79,6 +79,12 @@ def test_an_unknown_alpha_or_a_noise_that_is_neither_off_nor_a_mapping_is_locate
     assert at(problem) == (6, 19)
 
 
+def test_odometry_drift_off_says_how_to_turn_the_noise_off(tmp_path):
+    [problem] = problems_of(tmp_path, ROOMS + "robot:\n  odometry_drift: off\n")
+    assert problem.message == "robot.odometry_drift must be a number, not 'off'" and at(problem) == (6, 19)
+    assert problem.hint == "write odometry_drift: 0 or odometry_noise: off for odometry without noise"
+
+
 def test_odometry_noise_and_odometry_drift_together_is_an_error_at_the_second(tmp_path):
     [problem] = problems_of(tmp_path, ROOMS + "robot:\n  odometry_drift: 0.02\n  odometry_noise: off\n")
     assert at(problem) == (7, 3)
@@ -90,7 +96,8 @@ def test_odometry_noise_and_odometry_drift_together_is_an_error_at_the_second(tm
 # -- teleports ------------------------------------------------------------------------------
 
 def test_teleports_are_read_in_radians_with_their_targets_in_the_bounds(tmp_path):
-    world = write_and_load(tmp_path, ROOMS + "robot:\n  teleports: [{at: 40, to: [4.5, 1, 90]}, {at: 60, to: [1, 3]}]\n")
+    teleports = "robot:\n  teleports: [{at: 40, to: [4.5, 1, 90]}, {at: 60, to: [1, 3]}]\n"
+    world = write_and_load(tmp_path, ROOMS + teleports)
     assert world.robot.teleports == (Teleport(40.0, (4.5, 1.0, math.pi / 2)), Teleport(60.0, (1.0, 3.0, 0.0)))
     far = write_and_load(tmp_path, "robot:\n  teleports: [{at: 1, to: [30, -12, 0]}]\n")  # no walls: anywhere
     xmin, ymin, xmax, ymax = far.bounds

@@ -88,8 +88,8 @@ point where the robot would fit; a variant reports its base's problems,
 then the ``base:`` line.
 
 ``bounds`` is the box around the walls, the places and the robot's start
-and teleport targets, with a margin of :data:`BOUNDS_MARGIN`. Without ``robot.start`` the robot
-starts at the first place's point, facing east.
+and teleport targets, with a margin of :data:`BOUNDS_MARGIN`. Without
+``robot.start`` the robot starts at the first place's point, facing east.
 
 Over 25 KB on purpose: the world file format: its reader, its checks and their located
 messages, which must agree field by field.
@@ -719,7 +719,12 @@ class _WorldReader:
                       "or the shorthand odometry_drift: d (alpha1 = alpha3 = d)")
             return default
         if "odometry_drift" in fields:
-            drift = self._alpha(fields["odometry_drift"][1], "robot.odometry_drift")
+            node = fields["odometry_drift"][1]
+            if isinstance(node, ScalarNode) and node.tag == "tag:yaml.org,2002:bool":
+                src.error(node, f"robot.odometry_drift must be a number, not '{node.value}'",
+                          "write odometry_drift: 0 or odometry_noise: off for odometry without noise")
+                return default
+            drift = self._alpha(node, "robot.odometry_drift")
             return default if drift is None else OdometryNoise.drift(drift)
         if "odometry_noise" not in fields:
             return default
