@@ -148,14 +148,65 @@ class WorldObject:
 
 
 @dataclass(frozen=True, slots=True)
+class OdometryNoise:
+    """How the robot's odometry errs: the four noise parameters of a differential-drive motion
+    model, named and ordered as AMCL's ``alpha1``-``alpha4`` (Thrun, Burgard and Fox,
+    *Probabilistic Robotics*, odometry motion model): which motion makes which error.
+
+    Here each is the standard deviation of a random walk after one unit of motion (1 rad
+    turned, 1 m travelled), growing with the square root of the motion, because the
+    simulator adds the errors step by step and variances add. AMCL scales its alphas by
+    each update's whole motion instead, so its numbers do not carry over unchanged. The
+    simulator's odometry (:class:`~atlas_rap.sim.sensors.Odometry`) draws each step's errors
+    from these; all four zero (:attr:`off`): the odometry is the true pose.
+    """
+
+    alpha1: float = 0.0  # rotation noise from rotation: std (rad) after 1 rad turned, growing with sqrt
+    alpha2: float = 0.0  # rotation noise from translation: std (rad) after 1 m travelled
+    alpha3: float = 0.0  # translation noise from translation: std (m) after 1 m travelled
+    alpha4: float = 0.0  # translation noise from rotation: std (m) after 1 rad turned
+
+    @property
+    def off(self) -> bool:
+        """All four zero: odometry is the true pose (and the simulator draws no random numbers for it)."""
+        return not (self.alpha1 or self.alpha2 or self.alpha3 or self.alpha4)
+
+    @classmethod
+    def drift(cls, d: float) -> OdometryNoise:
+        """The old single-number model (``odometry_drift: d``): ``d`` of turn per radian turned and of
+        travel per metre travelled, no cross terms (alpha1 = alpha3 = d, alpha2 = alpha4 = 0)."""
+        return cls(alpha1=float(d), alpha3=float(d))
+
+
+DEFAULT_ODOMETRY_NOISE = OdometryNoise(alpha1=0.02, alpha2=0.005, alpha3=0.02, alpha4=0.005)
+"""The robot's odometry noise when a world says nothing: about 2 cm per metre driven and 1 degree
+per radian turned (after 1 m or 1 rad), a well-calibrated differential drive on a good floor."""
+
+NO_ODOMETRY_NOISE = OdometryNoise()
+"""Odometry that is the true pose (``odometry_noise: off`` in a world file)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Teleport:
+    """A kidnap: at time ``at`` the world puts the robot at ``to`` = (x, y, heading), without telling
+    its odometry (which goes on from where it believed it was)."""
+
+    at: float
+    to: tuple[float, float, float]
+
+
+@dataclass(frozen=True, slots=True)
 class RobotConfig:
-    """The robot: a disc of ``radius`` starting at ``start`` = (x, y, heading)."""
+    """The robot: a disc of ``radius`` starting at ``start`` = (x, y, heading), its odometry erring by
+    ``odometry_noise`` (:data:`DEFAULT_ODOMETRY_NOISE` unless a world says otherwise), and the world's
+    ``teleports`` of it, in time order."""
 
     start: tuple[float, float, float] = (0.0, 0.0, 0.0)
     radius: float = 0.2
     max_speed: float = 0.6
     max_turn_rate: float = 2.0
-    odometry_drift: float = 0.0  # std of the relative error per metre travelled and per radian turned
+    odometry_noise: OdometryNoise = DEFAULT_ODOMETRY_NOISE
+    teleports: tuple[Teleport, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)

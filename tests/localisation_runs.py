@@ -13,6 +13,7 @@ import numpy as np
 
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.localisation import LikelihoodField, ParticleFilter, SonarLikelihood, wall_mask
+from atlas_rap.model import OdometryNoise
 from atlas_rap.sim.physics import Simulation
 from atlas_rap.sim.world import load_world
 
@@ -32,7 +33,8 @@ class Run:
 def drive(seed: int, drift: float = 0.05, seconds: float = 30.0, world_name: str = "lab-corridor-office") -> Run:
     """Turn on the spot for 4 s, then wander on a slow sine of turn rate, with the sonar read at 10 Hz."""
     world = load_world(world_name)
-    world = dataclasses.replace(world, robot=dataclasses.replace(world.robot, odometry_drift=drift))
+    robot = dataclasses.replace(world.robot, odometry_noise=OdometryNoise.drift(drift))  # the old one-number model
+    world = dataclasses.replace(world, robot=robot)
     sim = Simulation(world, seed=seed, dt=0.01)
     frame = GridFrame.covering(world.bounds, 0.05)
     pf = ParticleFilter(LikelihoodField(wall_mask(world.walls, frame), frame), sim.odometry,

@@ -45,8 +45,16 @@ def test_deliver_fails_with_a_clear_reason_when_the_office_is_walled_off(tmp_pat
     assert "(delivered mail office)" not in run.facts("fact-asserted")
 
 
-def test_a_closed_door_sends_the_robot_round_by_the_storeroom():
-    run = run_in_world(REPO / "rap_library" / "missions" / "door-closed.rap")
+NOISE_OFF = "robot: {odometry_noise: off}\n"
+"""For tests of which methods the RAPs choose at a door: with the default odometry noise and no
+localisation yet, dead reckoning can be tens of centimetres off by the time the robot reaches the
+office door, and the door monitor may then see the closed door as open (issue 27)."""
+
+
+def test_a_closed_door_sends_the_robot_round_by_the_storeroom(tmp_path):
+    exact = tmp_path / "door-closed-exact.yaml"
+    exact.write_text("base: lab-corridor-office-door-closed\n" + NOISE_OFF, encoding="utf-8")
+    run = run_in_world(REPO / "rap_library" / "missions" / "door-closed.rap", world=str(exact))
     assert run.result.ok, run.explain()
     asserted = run.facts("fact-asserted")
     assert asserted.index("(door-closed office-door)") < asserted.index("(at robot storeroom)")
@@ -59,7 +67,7 @@ def test_a_closed_door_sends_the_robot_round_by_the_storeroom():
 
 def test_an_openable_closed_door_is_opened_by_the_open_the_door_method(tmp_path):
     variant = tmp_path / "shut.yaml"
-    variant.write_text("base: lab-corridor-office\ndoors:\n  office-door: {open: false, openable: true}\n",
+    variant.write_text("base: lab-corridor-office\ndoors:\n  office-door: {open: false, openable: true}\n" + NOISE_OFF,
                        encoding="utf-8")
     run = run_in_world(go_to_mission(tmp_path, "office", world=str(variant)))
     assert run.result.ok, run.explain()

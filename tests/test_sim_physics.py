@@ -11,7 +11,8 @@ import math
 import numpy as np
 import pytest
 
-from atlas_rap.model import Disturbance, Door, RobotConfig, Segment, SonarConfig, World
+from atlas_rap.model import (DEFAULT_ODOMETRY_NOISE, NO_ODOMETRY_NOISE, Disturbance, Door, OdometryNoise, RobotConfig,
+                             Segment, SonarConfig, World)
 from atlas_rap.sim.physics import Simulation
 from atlas_rap.sim.sonar import SonarRing
 
@@ -21,9 +22,11 @@ LEAF = Segment((2, 1.5), (2, 2.5))
 EXACT = SonarConfig(range_noise=0.0, range_noise_per_m=0.0, specular_dropout=0.0)
 
 
-def room(*, start=(1.0, 2.0, 0.0), walls=ROOM, doors=None, disturbances=(), sonar=EXACT, drift=0.0) -> World:
+def room(*, start=(1.0, 2.0, 0.0), walls=ROOM, doors=None, disturbances=(), sonar=EXACT,
+         noise: OdometryNoise = DEFAULT_ODOMETRY_NOISE) -> World:
+    """The 4 m room; its robot's odometry has the default noise, as a world built in code has."""
     return World("room", walls, {}, doors=doors or {}, disturbances=disturbances,
-                 robot=RobotConfig(start=start, odometry_drift=drift), sonar=sonar, bounds=(0, 0, 4, 4))
+                 robot=RobotConfig(start=start, odometry_noise=noise), sonar=sonar, bounds=(0, 0, 4, 4))
 
 
 def split_room(*, door_open=False, schedule=(), **kw) -> World:
@@ -147,15 +150,15 @@ def test_bumper_direction_in_the_body_frame():
 
 # -- odometry --------------------------------------------------------------------
 
-def test_odometry_without_drift_is_the_true_pose():
-    sim = Simulation(room())
+def test_odometry_without_noise_is_the_true_pose():
+    sim = Simulation(room(noise=NO_ODOMETRY_NOISE))
     sim.command(0.4, 0.7)
     sim.step_many(300)
     assert sim.odometry == pytest.approx(sim.pose)
 
 
 def test_odometry_drifts_with_noise_and_stays_close():
-    sim = Simulation(room(start=(1.0, 1.0, 0.0), drift=0.05), seed=1)
+    sim = Simulation(room(start=(1.0, 1.0, 0.0), noise=OdometryNoise.drift(0.05)), seed=1)
     sim.command(0.4, 0.3)
     sim.step_many(400)
     (x, y, h), (ox, oy, oh) = sim.pose, sim.odometry
@@ -163,8 +166,8 @@ def test_odometry_drifts_with_noise_and_stays_close():
     assert math.hypot(ox - x, oy - y) < 0.3 and abs(oh - h) < 0.3
 
 
-def test_odometry_integrates_the_true_motion_with_tiny_drift():
-    sim = Simulation(room(start=(1.0, 1.0, 0.0), drift=1e-9), seed=1)
+def test_odometry_integrates_the_true_motion_with_tiny_noise():
+    sim = Simulation(room(start=(1.0, 1.0, 0.0), noise=OdometryNoise(1e-9, 1e-9, 1e-9, 1e-9)), seed=1)
     sim.command(0.4, 0.5)
     sim.step_many(500)
     assert sim.odometry == pytest.approx(sim.pose, abs=1e-6)
@@ -248,7 +251,7 @@ def test_fast_and_public_ray_casts_agree():
 
 
 def scripted_run(seed: int) -> tuple[list[np.ndarray], list]:
-    world = split_room(door_open=True, sonar=SonarConfig(), drift=0.02)
+    world = split_room(door_open=True, sonar=SonarConfig(), noise=OdometryNoise.drift(0.02))
     sim = Simulation(world, seed=seed)
     scans = []
     for i in range(300):

@@ -25,12 +25,16 @@ and steps it at a fixed ``dt`` (SI units, zero gravity):
 * **Bumper.** A pre-solve collision callback on the robot's shape notes
   every step in which the robot touches anything (wall, door leaf, box,
   person) and the direction of the deepest contact.
-* **Odometry** integrates the true body-frame motion of every step. With
-  ``RobotConfig.odometry_drift`` = d > 0, each step's forward travel ``ds``
-  and turn ``dθ`` get Gaussian errors of standard deviation
-  ``d * sqrt(|ds|)`` and ``d * sqrt(|dθ|)``, so the error is a random walk
-  with standard deviation d after 1 m travelled (or 1 rad turned). With
-  d = 0 odometry is the true pose.
+* **Odometry** integrates the true body-frame motion of every step, with
+  the errors of ``RobotConfig.odometry_noise`` (AMCL's alpha1-alpha4; see
+  :mod:`~atlas_rap.sim.sensors`), on by default. With the noise off,
+  odometry is the true pose: nothing is integrated and no random number is
+  drawn for it, until a kidnap.
+* **Kidnaps.** :meth:`Simulation.teleport` puts the robot somewhere else
+  without telling its odometry, which goes on from where it believed it
+  was; ``RobotConfig.teleports`` are done at their times. A world's
+  teleport waits while a box, a person or a closed door leaf is where the
+  robot would land; :meth:`Simulation.teleport` itself does not wait.
 * **Disturbances.** A ``box`` is a static axis-aligned square of side
   ``size`` centred on ``path[0]``, present from ``start`` until ``end``
   (for ever when ``end`` is None). A ``person`` is a kinematic disc of
@@ -43,7 +47,7 @@ and steps it at a fixed ``dt`` (SI units, zero gravity):
   disturbance that would appear on top of the robot waits until the robot
   is clear.
 * **Randomness.** One ``numpy.random.Generator`` (``default_rng(seed)``)
-  serves the sonar noise, the sonar dropout and the odometry drift; the
+  serves the sonar noise, the sonar dropout and the odometry noise; the
   same world, seed and command sequence give the same readings and path.
 
 The sonar is computed only when :meth:`Simulation.sonar` is asked, at most
@@ -66,7 +70,7 @@ import math
 import numpy as np
 import pymunk
 
-from atlas_rap.model import RobotConfig, World
+from atlas_rap.model import RobotConfig, Teleport, World
 from atlas_rap.sim.disturbances import PERSON_CLEARANCE, Disturbances
 from atlas_rap.sim.doors import Doors
 from atlas_rap.sim.events import EVENT_EPS, TimedEvents, WaitingChanges
@@ -149,13 +153,14 @@ class Simulation:
         self._bumper = Bumper(self._body, shape)
         self._space.on_collision(_ROBOT_COLLISION_TYPE, None, pre_solve=self._bumper.on_contact)
         start = tuple(float(v) for v in robot.start)
-        self._odometry = Odometry(self._body, start, robot.odometry_drift, self.rng)
-        self._drift = self._odometry.drift
+        self._odometry = Odometry(self._body, start, robot.odometry_noise, self.rng)
+        self._integrating = not robot.odometry_noise.off  # else odometry is the true pose (until a kidnap)
         self._add_doors_and_disturbances(world)
         self._sonar = Sonar(world.sonar, self.radius, self._space, self._body, self.rng)
         self._steps = 0
         self._path_every = self._path_countdown = path_every
         self._path: list[tuple[float, float, float, float]] = [(0.0, start[0], start[1], wrap_angle(start[2]))]
+        self._kidnaps: list[tuple[float, tuple[float, float, float], tuple[float, float, float]]] = []
         self._doors.close_the_closed()
         self._fire_events()  # everything due at time 0
 
@@ -169,6 +174,8 @@ class Simulation:
         self._persons = self._disturbances.persons  # tested every step
         self._doors.schedule(self._events)
         self._disturbances.schedule(self._events)
+        for i, teleport in enumerate(world.robot.teleports):
+            self._events.add(teleport.at, self._teleport_when_clear, i, teleport)
         self._events.start()
         self._next_event = self._events.next_time
 
@@ -202,7 +209,7 @@ class Simulation:
         if bumper.bumped:
             bumper.steps += 1
         self._steps += 1
-        if self._drift:
+        if self._integrating:
             self._odometry.integrate()
         if self._waiting:
             self._changes.retry()
@@ -225,6 +232,39 @@ class Simulation:
         step = self.step
         while self._steps * self.dt < t - EVENT_EPS:
             step()
+
+    def teleport(self, x: float, y: float, heading: float) -> None:
+        """Put the robot at (``x``, ``y``) facing ``heading`` (radians), at rest, without telling its
+        odometry: a kidnap. Dead reckoning goes on from where it believed the robot was, so
+        :attr:`odometry` no longer follows :attr:`pose`; :attr:`path` shows the jump.
+
+        The command in force stays in force (the controller does not know either). Nothing is
+        checked: a robot put inside a wall or an obstacle is pushed out by the physics.
+        """
+        before = self.pose
+        if not self._integrating:  # the odometry was the true pose: it starts dead reckoning from it
+            self._odometry.reset(before)
+            self._integrating = True
+        body, control = self._body, self._control
+        body.position = control.position = (float(x), float(y))
+        body.angle = control.angle = float(heading)
+        body.velocity = (0.0, 0.0)
+        body.angular_velocity = 0.0
+        self._space.reindex_shapes_for_body(body)
+        self._odometry.ignore_jump()
+        self._sonar.forget()
+        self._kidnaps.append((self.time, before, self.pose))
+
+    def _teleport_when_clear(self, index: int, teleport: Teleport) -> None:
+        """The world's ``index``-th teleport, as soon as nothing (box, person, closed door leaf) is where
+        the robot would land."""
+        x, y, heading = teleport.to
+        reach = self.radius + COLLISION_SLOP
+
+        def clear() -> bool:
+            return not self._space.point_query((float(x), float(y)), reach, _ROBOT_FILTER)
+
+        self._changes.when_clear(("teleport", index), clear, lambda: self.teleport(x, y, heading))
 
     def _fire_events(self) -> None:
         """Fire the timed events due now, and note when the next one is."""
@@ -259,8 +299,9 @@ class Simulation:
 
     @property
     def odometry(self) -> tuple[float, float, float]:
-        """The pose as dead reckoning has it (starting at the true start pose); the true pose without drift."""
-        if not self._drift:
+        """The pose as dead reckoning has it (starting at the true start pose); with the odometry noise
+        off, the true pose (and after a kidnap, dead reckoning without errors from where the robot was)."""
+        if not self._integrating:
             return self.pose
         return self._odometry.pose
 
@@ -268,6 +309,12 @@ class Simulation:
     def path(self) -> list[tuple[float, float, float, float]]:
         """The true poses (t, x, y, heading) so far, every ``path_every`` steps from t = 0 (do not modify)."""
         return self._path
+
+    @property
+    def kidnaps(self) -> list[tuple[float, tuple[float, float, float], tuple[float, float, float]]]:
+        """The teleports so far as (t, true pose before, true pose after): where :attr:`path` jumps
+        (do not modify)."""
+        return self._kidnaps
 
     @property
     def bumped(self) -> bool:

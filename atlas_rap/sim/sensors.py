@@ -4,14 +4,18 @@
   robot's shape notes every step in which the robot touches anything (wall,
   door leaf, box, person) and the direction of the deepest contact.
 * **Odometry** (:class:`Odometry`) integrates the true body-frame motion of
-  every step. With drift d > 0, each step's forward travel ``ds`` and turn
-  ``dθ`` get Gaussian errors of standard deviation ``d * sqrt(|ds|)`` and
-  ``d * sqrt(|dθ|)``, so the error is a random walk with standard deviation
-  d after 1 m travelled (or 1 rad turned).
+  every step, with the errors of :class:`~atlas_rap.model.OdometryNoise`
+  (AMCL's alpha1-alpha4): each step's turn ``dθ`` and forward travel ``ds``
+  get Gaussian errors of standard deviation
+  ``sqrt(alpha1² |dθ| + alpha2² |ds|)`` and ``sqrt(alpha3² |ds| + alpha4² |dθ|)``.
+  Variances add, so the error is a random walk: its standard deviation is
+  alpha3 after 1 m driven straight, alpha1 after 1 rad turned on the spot.
+  A jump of the body that is not driving (a kidnap) is not counted
+  (:meth:`Odometry.ignore_jump`).
 * **Sonar** (:class:`Sonar`): the ring of :class:`~atlas_rap.sim.sonar.SonarRing`
   on the robot, computed only when asked, at most once per step.
 
-The odometry's drift and the sonar's noise and dropout draw from the one
+The odometry's noise and the sonar's noise and dropout draw from the one
 random generator of the run, in the order the simulation asks them.
 """
 
@@ -22,12 +26,12 @@ import math
 import numpy as np
 import pymunk
 
-from atlas_rap.model import SonarConfig
+from atlas_rap.model import OdometryNoise, SonarConfig
 from atlas_rap.sim.sonar import SonarRing
 
 __all__ = ["Bumper", "Odometry", "Sonar", "wrap_angle"]
 
-_NOISE_BLOCK = 1024  # odometry drift normals drawn this many at a time
+_NOISE_BLOCK = 1024  # odometry noise normals drawn this many at a time
 
 
 def wrap_angle(angle: float) -> float:
@@ -72,26 +76,42 @@ class Bumper:
 
 
 class Odometry:
-    """Dead reckoning of ``body`` from its ``start`` pose (x, y, heading), with ``drift`` (module
-    docstring) drawn from ``rng``."""
+    """Dead reckoning of ``body`` from its ``start`` pose (x, y, heading), erring by ``noise`` (module
+    docstring), its errors drawn from ``rng``: two standard normals a step, none when the noise is off."""
 
-    def __init__(self, body: pymunk.Body, start: tuple[float, float, float], drift: float,
+    def __init__(self, body: pymunk.Body, start: tuple[float, float, float], noise: OdometryNoise,
                  rng: np.random.Generator) -> None:
-        self._body, self.drift, self._rng = body, float(drift), rng
+        self._body, self.noise, self._rng = body, noise, rng
         x, y, heading = start
         self._last = (x, y, heading)
         self._odo = [x, y, heading]
         self._noise = np.empty(0)
         self._noise_at = 0
+        a1, a2, a3, a4 = (float(a) for a in (noise.alpha1, noise.alpha2, noise.alpha3, noise.alpha4))
+        self._variances = (a1 * a1, a2 * a2, a3 * a3, a4 * a4)
+        self._noisy = not noise.off
 
     @property
     def pose(self) -> tuple[float, float, float]:
         """The pose as dead reckoning has it, heading in (-pi, pi]."""
         x, y, heading = self._odo
-        return x, y, wrap_angle(heading)
+        return float(x), float(y), wrap_angle(float(heading))
+
+    def reset(self, pose: tuple[float, float, float]) -> None:
+        """Believe ``pose`` and measure from the body's pose now (for a simulation that had not been
+        integrating because its odometry was the true pose)."""
+        x, y = self._body.position
+        self._last = (x, y, self._body.angle)
+        self._odo = [float(pose[0]), float(pose[1]), float(pose[2])]
+
+    def ignore_jump(self) -> None:
+        """The body has just been put somewhere without driving there (a kidnap): measure from its
+        new pose, keeping the estimate, so the jump is not counted as motion."""
+        x, y = self._body.position
+        self._last = (x, y, self._body.angle)
 
     def integrate(self) -> None:
-        """Add the body's motion since the last call, with its drift."""
+        """Add the body's motion since the last call, with its noise."""
         body = self._body
         x, y = body.position
         heading = body.angle
@@ -102,14 +122,16 @@ class Odometry:
         c, s = math.cos(mid), math.sin(mid)
         dx, dy = x - lx, y - ly
         forward, lateral = dx * c + dy * s, dy * c - dx * s
-        at = self._noise_at
-        if at + 2 > len(self._noise):
-            self._noise, at = self._rng.standard_normal(_NOISE_BLOCK), 0
-        noise = self._noise
-        self._noise_at = at + 2
-        d = self.drift
-        forward += d * math.sqrt(abs(forward)) * noise[at]
-        turn += d * math.sqrt(abs(turn)) * noise[at + 1]
+        if self._noisy:
+            at = self._noise_at
+            if at + 2 > len(self._noise):
+                self._noise, at = self._rng.standard_normal(_NOISE_BLOCK), 0
+            noise = self._noise
+            self._noise_at = at + 2
+            v1, v2, v3, v4 = self._variances
+            ds, dtheta = abs(forward), abs(turn)
+            forward += math.sqrt(v3 * ds + v4 * dtheta) * noise[at]
+            turn += math.sqrt(v1 * dtheta + v2 * ds) * noise[at + 1]
         odo = self._odo
         mid = odo[2] + turn / 2
         c, s = math.cos(mid), math.sin(mid)
@@ -137,3 +159,7 @@ class Sonar:
             reading.setflags(write=False)
             self._reading, self._step = reading, step
         return self._reading
+
+    def forget(self) -> None:
+        """The robot has been moved within a step (a kidnap): the next read computes a new reading."""
+        self._step = -1

@@ -37,17 +37,38 @@ the model. An example with every key::
         colour: blue
         at: [9, 9.3]
         moves: [{near: 2.0, to: [19, 9]}, {at: 120, to: [9, 9.3]}]   # when the robot comes near / at a time
-    robot: {start: [1.5, 1.5, 0], radius: 0.2, max_speed: 0.6, max_turn_rate_deg: 115, odometry_drift: 0.0}
+    robot:
+      start: [1.5, 1.5, 0]             # [x, y, heading_deg]
+      radius: 0.2
+      max_speed: 0.6
+      max_turn_rate_deg: 115
+      odometry_noise: {alpha1: 0.02, alpha2: 0.005, alpha3: 0.02, alpha4: 0.005}   # the default; see below
+      teleports: [{at: 40, to: [4, 2, 90]}]     # kidnaps: at a time, to [x, y, heading_deg] in free space
     sonar: {count: 16, beam_width_deg: 15, max_range: 5, min_range: 0.05, range_noise: 0.01,
             range_noise_per_m: 0.01, specular_angle_deg: 60, specular_dropout: 0.8, rays_per_beam: 3, rate: 10}
 
-A *variant* of a world changes only its doors, its disturbances and its
-objects (a ``disturbances`` or ``objects`` list replaces the base's)::
+The odometry errs as :class:`~atlas_rap.model.OdometryNoise` says, with
+AMCL's ``alpha1``-``alpha4`` (rotation from rotation, rotation from
+translation, translation from translation, translation from rotation: the
+standard deviations after 1 rad turned or 1 m travelled). Without either
+key the noise is :data:`~atlas_rap.model.DEFAULT_ODOMETRY_NOISE`, on.
+``odometry_noise: {alpha3: 0.05}`` gives some alphas (the others are 0);
+``odometry_noise: off`` makes the odometry the true pose (``on`` is the default);
+``odometry_drift: d`` is the older shorthand for ``{alpha1: d, alpha3: d}``
+(``odometry_drift: 0`` is off). Give one of the two keys, not both. A
+teleport moves the robot without telling its odometry (the kidnapped robot:
+:meth:`~atlas_rap.sim.physics.Simulation.teleport`); it waits while a box,
+a person or a closed door leaf is where the robot would land.
+
+A *variant* of a world changes only its doors, its disturbances, its
+objects and its robot's odometry noise and teleports (a ``disturbances``,
+``objects`` or ``robot.teleports`` list replaces the base's)::
 
     base: lab-corridor-office          # a shipped world, or a path relative to this file
     name: lab-corridor-office-door-closed
     doors:
       office-door: {open: false}       # open, openable, schedule may be changed
+    robot: {odometry_noise: off}       # odometry_noise, odometry_drift, teleports may be changed
 
 What is checked, with every problem reported at its key's file:line:column:
 unknown keys (with the nearest known key as a hint), wrong types and
@@ -59,13 +80,16 @@ is not free (occupied, unknown, or off the image), a schedule out of time
 order, duplicate names; objects: a colour and a name RAPs can use, a kind
 (object, trash, bin), a position and moves in free space (at least half the
 object's size from walls, outside solid polygons), each move with one of
-``at`` (times in order) and ``near``, names that no place or door has. A bad start is reported at ``robot.start`` with the
-nearest point where the robot would fit; a variant reports its base's
-problems, then the ``base:`` line.
+``at`` (times in order) and ``near``, names that no place or door has;
+odometry alphas from 0 to :data:`MAX_ALPHA`; teleports in time order, each to
+free space (checked as the start is). A bad start (or teleport target) is
+reported at ``robot.start`` (``robot.teleports[i].to``) with the nearest
+point where the robot would fit; a variant reports its base's problems,
+then the ``base:`` line.
 
-``bounds`` is the box around the walls, the places and the robot's start,
-with a margin of :data:`BOUNDS_MARGIN`. Without ``robot.start`` the robot
-starts at the first place's point, facing east.
+``bounds`` is the box around the walls, the places and the robot's start
+and teleport targets, with a margin of :data:`BOUNDS_MARGIN`. Without
+``robot.start`` the robot starts at the first place's point, facing east.
 
 Over 25 KB on purpose: the world file format: its reader, its checks and their located
 messages, which must agree field by field.
@@ -87,15 +111,19 @@ from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, RosMap, load_ros_map,
 from atlas_rap.yamlsource import YamlSource
 from atlas_rap.shipped import resolve_user_path, shipped_root, shipped_worlds
 from atlas_rap.model import (
+    DEFAULT_ODOMETRY_NOISE,
+    NO_ODOMETRY_NOISE,
     OBJECT_KINDS,
     Disturbance,
     Door,
     ObjectMove,
+    OdometryNoise,
     Place,
     Point,
     RobotConfig,
     Segment,
     SonarConfig,
+    Teleport,
     World,
     WorldObject,
     _inside,
@@ -103,12 +131,17 @@ from atlas_rap.model import (
 
 TOP_KEYS = ("name", "description", "walls", "polygons", "map", "places", "doors", "disturbances", "objects",
             "robot", "sonar")
-VARIANT_KEYS = ("name", "description", "base", "doors", "disturbances", "objects")
+VARIANT_KEYS = ("name", "description", "base", "doors", "disturbances", "objects", "robot")
 VARIANT_DOOR_KEYS = ("open", "openable", "schedule")
+VARIANT_ROBOT_KEYS = ("odometry_noise", "odometry_drift", "teleports")
 PLACE_KEYS = ("point", "region", "radius")
 DOOR_KEYS = ("between", "center", "segment", "open", "openable", "schedule")
 DISTURBANCE_KEYS = ("name", "kind", "start", "end", "path", "size", "speed")
-ROBOT_KEYS = ("start", "radius", "max_speed", "max_turn_rate_deg", "odometry_drift")
+ROBOT_KEYS = ("start", "radius", "max_speed", "max_turn_rate_deg", "odometry_noise", "odometry_drift", "teleports")
+ALPHA_KEYS = ("alpha1", "alpha2", "alpha3", "alpha4")
+TELEPORT_KEYS = ("at", "to")
+MAX_ALPHA = 1.0
+"""The largest odometry alpha (or ``odometry_drift``) a world may give: 1 m of error per metre driven."""
 SONAR_KEYS = ("count", "beam_width_deg", "max_range", "min_range", "range_noise", "range_noise_per_m",
               "specular_angle_deg", "specular_dropout", "rays_per_beam", "rate")
 DISTURBANCE_KINDS = ("person", "box")
@@ -180,6 +213,7 @@ class _WorldReader:
         self.wall_nodes: list[tuple[Segment, Node]] = []
         self.start_node: Node | None = None
         self.start_unreadable = False  # robot.start has problems of its own: do not check where it is
+        self.teleport_nodes: list[tuple[str, Node]] = []  # each teleport's key path and ``to`` node, in order
         self.polygons: list[tuple[tuple[Point, ...], str, Node]] = []  # (points, key path, node)
         self.rosmap: RosMap | None = None
         self.map_name = ""
@@ -230,6 +264,7 @@ class _WorldReader:
             src.error(base_node, "a world cannot be its own base")
             src.check()
         world = self._base_world(base_node, base_name, target)
+        robot = self.variant_robot(top["robot"][1], world) if "robot" in top else world.robot
         doors = dict(world.doors)
         entries = src.keys(top["doors"][1], "doors", None) if "doors" in top and _given(top["doors"][1]) else {}
         for name, (key, value) in (entries or {}).items():
@@ -260,7 +295,7 @@ class _WorldReader:
         name = src.string(top["name"][1], "name") if "name" in top else self.path.stem
         src.check()
         return replace(world, name=name or self.path.stem, doors=doors, disturbances=disturbances, objects=objects,
-                       source=src.file)
+                       robot=robot, bounds=_bounds(world.walls, world.places, robot), source=src.file)
 
     def _base_world(self, node: Node, name: str, target: str) -> World:
         """The world a variant is based on, read and checked as any world; its problems are raised located."""
@@ -270,14 +305,45 @@ class _WorldReader:
                       f"looked for {target}; the path is relative to this file")
             src.check()
         try:
-            return load_world(target)
+            path = world_path(target)
+            base = _WorldReader(YamlSource.read(path, _shown(path), "world file", WorldFileError), path)
+            world = base.read()
         except SourceError as error:
             src.problems += error.problems
             src.error(node, f"the base world '{name}' has problems (above)")
         except AtlasError as error:  # an unknown shipped world's name
             first, *rest = str(error).split("\n")
             src.error(node, first, "; ".join(line.strip() for line in rest) or None)
+        else:  # where the base's robot may be: for the teleports a variant gives
+            self.rosmap, self.map_name = base.rosmap, base.map_name
+            self.polygons = [(points, f"{where} of {base.src.file}", n) for points, where, n in base.polygons]
+            return world
         raise WorldFileError(src.problems)  # the base's problems, then this file's base: line
+
+    def variant_robot(self, node: Node, world: World) -> RobotConfig:
+        """A variant's ``robot:``: the base's robot with other odometry noise or teleports
+        (:data:`VARIANT_ROBOT_KEYS`; its other keys belong to the base world)."""
+        src, robot = self.src, world.robot
+        if not _given(node):
+            return robot
+        if isinstance(node, MappingNode):
+            kept = []
+            for key, value in node.value:
+                name = getattr(key, "value", None)
+                if name in ROBOT_KEYS and name not in VARIANT_ROBOT_KEYS:
+                    src.error(key, f"a variant cannot change robot.{name}",
+                              f"a variant may change the robot's {', '.join(VARIANT_ROBOT_KEYS)}; change "
+                              f"robot.{name} in the base world, or make a world of its own")
+                else:
+                    kept.append((key, value))
+            node = MappingNode(node.tag, kept, node.start_mark, node.end_mark, node.flow_style)
+        fields = src.keys(node, "robot", VARIANT_ROBOT_KEYS, what=" such as {odometry_noise: off}") or {}
+        noise = self._odometry_noise(fields, robot.odometry_noise)
+        teleports = self._teleports(fields["teleports"][1]) if "teleports" in fields else robot.teleports
+        robot = replace(robot, odometry_noise=noise, teleports=teleports)
+        if "teleports" in fields:
+            self.check_teleports(world.walls, world.places, robot)
+        return robot
 
     # -- geometry -------------------------------------------------------------
 
@@ -636,8 +702,81 @@ class _WorldReader:
         radius = self._number(fields, "robot", "radius", default.radius, above=0.0)
         max_speed = self._number(fields, "robot", "max_speed", default.max_speed, above=0.0)
         turn = self._number(fields, "robot", "max_turn_rate_deg", math.degrees(default.max_turn_rate), above=0.0)
-        drift = self._number(fields, "robot", "odometry_drift", default.odometry_drift, minimum=0.0)
-        return RobotConfig(start, radius, max_speed, math.radians(turn), drift)
+        noise = self._odometry_noise(fields, default.odometry_noise)
+        teleports = self._teleports(fields["teleports"][1]) if "teleports" in fields else ()
+        return RobotConfig(start, radius, max_speed, math.radians(turn), noise, teleports)
+
+    def _odometry_noise(self, fields: dict[str, tuple[Node, Node]], default: OdometryNoise) -> OdometryNoise:
+        """``robot.odometry_noise`` (off, or a mapping of alphas) or ``robot.odometry_drift`` (a number),
+        not both; ``default`` without either (or after a problem)."""
+        src = self.src
+        given = [key for key in fields if key in ("odometry_noise", "odometry_drift")]
+        if len(given) == 2:
+            first, second = given
+            src.error(fields[second][0], f"robot.{second} and robot.{first} (line "
+                                         f"{src.location(fields[first][0]).line}) both say how the odometry errs",
+                      "keep one: odometry_noise: {alpha1: ..., alpha2: ..., alpha3: ..., alpha4: ...} or off, "
+                      "or the shorthand odometry_drift: d (alpha1 = alpha3 = d)")
+            return default
+        if "odometry_drift" in fields:
+            node = fields["odometry_drift"][1]
+            if isinstance(node, ScalarNode) and node.tag == "tag:yaml.org,2002:bool":
+                src.error(node, f"robot.odometry_drift must be a number, not '{node.value}'",
+                          "write odometry_drift: 0 or odometry_noise: off for odometry without noise")
+                return default
+            drift = self._alpha(node, "robot.odometry_drift")
+            return default if drift is None else OdometryNoise.drift(drift)
+        if "odometry_noise" not in fields:
+            return default
+        node = fields["odometry_noise"][1]
+        example = "{alpha1: 0.02, alpha2: 0.005, alpha3: 0.02, alpha4: 0.005}"
+        if isinstance(node, ScalarNode) and node.tag in ("tag:yaml.org,2002:bool", "tag:yaml.org,2002:str") \
+                and str(node.value).strip().lower() in ("off", "false", "no", "on", "true", "yes"):
+            return NO_ODOMETRY_NOISE if str(node.value).strip().lower() in ("off", "false", "no") \
+                else DEFAULT_ODOMETRY_NOISE
+        alphas = src.keys(node, "robot.odometry_noise", ALPHA_KEYS, what=f" (or off) such as {example}")
+        if alphas is None:
+            return default
+        values = {key: self._alpha(value, f"robot.odometry_noise.{key}") for key, (_, value) in alphas.items()}
+        if any(v is None for v in values.values()):
+            return default
+        return OdometryNoise(**values)  # type: ignore[arg-type]
+
+    def _alpha(self, node: Node, path: str) -> float | None:
+        """An odometry alpha: a standard deviation per metre or radian, from 0 to :data:`MAX_ALPHA`."""
+        value = self.src.number(node, path, minimum=0.0)
+        if value is not None and value > MAX_ALPHA:
+            self.src.error(node, f"{path} must be at most {MAX_ALPHA:g}, not {value:g}",
+                           f"it is a fraction, not a percentage: {value:g} % is {value / 100:g}")
+            return None
+        return value
+
+    def _teleports(self, node: Node) -> tuple[Teleport, ...]:
+        """``robot.teleports``: [{at: SECONDS, to: [x, y, heading_deg]}, ...] in time order; where each
+        lands is checked later (:meth:`check_teleports`)."""
+        src = self.src
+        shape = "[{at: SECONDS, to: [x, y, heading_deg]}, ...]"
+        items = src.items(node, "robot.teleports", f"write it as {shape}") if _given(node) else []
+        found: list[Teleport] = []
+        self.teleport_nodes = []
+        last = 0.0
+        for i, item in enumerate(items or []):
+            here = f"robot.teleports[{i}]"
+            fields = src.keys(item, here, TELEPORT_KEYS, TELEPORT_KEYS, what=" such as {at: 40, to: [x, y, 90]}")
+            if not fields or "at" not in fields or "to" not in fields:
+                continue
+            at = src.number(fields["at"][1], f"{here}.at", minimum=0.0)
+            if at is not None and at < last:
+                src.error(fields["at"][1], f"{here} at {at:g} s comes before the teleport above it ({last:g} s)",
+                          "list the teleports in time order")
+                at = None
+            last = at if at is not None else last
+            values = src.numbers(fields["to"][1], f"{here}.to", (2, 3), "[x, y] or [x, y, heading_deg]")
+            if at is None or values is None:
+                continue
+            found.append(Teleport(at, (values[0], values[1], math.radians(values[2]) if len(values) == 3 else 0.0)))
+            self.teleport_nodes.append((here, fields["to"][1]))
+        return tuple(found)
 
     def sonar(self, node: Node) -> SonarConfig:
         src, d = self.src, SonarConfig()
@@ -672,7 +811,8 @@ class _WorldReader:
 
     def check_clearances(self, walls: tuple[Segment, ...], places: dict[str, Place], point_nodes: dict[str, Node],
                          robot: RobotConfig) -> None:
-        """Place points must leave the robot room; the robot must start in free space (:meth:`check_start`)."""
+        """Place points must leave the robot room; the robot must start and land in free space
+        (:meth:`check_start`, :meth:`check_teleports`)."""
         need = robot.radius + WALL_CLEARANCE_MARGIN
         for name, place in places.items() if walls else ():
             gap, wall = nearest_wall(walls, place.point)
@@ -682,6 +822,7 @@ class _WorldReader:
                                f"({self._wall_text(wall)}); the robot needs {need:.2f} m",
                                "move the point away from the wall: the robot drives to it")
         self.check_start(walls, places, point_nodes, robot)
+        self.check_teleports(walls, places, robot)
 
     # -- where the robot starts ------------------------------------------------------
 
@@ -699,7 +840,7 @@ class _WorldReader:
         what = self._start_what(point, places)
         problem = self._start_on_map(point, what) or self._start_in_polygon(point, what, places)
         if problem is None and self.start_node is not None:  # a defaulted start is a place point, checked above
-            problem = self._start_near_wall(walls, point, robot)
+            problem = self._start_near_wall(walls, point, robot, "the robot starts")
         if problem is None:
             return
         where = self.start_node or next((point_nodes[n] for n in places if n in point_nodes), self.src.root)
@@ -710,6 +851,22 @@ class _WorldReader:
         found = f"the nearest free {kind} with room for the robot is at ({free[0]:.2f}, {free[1]:.2f})" \
             if free is not None else f"no free {kind} with room for the robot (radius {robot.radius:g} m) is near it"
         self.src.error(where, problem, f"{move}; {found}")
+
+    def check_teleports(self, walls: tuple[Segment, ...], places: dict[str, Place], robot: RobotConfig) -> None:
+        """Each teleport must land the robot in free space, as :meth:`check_start` checks the start;
+        reported at its ``to``, with the nearest point where the robot would fit as a hint."""
+        for teleport, (here, node) in zip(robot.teleports, self.teleport_nodes):
+            point = teleport.to[:2]
+            what = f"{here}.to ({point[0]:g}, {point[1]:g})"
+            problem = self._start_on_map(point, what) or self._start_in_polygon(point, what, places) \
+                or self._start_near_wall(walls, point, robot, f"{what} puts the robot")
+            if problem is None:
+                continue
+            free = self._free_point_near(walls, point, robot, places)
+            kind = "cell" if self.rosmap is not None else "point"
+            found = f"the nearest free {kind} with room for the robot is at ({free[0]:.2f}, {free[1]:.2f})" \
+                if free is not None else f"no free {kind} with room for the robot is near it"
+            self.src.error(node, problem, f"move {here}.to into free space; {found}")
 
     def _start_what(self, point: Point, places: dict[str, Place]) -> str:
         """How messages name the start: robot.start (x, y), or where the robot starts without one."""
@@ -756,12 +913,14 @@ class _WorldReader:
                 return path, node
         return None
 
-    def _start_near_wall(self, walls: tuple[Segment, ...], point: Point, robot: RobotConfig) -> str | None:
-        """A wall closer to the start than the robot's radius: the robot would start inside it."""
+    def _start_near_wall(self, walls: tuple[Segment, ...], point: Point, robot: RobotConfig,
+                         subject: str) -> str | None:
+        """A wall closer to ``point`` than the robot's radius: the robot would be inside it (``subject``
+        says how it gets there: "the robot starts")."""
         gap, wall = nearest_wall(walls, point)
         if gap >= robot.radius:
             return None
-        return (f"the robot starts {gap:.2f} m from a wall ({self._wall_text(wall)}), "
+        return (f"{subject} {gap:.2f} m from a wall ({self._wall_text(wall)}), "
                 f"less than its radius {robot.radius:g} m")
 
     def _free_point_near(self, walls: tuple[Segment, ...], point: Point, robot: RobotConfig,
@@ -850,8 +1009,8 @@ def _segment_text(segment: Segment | None) -> str:
 
 
 def _bounds(walls: tuple[Segment, ...], places: dict[str, Place], robot: RobotConfig) -> tuple[float, float, float, float]:
-    xs: list[float] = [robot.start[0]]
-    ys: list[float] = [robot.start[1]]
+    xs: list[float] = [robot.start[0]] + [t.to[0] for t in robot.teleports]
+    ys: list[float] = [robot.start[1]] + [t.to[1] for t in robot.teleports]
     for wall in walls:
         xs += (wall.a[0], wall.b[0])
         ys += (wall.a[1], wall.b[1])
