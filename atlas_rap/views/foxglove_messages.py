@@ -2,7 +2,8 @@
 
 Pure functions from atlas-rap values (poses, a world, an
 :class:`~atlas_rap.maps.grid.OccupancyGrid`, a
-:class:`~atlas_rap.maps.topology.Topology`, a followed route, a trace
+:class:`~atlas_rap.maps.topology.Topology`, a followed route, the
+localiser's :class:`~atlas_rap.skills.beliefs.PoseEstimate`, a trace
 record) to ``foxglove.messages`` objects, for :mod:`atlas_rap.views.recording`.
 Everything is in the ``map`` frame (the world's metres, z = 0) except
 what is said otherwise; ``t`` is simulated seconds.
@@ -64,6 +65,8 @@ _OBSTACLE = Color(r=0.9, g=0.55, b=0.1, a=0.9)
 _TOPOLOGY = Color(r=0.55, g=0.2, b=0.7, a=0.9)
 _ROUTE = Color(r=0.95, g=0.75, b=0.05, a=1.0)
 _TEXT = Color(r=0.1, g=0.1, b=0.1, a=1.0)
+_BELIEF = Color(r=0.84, g=0.07, b=0.48, a=0.35)  # the estimate's ellipse (the picture's believed-path magenta)
+_LOST = Color(r=0.85, g=0.15, b=0.15, a=0.35)
 _NO_ROTATION = Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
 
 _ERROR_EVENTS = frozenset({Event.TASK_FAILED, Event.PLAN_ABANDONED, Event.MEMORY_ERROR})
@@ -107,6 +110,48 @@ def robot_transform(t: float, x: float, y: float, heading: float) -> FrameTransf
 def path(t: float, poses: list[Pose]) -> PosesInFrame:
     """The robot's path so far, at ``t``, in ``map``."""
     return PosesInFrame(timestamp=timestamp(t), frame_id=MAP_FRAME, poses=poses)
+
+
+def particles(t: float, cloud: Any, limit: int = 500) -> PosesInFrame:
+    """The particle cloud (n x 3: x, y, heading) at ``t`` as poses in ``map``, like nav2's
+    ``/particle_cloud``: every ``ceil(n / limit)``-th particle, so at most ``limit`` of them."""
+    cloud = np.asarray(cloud, dtype=float).reshape(-1, 3)
+    kept = cloud[::max(1, math.ceil(len(cloud) / limit))]
+    half = kept[:, 2] / 2
+    return PosesInFrame(timestamp=timestamp(t), frame_id=MAP_FRAME, poses=[
+        Pose(position=Vector3(x=x, y=y, z=0.0), orientation=Quaternion(x=0.0, y=0.0, z=sz, w=cz))
+        for x, y, sz, cz in zip(kept[:, 0].tolist(), kept[:, 1].tolist(), np.sin(half).tolist(), np.cos(half).tolist())])
+
+
+def covariance_record(estimate: Any) -> dict[str, Any]:
+    """The localiser's estimate as a JSON message (schema ``atlas.PoseCovariance``): the ``pose``
+    (x, y, heading), its 3 x 3 ``covariance`` row-major (m², rad²: ROS's ``PoseWithCovariance`` in
+    the plane), the standard deviations ``sigma_x``, ``sigma_y`` (m) and ``sigma_heading`` (rad),
+    whether the robot counts as ``localised``, and how many ``particles`` the belief has."""
+    covariance = np.asarray(estimate.covariance, dtype=float).reshape(3, 3)
+    sigma = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    cloud = estimate.particles
+    return {"x": float(estimate.pose[0]), "y": float(estimate.pose[1]), "heading": float(estimate.pose[2]),
+            "covariance": covariance.ravel().tolist(), "sigma_x": float(sigma[0]), "sigma_y": float(sigma[1]),
+            "sigma_heading": float(sigma[2]), "localised": bool(estimate.localised),
+            "particles": 0 if cloud is None else int(len(cloud))}
+
+
+def estimate_entity(t: float, estimate: Any, sigmas: float = 2.0) -> SceneEntity:
+    """The estimate's uncertainty in x and y: a flat disc (a cylinder 2 cm tall) the size of its
+    ``sigmas``-sigma ellipse, turned to the ellipse's axes, at the estimated position; magenta while
+    the robot counts as localised, red and named "lost" when not."""
+    from atlas_rap.views.pose_error import covariance_ellipse
+
+    width, height, angle = covariance_ellipse(estimate.covariance, sigmas)
+    yaw = math.radians(angle)
+    x, y = float(estimate.pose[0]), float(estimate.pose[1])
+    disc = CylinderPrimitive(pose=Pose(position=Vector3(x=x, y=y, z=0.01),
+                                       orientation=Quaternion(x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))),
+                             size=Vector3(x=max(width, 0.005), y=max(height, 0.005), z=0.02), bottom_scale=1.0,
+                             top_scale=1.0, color=_BELIEF if estimate.localised else _LOST)
+    texts = [] if estimate.localised else [_label((x, y), "lost", 0.3)]
+    return entity(t, "estimate", cylinders=[disc], texts=texts)
 
 
 def sonar_scan(t: float, where: Pose, ranges: Any, angles: Any, radius: float, max_range: float) -> LaserScan:

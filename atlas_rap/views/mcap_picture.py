@@ -4,7 +4,9 @@ What Foxglove's 3D panel shows at the end of the run, as a PNG, for people
 without Foxglove and for the README (``docs/foxglove-recording.png``):
 the last occupancy grid, the scene (walls, doors, places, obstacles), the
 topology, every route the robot drove, its path, the last sonar ring and
-the robot. It reads the file back with :mod:`atlas_rap.views.mcap_reader`
+the robot; when the recording has the pose belief (``/robot/estimated_path``,
+``/robot/estimate/ellipse``), the path the robot believed it drove beside the
+true one and the last estimate's 2-sigma ellipse. It reads the file back with :mod:`atlas_rap.views.mcap_reader`
 (so it also checks that a recording can be read without Foxglove)::
 
     render_recording("run.mcap", "run.png")        # or: atlas record show run.mcap --out run.png
@@ -22,6 +24,7 @@ from atlas_rap.views.mcap_reader import Recording, read_recording
 from atlas_rap.views.page import DPI, map_layout, save_figure_png
 
 _LINE_LIST = 2
+_BELIEF = "#d6127a"  # the believed path and the estimate's ellipse, as in views.world_render
 _LOOKS = {  # how the scene's entities' lines are drawn
     "walls": {"linewidths": 1.4, "zorder": 3},
     "doors": {"linewidths": 2.2, "zorder": 3},
@@ -89,7 +92,7 @@ def render_recording(mcap: str | Path, out_png: str | Path, title: str | None = 
     from matplotlib.collections import LineCollection
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
-    from matplotlib.patches import Circle, Rectangle
+    from matplotlib.patches import Circle, Ellipse, Rectangle
 
     recording = read_recording(mcap)
     scene = scene_at_end(recording, "/world/scene")
@@ -97,6 +100,9 @@ def render_recording(mcap: str | Path, out_png: str | Path, title: str | None = 
     routes = _routes(recording)
     path_msg = recording.last("/robot/path")
     path = [_xy(p.get("position", {})) for p in path_msg.get("poses", [])] if path_msg else []
+    believed_msg = recording.last("/robot/estimated_path")
+    believed = [_xy(p.get("position", {})) for p in believed_msg.get("poses", [])] if believed_msg else []
+    ellipse = scene_at_end(recording, "/robot/estimate/ellipse").get("estimate")
     pose_msg = recording.last("/robot/pose")
     scan = recording.last("/robot/sonar")
     grid = recording.last("/map/grid")
@@ -104,8 +110,8 @@ def render_recording(mcap: str | Path, out_png: str | Path, title: str | None = 
 
     polylines = {key: [seg for entity in entities.values() for line in entity.get("lines", [])
                        for seg in _segments(line)] for key, entities in (("scene", scene), ("topology", topology))}
-    xs = [x for segs in polylines.values() for seg in segs for x, _ in seg] + [x for x, _ in path]
-    ys = [y for segs in polylines.values() for seg in segs for _, y in seg] + [y for _, y in path]
+    xs = [x for segs in polylines.values() for seg in segs for x, _ in seg] + [x for x, _ in path + believed]
+    ys = [y for segs in polylines.values() for seg in segs for _, y in seg] + [y for _, y in path + believed]
     image = _grid_image(grid) if grid else None
     if image is not None:
         xs += list(image[1][:2])
@@ -162,7 +168,17 @@ def render_recording(mcap: str | Path, out_png: str | Path, title: str | None = 
         handles.append(Line2D([], [], color="#f2bf0d", lw=1.0, alpha=0.35, label=f"earlier routes ({len(routes) - 1})"))
     if path:
         ax.plot(*zip(*path), color="#1f77b4", lw=1.2, zorder=5)
-        handles.append(Line2D([], [], color="#1f77b4", lw=1.2, label="path"))
+        handles.append(Line2D([], [], color="#1f77b4", lw=1.2, label="true path" if believed else "path"))
+    if believed:
+        ax.plot(*zip(*believed), color=_BELIEF, lw=1.1, ls=(0, (3.0, 1.6)), zorder=5.2)
+        handles.append(Line2D([], [], color=_BELIEF, lw=1.1, ls=(0, (3.0, 1.6)), label="believed path"))
+    for disc in (ellipse or {}).get("cylinders", [])[:1]:
+        pose, size = disc.get("pose", {}), disc.get("size", {})
+        ax.add_patch(Ellipse(_xy(pose.get("position", {})), size.get("x", 0.0), size.get("y", 0.0),
+                             angle=math.degrees(_yaw(pose)), facecolor=(*_colour(disc.get("color", {}))[:3], 0.25),
+                             edgecolor=_BELIEF, lw=1.0, zorder=8.5))
+        handles.append(Line2D([], [], ls="none", marker="o", ms=7, markerfacecolor="none", markeredgecolor=_BELIEF,
+                              label="last estimate, 2\u03c3"))
     if scan:
         x, y = _xy(scan.get("pose", {}).get("position", {}))
         yaw, ranges = _yaw(scan.get("pose", {})), scan.get("ranges", [])

@@ -4,7 +4,8 @@ The localiser (:mod:`atlas_rap.skills.localising`) keeps the estimated
 poses it gave, every period, in the :data:`~atlas_rap.skills.beliefs.POSE_TRACK`
 belief; the simulator keeps the true path. This module sets one beside the
 other. It is evaluation, so it may read the true pose: no skill, layer or
-RAP does.
+RAP does. :func:`covariance_ellipse` is the belief's own word on its error
+(the ellipse the pictures and the Foxglove recording draw).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import numpy as np
 
 from atlas_rap.skills.beliefs import POSE_TRACK
 
-__all__ = ["PoseErrors", "pose_errors", "track_errors"]
+__all__ = ["PoseErrors", "covariance_ellipse", "pose_errors", "track_errors"]
 
 
 @dataclass(frozen=True)
@@ -60,3 +61,19 @@ def pose_errors(system) -> PoseErrors | None:
         return None
     track = system.manager.context.beliefs.get(POSE_TRACK)
     return track_errors(track, system.simulation.path) if track else None
+
+
+def covariance_ellipse(covariance, sigmas: float = 2.0) -> tuple[float, float, float]:
+    """The ``sigmas``-sigma ellipse of a pose covariance's x-y block (3 x 3, or 2 x 2): its full
+    ``(width, height, angle)``, in metres and degrees counter-clockwise from x to the width's axis
+    (the larger), as matplotlib's ``Ellipse`` takes them.
+
+    >>> covariance_ellipse([[0.04, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.1]])
+    (0.8, 0.4, 0.0)
+    """
+    block = np.asarray(covariance, dtype=float)[:2, :2]
+    block = (block + block.T) / 2  # a covariance is symmetric; rounding may have left it not quite
+    values, vectors = np.linalg.eigh(block)  # ascending
+    small, large = (math.sqrt(max(0.0, float(v))) for v in values)
+    angle = math.degrees(math.atan2(vectors[1, 1], vectors[0, 1]))  # the larger eigenvalue's axis
+    return 2 * sigmas * large, 2 * sigmas * small, round(angle, 9) % 180.0  # (rounded: -1e-15 is 0, not 180)

@@ -22,14 +22,38 @@ order on every channel. The channels (:data:`TOPICS`), with Foxglove's
 well-known schemas and what decides when a message is written:
 
 - ``/robot/pose`` (``foxglove.PoseInFrame``) and ``/tf`` (``foxglove.FrameTransform``,
-  ``map`` → ``base_link``): the robot's true pose at every **pose sample**:
+  ``map`` → ``base_link``): the robot's **true** pose (ground truth, as a
+  simulator's ``/ground_truth``: for evaluation; the robot itself knows only
+  its belief, ``/robot/estimate``) at every **pose sample**:
   ``pose_rate`` per simulated second (10 Hz, at most the sequencer's rate),
   at ``1/rate, 2/rate, ...``, plus one at :meth:`~RunRecorder.close` when the run
   ended between two samples (an interrupted run);
-- ``/robot/path`` (``foxglove.PosesInFrame``): the path so far (a pose kept each
+- ``/robot/path`` (``foxglove.PosesInFrame``): the true path so far (a pose kept each
   time the robot moved 2 cm or turned 0.05 rad), once a simulated second
   while it changes, and at the end; a long path is sent less often (every
   ``len(path) / 1000`` s), so the cost stays bounded;
+- the robot's pose **belief**, when the localiser estimates it (odometry
+  with noise: :mod:`atlas_rap.skills.localising`; a run whose odometry is
+  exact has none of these channels, :data:`ESTIMATE_TOPICS`), in nav2's
+  manner (AMCL's ``/amcl_pose`` and ``/particle_cloud``):
+
+  - ``/robot/estimate`` (``foxglove.PoseInFrame``): the estimated pose, at
+    each filter update (the latest at each pose sample), stamped when the
+    filter made it;
+  - ``/robot/estimate/covariance`` (JSON, schema ``atlas.PoseCovariance``:
+    ``x``, ``y``, ``heading``, ``covariance`` 3 x 3 row-major in m² and
+    rad², ``sigma_x``, ``sigma_y``, ``sigma_heading``, ``localised``,
+    ``particles``): the same estimate's numbers (Foxglove has no
+    ``PoseWithCovariance``; a Plot panel plots ``.sigma_x``);
+  - ``/robot/estimate/ellipse`` (``foxglove.SceneUpdate``, entity
+    ``estimate``): the same estimate's 2-sigma ellipse in x and y, a flat
+    disc at the estimated position (red and named "lost" when the robot
+    is not localised);
+  - ``/robot/particles`` (``foxglove.PosesInFrame``): the particle cloud of
+    an update, at most 500 poses (every k-th particle), at most twice a
+    simulated second (:data:`PARTICLES_PERIOD`);
+  - ``/robot/estimated_path`` (``foxglove.PosesInFrame``): the path the robot
+    believes it drove (the localiser's track), kept and sent as ``/robot/path`` is;
 - ``/robot/sonar`` (``foxglove.LaserScan``): each new sonar ring (the ring's own rate,
   10 Hz), seen at the next pose sample, from the robot's centre in ``map``;
   no echo is NaN;
@@ -53,7 +77,7 @@ well-known schemas and what decides when a message is written:
 
 A run with no world (``--world none``) has only the last two. A live
 viewer that connects late gets the latest scene, topology, route, grid,
-path and primary layer when it subscribes (the WebSocket server forgets
+paths, estimate and primary layer when it subscribes (the WebSocket server forgets
 what it sent before); the MCAP file is not affected by viewers.
 
 The world's channels (:data:`WORLD_TOPICS`) are sampled by one
@@ -76,7 +100,7 @@ from typing import TYPE_CHECKING, Any, Iterable
 
 from atlas_rap.errors import AtlasError, RunError
 from atlas_rap.outputs import AtomicFile, OutputError, write_all
-from atlas_rap.skills.beliefs import GRID, ROUTE, SONAR, TOPOLOGY
+from atlas_rap.skills.beliefs import GRID, POSE_ESTIMATE, POSE_TRACK, ROUTE, SONAR, TOPOLOGY
 from atlas_rap.trace_events import Event
 
 if TYPE_CHECKING:  # the engine does not import its observers
@@ -95,6 +119,13 @@ PATH_STEP = 0.02
 PATH_TURN = 0.05
 """A pose joins the path when the robot moved this many metres or turned this many radians since the last."""
 
+MAX_PARTICLES = 500
+"""Poses of the particle cloud sent at most (every k-th particle: nav2's ``/particle_cloud`` is as thin)."""
+
+PARTICLES_PERIOD = 0.5
+"""Simulated seconds between two particle clouds sent, at least. Every filter update's cloud (up to 10 Hz)
+made ``deliver.rap`` at 5 % drift record 2.8 MB of clouds beside 1.5 MB of everything else."""
+
 TOPICS: dict[str, tuple[str, str]] = {
     "/robot/pose": ("foxglove.PoseInFrame", "PoseInFrameChannel"),
     "/tf": ("foxglove.FrameTransform", "FrameTransformChannel"),
@@ -106,19 +137,40 @@ TOPICS: dict[str, tuple[str, str]] = {
     "/robot/route": ("foxglove.SceneUpdate", "SceneUpdateChannel"),
     "/atlas/primary_layer": ("atlas.PrimaryLayer", ""),
     "/atlas/trace": ("foxglove.Log", "LogChannel"),
+    # the pose belief (last, so the other channels keep their ids in the file)
+    "/robot/estimate": ("foxglove.PoseInFrame", "PoseInFrameChannel"),
+    "/robot/estimate/covariance": ("atlas.PoseCovariance", ""),
+    "/robot/estimate/ellipse": ("foxglove.SceneUpdate", "SceneUpdateChannel"),
+    "/robot/particles": ("foxglove.PosesInFrame", "PosesInFrameChannel"),
+    "/robot/estimated_path": ("foxglove.PosesInFrame", "PosesInFrameChannel"),
 }
-"""Topic → (schema name, the SDK's channel class); see the module docstring for what each carries."""
+"""Topic → (schema name, the SDK's channel class; "" for JSON); see the module docstring for what each carries."""
+
+ESTIMATE_TOPICS = ("/robot/estimate", "/robot/estimate/covariance", "/robot/estimate/ellipse", "/robot/particles",
+                   "/robot/estimated_path")
+"""The channels of the pose belief: they get messages only when the localiser estimates the pose (a channel
+with no message is not written into the file)."""
 
 WORLD_TOPICS = tuple(topic for topic in TOPICS if not topic.startswith("/atlas/"))
 """The world's channels: all but the trace and the primary layer (what a skill host records)."""
 
-_LATCHED = ("/world/scene", "/map/topology", "/robot/route", "/map/grid", "/robot/path", "/atlas/primary_layer")
+_LATCHED = ("/world/scene", "/map/topology", "/robot/route", "/map/grid", "/robot/path", "/atlas/primary_layer",
+            *ESTIMATE_TOPICS)
 """What a live viewer connecting late is sent again: the latest of each (per scene entity)."""
 
-_PRIMARY_SCHEMA = {
-    "title": "atlas.PrimaryLayer", "type": "object",
-    "properties": {"layer": {"type": "string"}, "previous": {"type": ["string", "null"]},
-                   "reason": {"type": "string"}},
+_JSON_SCHEMAS = {  # topic -> the JSON schema of its messages
+    "/atlas/primary_layer": {
+        "title": "atlas.PrimaryLayer", "type": "object",
+        "properties": {"layer": {"type": "string"}, "previous": {"type": ["string", "null"]},
+                       "reason": {"type": "string"}},
+    },
+    "/robot/estimate/covariance": {
+        "title": "atlas.PoseCovariance", "type": "object",
+        "properties": {**{name: {"type": "number"} for name in ("x", "y", "heading", "sigma_x", "sigma_y",
+                                                                "sigma_heading")},
+                       "covariance": {"type": "array", "items": {"type": "number"}, "minItems": 9, "maxItems": 9},
+                       "localised": {"type": "boolean"}, "particles": {"type": "integer"}},
+    },
 }
 
 FOXGLOVE_MISSING = ("recording for Foxglove needs the Foxglove SDK, which is not installed: "
@@ -149,7 +201,7 @@ class _Output:
             if kind:
                 self.channels[topic] = getattr(fox.channels, kind)(topic, context=self.context)
             else:
-                self.channels[topic] = fox.Channel(topic, schema=_PRIMARY_SCHEMA, context=self.context)
+                self.channels[topic] = fox.Channel(topic, schema=_JSON_SCHEMAS[topic], context=self.context)
         self.latched: dict[str, dict[str, Any]] | None = None
         if live:
             self.forget()
@@ -271,10 +323,11 @@ class WorldSampler:
         self._sample_index = math.floor(start * pose_rate + 1e-9)
         self._last_sample: float | None = None
         self._started = False
-        self._path: list[Any] = []
-        self._path_at: tuple[float, float, float] | None = None
-        self._path_sent = 0
-        self._path_due = 0.0
+        self._path = _GrowingPath("/robot/path", foxglove_messages.pose)
+        self._believed = _GrowingPath("/robot/estimated_path", foxglove_messages.pose)
+        self._track_seen = 0  # how many poses of the localiser's track were read
+        self._estimate: Any = None
+        self._particles_due = 0.0
         self._sonar: Any = None
         self._grid_key: tuple[int, int] | None = None
         self._grid_sent: tuple[int, int] | None = None
@@ -320,7 +373,9 @@ class WorldSampler:
         where = m.pose(x, y, heading)
         self.send("/robot/pose", m.pose_in_frame(t, where), t)
         self.send("/tf", m.robot_transform(t, x, y, heading), t)
-        self._grow_path(t, x, y, heading, where)
+        self._path.add(x, y, heading, where)
+        if self._path.due(t):
+            self._send_path(t, self._path)
         beliefs = source.manager.context.beliefs
         sonar = beliefs.get(SONAR)
         if sonar is not None and sonar is not self._sonar:
@@ -350,6 +405,29 @@ class WorldSampler:
         if obstacles != self._obstacles:
             self._obstacles = obstacles
             self.send("/world/scene", m.scene(m.obstacles_entity(t, obstacles)), t, "obstacles")
+        self._sample_belief(t, beliefs)
+
+    def _sample_belief(self, t: float, beliefs: Any) -> None:
+        """The localiser's latest estimate, if it is new (stamped when it was made), and the believed
+        path (nothing when the pose is not estimated)."""
+        estimate = beliefs.get(POSE_ESTIMATE)
+        if estimate is not None and estimate is not self._estimate:
+            self._estimate = estimate
+            m, at = self.m, estimate.time
+            self.send("/robot/estimate", m.pose_in_frame(at, m.pose(*estimate.pose)), at)
+            self.send("/robot/estimate/covariance", m.covariance_record(estimate), at)
+            self.send("/robot/estimate/ellipse", m.scene(m.estimate_entity(at, estimate)), at, "estimate")
+            if estimate.particles is not None and at >= self._particles_due:
+                self._particles_due = at + PARTICLES_PERIOD
+                self.send("/robot/particles", m.particles(at, estimate.particles, MAX_PARTICLES), at)
+        track = beliefs.get(POSE_TRACK)
+        if track:
+            believed = self._believed
+            for _, x, y, heading in track[self._track_seen:]:
+                believed.add(x, y, heading)
+            self._track_seen = len(track)
+            if believed.due(t):
+                self._send_path(t, believed)
 
     def _start(self) -> None:
         """The world as it starts: walls, places, and the prior map's graph."""
@@ -360,19 +438,10 @@ class WorldSampler:
         believed = source.stack.world if source.stack is not None else source.world
         self.send("/map/topology", m.scene(m.prior_topology_entity(t, believed)), t)
 
-    def _grow_path(self, t: float, x: float, y: float, heading: float, where: Any) -> None:
-        last = self._path_at
-        if last is None or math.hypot(x - last[0], y - last[1]) >= PATH_STEP or \
-                abs(math.remainder(heading - last[2], math.tau)) >= PATH_TURN:
-            self._path_at = (x, y, heading)
-            self._path.append(where)
-        if t >= self._path_due and len(self._path) != self._path_sent:
-            self._send_path(t)
-
-    def _send_path(self, t: float) -> None:
-        self._path_sent = len(self._path)
-        self._path_due = t + max(PATH_PERIOD, len(self._path) / 1000.0)
-        self.send("/robot/path", self.m.path(t, self._path), t)
+    def _send_path(self, t: float, path: _GrowingPath) -> None:
+        path.sent = len(path.poses)
+        path.next = t + max(PATH_PERIOD, len(path.poses) / 1000.0)
+        self.send(path.topic, self.m.path(t, path.poses), t)
 
     def _send_grid(self, t: float, grid: Any) -> None:
         self._grid_sent = self._grid_key
@@ -389,11 +458,37 @@ class WorldSampler:
         if self._last_sample is None or end > self._last_sample + 1e-9:
             self.sample(end)
             end = self._last_sample
-        if len(self._path) != self._path_sent:
-            self._send_path(end)
+        for path in (self._path, self._believed):
+            if len(path.poses) != path.sent:
+                self._send_path(end, path)
         grid = source.manager.context.beliefs.get(GRID)
         if grid is not None and self._grid_key != self._grid_sent:
             self._send_grid(end, grid)
+
+
+class _GrowingPath:
+    """A path a topic sends whole (``/robot/path``, ``/robot/estimated_path``): a pose joins it when
+    the robot moved :data:`PATH_STEP` or turned :data:`PATH_TURN` since the last one kept; it is
+    due once :data:`PATH_PERIOD` after it was last sent, if it grew (less often once long)."""
+
+    def __init__(self, topic: str, pose_of: Any) -> None:
+        self.topic = topic
+        self.pose_of = pose_of  # (x, y, heading) -> a Foxglove pose
+        self.poses: list[Any] = []
+        self.last: tuple[float, float, float] | None = None
+        self.sent = 0  # poses in the last message sent
+        self.next = 0.0  # when the next message may be sent
+
+    def add(self, x: float, y: float, heading: float, where: Any = None) -> None:
+        """The robot is at (x, y, heading) (``where``: the same as a Foxglove pose, when made already)."""
+        last = self.last
+        if last is None or math.hypot(x - last[0], y - last[1]) >= PATH_STEP or \
+                abs(math.remainder(heading - last[2], math.tau)) >= PATH_TURN:
+            self.last = (x, y, heading)
+            self.poses.append(where if where is not None else self.pose_of(x, y, heading))
+
+    def due(self, t: float) -> bool:
+        return t >= self.next and len(self.poses) != self.sent
 
 
 class RunRecorder:

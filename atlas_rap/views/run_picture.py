@@ -12,6 +12,12 @@ It marks where each task at most one level below a posted one started
 (first selection) and ended, on the robot's path, and where each plan step
 started and how it ended (the plan executive's records, ``views.world_render.PLAN_EVENTS``).
 
+When the robot's pose was estimated (odometry with noise), the picture also
+shows the path the robot believed it drove (the localiser's
+:data:`~atlas_rap.skills.beliefs.POSE_TRACK`) beside the true one, and the
+last estimate's 2-sigma ellipse (:data:`~atlas_rap.skills.beliefs.POSE_ESTIMATE`);
+a run without them draws the picture it always did.
+
 A run with no world (``--world none``: virtual skills only) has no map, so
 :meth:`RunPicture.render` draws its timeline instead (``views.timeline``):
 a lane per agent of the plan steps, re-plans and abandoned plans, and the
@@ -84,8 +90,8 @@ class RunPicture:
             self.timeline.append(record)
 
     def render(self, out_png: str, title: str) -> None:
-        """Draw the run so far: world, doors as they are, obstacles, path, task marks; with no
-        world, the timeline of the run (plan steps by agent, re-plans, tasks)."""
+        """Draw the run so far: world, doors as they are, obstacles, path (and the believed one),
+        task marks; with no world, the timeline of the run (plan steps by agent, re-plans, tasks)."""
         from atlas_rap.views.world_render import render_run
 
         engine = self.engine
@@ -95,10 +101,14 @@ class RunPicture:
             end = engine.now() if engine.built else None
             render_timeline(self.timeline, out_png, f"{title}, seed {engine.seed}", end=end)
             return
+        from atlas_rap.skills.beliefs import POSE_ESTIMATE, POSE_TRACK
+
         sim = engine.simulation
+        beliefs = engine.manager.context.beliefs
         render_run(engine.world, out_png, path=sim.path, doors_open=sim.doors_open, obstacles=sim.obstacles(),
                    task_marks=self.marks(), title=f"{title}, seed {engine.seed}", plan_events=self.plan_events,
-                   objects=self.objects())
+                   objects=self.objects(), believed_path=beliefs.get(POSE_TRACK) or (),
+                   estimate=beliefs.get(POSE_ESTIMATE))
 
     def objects(self) -> list[tuple[str, str, str, tuple[float, float]]]:
         """The world's objects where they are now: (name, colour, kind, (x, y)); what lies in a

@@ -13,6 +13,13 @@
   start marker, and its final pose as a disc of the robot's radius with
   a heading tick (never smaller than 0.8 % of the map's width, so it
   stays visible in big worlds);
+* when the robot's pose was estimated (odometry with noise: the
+  localiser's :data:`~atlas_rap.skills.beliefs.POSE_TRACK`), the path it
+  *believed* it drove beside the true one, a dashed magenta line, and the
+  last estimate's covariance as its 2-sigma ellipse in x and y
+  (``believed_path``, ``estimate``); the legend then says "true path" and
+  "believed path". Without them the picture is exactly the one drawn
+  before beliefs existed;
 * task marks (:class:`TaskMark`) as small markers, numbered in time order;
   the legend beside the map lists them ("1 (go-to office) started at
   3.0 s"), so the map itself carries only numbers, and marks that fall
@@ -120,6 +127,8 @@ _DOOR_CLOSED = "#d62728"
 _ROBOT_FACE = "#fdd835"
 _ROBOT_EDGE = "#333333"
 _BOX = "#8d6e63"
+_BELIEF = "#d6127a"  # the believed path and the estimate's ellipse: no viridis colour comes near it
+_BELIEF_DASH = (0, (3.0, 1.6))
 _PERSON = "#fb8c00"
 _PLACE_COLOURS = (
     "#4e79a7", "#f28e2b", "#59a14f", "#b07aa1", "#76b7b2",
@@ -153,6 +162,8 @@ def render_run(
     obstacles: Sequence[tuple[str, tuple[float, float], float]] = (),
     plan_events: Sequence[Mapping[str, Any]] = (),
     objects: Sequence[tuple[str, str, str, tuple[float, float]]] = (),
+    believed_path: Sequence[tuple[float, float, float, float]] = (),
+    estimate: Any = None,
 ) -> Path:
     """Draw ``world`` and a run in it to the PNG ``out_png``; return its path.
 
@@ -169,7 +180,11 @@ def render_run(
     step is drawn where the robot was when it started (:func:`plan_marks`).
     ``objects`` are the world's objects where they are at the end,
     ``(name, colour, kind, (x, y))``: a disc of their colour, named (a bin
-    is a square). The parent directory of ``out_png`` is created if needed.
+    is a square). ``believed_path`` is where the robot believed it was
+    (the localiser's track, ``(t, x, y, heading)`` items), drawn beside
+    ``path``; ``estimate`` the last :class:`~atlas_rap.skills.beliefs.PoseEstimate`
+    (anything with ``time``, ``pose`` and a 3 x 3 ``covariance``), drawn as
+    its 2-sigma ellipse. The parent directory of ``out_png`` is created if needed.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -180,7 +195,8 @@ def render_run(
     marks = sorted(task_marks, key=lambda m: m.time)  # stable: ties keep their given order
     steps, notes = plan_marks(plan_events, path, start=world.robot.start[:2])
     placed = [TaskMark(m.time, m.x, m.y, "", "") for m in [*steps, *notes]]  # (only to size the map)
-    (xmin, xmax, ymin, ymax), map_w, map_h = map_layout(*_extent(world, path, [*marks, *placed], obstacles))
+    drawn = [*path, *believed_path] if believed_path else path  # (a belief gone astray stays in the picture)
+    (xmin, xmax, ymin, ymax), map_w, map_h = map_layout(*_extent(world, drawn, [*marks, *placed], obstacles))
 
     left, bottom, top, right = 0.75, 1.05 if path else 0.6, 0.55, 0.25
     fig_w, fig_h = left + map_w + right, bottom + map_h + top
@@ -207,7 +223,9 @@ def render_run(
         _draw_doors(ax, world, doors_open or {}, handles)
         _draw_obstacles(ax, obstacles, handles)
         _draw_objects(ax, objects, handles)
-        _draw_path(fig, ax, path, handles, left / fig_w, (bottom - 0.78) / fig_h, map_w / fig_w)
+        _draw_path(fig, ax, path, handles, left / fig_w, (bottom - 0.78) / fig_h, map_w / fig_w,
+                   "true path" if believed_path else "path")
+        _draw_belief(ax, believed_path, estimate, handles)
         _draw_robot(ax, world, path, handles)
         taken: list[tuple[float, float, float, float]] = []
         _draw_marks(fig, ax, marks, handles, taken)
@@ -386,7 +404,8 @@ def _draw_objects(ax, objects, handles: list) -> None:
                           markeredgecolor="#212529", label="object at the end (its colour; bins square)"))
 
 
-def _draw_path(fig, ax, path, handles: list, cb_left: float, cb_bottom: float, cb_width: float) -> None:
+def _draw_path(fig, ax, path, handles: list, cb_left: float, cb_bottom: float, cb_width: float,
+               name: str = "path") -> None:
     from matplotlib.collections import LineCollection
     from matplotlib.colors import Normalize
     from matplotlib.lines import Line2D
@@ -407,7 +426,7 @@ def _draw_path(fig, ax, path, handles: list, cb_left: float, cb_bottom: float, c
     ax.add_collection(lc)
     ax.plot(*pts[0], marker="o", markersize=6, markerfacecolor="white",
             markeredgecolor="#440154", markeredgewidth=1.5, zorder=5.5)
-    handles.append(Line2D([], [], color="#21918c", linewidth=2.0, label="path (colour = time)"))
+    handles.append(Line2D([], [], color="#21918c", linewidth=2.0, label=f"{name} (colour = time)"))
     handles.append(Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="white",
                           markeredgecolor="#440154", markeredgewidth=1.5, label=f"start, t = {ts[0]:g} s"))
 
@@ -418,6 +437,36 @@ def _draw_path(fig, ax, path, handles: list, cb_left: float, cb_bottom: float, c
     cb.set_label("time (s)", fontsize=8, labelpad=2)
     cb.ax.tick_params(labelsize=7, length=2)
     cb.outline.set_linewidth(0.5)
+
+
+def _draw_belief(ax, believed_path, estimate, handles: list) -> None:
+    """The path the robot believed it drove (dashed, over the true one) and the last estimate's
+    2-sigma ellipse in x and y, with a cross at its pose; nothing when there is neither."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Ellipse
+
+    from atlas_rap.views.pose_error import covariance_ellipse
+
+    if believed_path:
+        xs = [float(p[1]) for p in believed_path]
+        ys = [float(p[2]) for p in believed_path]
+        ax.plot(xs, ys, color=_BELIEF, linewidth=1.3, linestyle=_BELIEF_DASH, dash_capstyle="butt",
+                solid_joinstyle="round", zorder=5.2)
+        handles.append(Line2D([], [], color=_BELIEF, linewidth=1.3, linestyle=_BELIEF_DASH,
+                              label="believed path (the localiser's)"))
+    if estimate is None:
+        return
+    from matplotlib.colors import to_rgba
+
+    x, y = float(estimate.pose[0]), float(estimate.pose[1])
+    width, height, angle = covariance_ellipse(estimate.covariance, sigmas=2.0)
+    fill = to_rgba(_BELIEF, 0.18)
+    ax.add_patch(Ellipse((x, y), width, height, angle=angle, facecolor=fill, edgecolor=_BELIEF, linewidth=1.1,
+                         zorder=7.15))  # over the robot's disc, which may be bigger
+    ax.plot([x], [y], linestyle="none", marker="+", markersize=7, markeredgewidth=1.2, color=_BELIEF, zorder=7.2)
+    handles.append(Line2D([], [], linestyle="none", marker="o", markersize=8, markerfacecolor=fill,
+                          markeredgecolor=_BELIEF, label=f"belief at {float(estimate.time):.1f} s, 2\u03c3 ellipse "
+                                                         f"({width:.2f} \u00d7 {height:.2f} m)"))
 
 
 def _draw_robot(ax, world: World, path, handles: list) -> None:
