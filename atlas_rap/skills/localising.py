@@ -98,7 +98,7 @@ class Localiser(Skill):
     def init(self, context) -> None:
         super().init(context)
         world, robot = context.world, context.robot
-        exact = world is None or robot is None or _noise_off(world.robot)
+        exact = world is None or robot is None or world.robot.odometry_noise.off
         self.exact = exact or context.beliefs.get(LOCALISATION) == "odometry" or not world.walls
         self.filter: ParticleFilter | None = None
         self.localised: bool | None = None
@@ -201,7 +201,3 @@ def compose(a: Pose, delta: Pose) -> Pose:
 def _wrap(angle: float) -> float:
     return (angle + math.pi) % (2 * math.pi) - math.pi
 
-
-def _noise_off(robot) -> bool:  # TEMP until the sim's OdometryNoise lands
-    noise = getattr(robot, "odometry_noise", None)
-    return noise.off if noise is not None else not robot.odometry_drift
