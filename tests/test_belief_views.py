@@ -69,9 +69,10 @@ def run_deliver(world: Path, folder: Path) -> Run:
 def drifting(tmp_path_factory) -> Run:
     folder = tmp_path_factory.mktemp("drifting")
     text = (REPO / "worlds" / "lab-corridor-office.yaml").read_text(encoding="utf-8")
-    assert "odometry_drift: 0.0\n" in text
+    assert "  max_turn_rate_deg: 115\n" in text
     world = folder / "drifting.yaml"
-    world.write_text(text.replace("odometry_drift: 0.0\n", "odometry_drift: 0.05\n"), encoding="utf-8")
+    world.write_text(text.replace("  max_turn_rate_deg: 115\n", "  max_turn_rate_deg: 115\n  odometry_drift: 0.05\n"),
+                     encoding="utf-8")
     return run_deliver(world, folder)
 
 

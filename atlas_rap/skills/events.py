@@ -5,7 +5,9 @@
 - ``door-monitor``: ``(door-closed DOOR)`` / ``(door-open DOOR)`` when the
   sonar beam that points through a nearby doorway (the whole beam inside
   the doorway, seen nearly head-on) echoes at the door's distance (closed)
-  or well beyond it (open), three readings in a row; it keeps the belief
+  or well beyond it (open), three readings in a row (a beam counts only
+  when it fits through the doorway however wrong the pose belief may be,
+  within two sigmas of its covariance); it keeps the belief
   the route planner uses, and ``(edge-blocked A B)`` while no door it
   believes open joins places A and B;
 - ``bump-monitor``: ``(bumped robot)`` on contact, retracted a second after
@@ -21,7 +23,7 @@ import numpy as np
 
 from atlas_rap.logic import Compound
 from atlas_rap.skills.avoidance import angle_wrap
-from atlas_rap.skills.beliefs import CLOSED_DOORS
+from atlas_rap.skills.beliefs import CLOSED_DOORS, POSE_ESTIMATE
 from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.skill import Skill
 
@@ -74,12 +76,15 @@ class DoorMonitor(Skill):
         world = self.context.world
         radius, half_beam = world.robot.radius, world.sonar.beam_width / 2
         x, y, heading = pose
+        estimate = self.context.beliefs.get(POSE_ESTIMATE)
         for door in self.doors:
             cx, cy = door.center
-            if not self.nearest < math.hypot(cx - x, cy - y) < self.sensing_range:
+            distance = math.hypot(cx - x, cy - y)
+            if not self.nearest < distance < self.sensing_range:
                 continue
             beam = int(np.argmin(np.abs(angle_wrap(angles + heading - math.atan2(cy - y, cx - x)))))
-            along = _through_doorway(door.segment, x, y, heading + float(angles[beam]), half_beam)
+            margin = _bearing_doubt(estimate.covariance, distance) if estimate is not None else 0.0
+            along = _through_doorway(door.segment, x, y, heading + float(angles[beam]), half_beam + margin)
             if along is None:
                 continue  # the whole beam would not fit through the doorway: a reading says nothing
             expected = along - radius
@@ -114,6 +119,16 @@ class DoorMonitor(Skill):
                 context.retract_fact(Compound("edge-blocked", pair))
             else:
                 context.assert_fact(Compound("edge-blocked", pair))
+
+
+def _bearing_doubt(covariance: np.ndarray, distance: float) -> float:
+    """Radians by which a beam's true bearing to something ``distance`` metres away may differ from
+    the believed one: two sigmas of the belief's heading and of its position across the line of sight.
+    The door monitor counts a beam only when the whole beam, widened by this, fits through the doorway:
+    a beam that may graze the frame would read the frame as a closed door."""
+    heading = math.sqrt(max(0.0, float(covariance[2, 2])))
+    position = math.sqrt(max(0.0, float(covariance[0, 0] + covariance[1, 1])) / 2)
+    return 2.0 * (heading + position / max(distance, 1e-6))
 
 
 @registered("bump-monitor")

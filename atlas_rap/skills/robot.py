@@ -20,11 +20,14 @@ Pose = tuple[float, float, float]
 
 @runtime_checkable
 class Robot(Protocol):
-    """What skills may ask of a body: its pose and odometry, its sonar and bumper, a drive command, doors.
+    """What skills may ask of a body: its odometry, its sonar and bumper, a drive command, doors.
 
-    The same names and meanings as ROS's usual topics: ``pose`` is the true
-    pose (a simulator's ground truth, ``/ground_truth``), ``odometry`` the
-    dead-reckoned one (``/odom``), ``sonar()`` one reading of the ring
+    Not its true pose: a real robot has none to give, and a simulator's
+    (``Simulation.pose``, ROS's ``/ground_truth``) is for evaluation only.
+    Where the robot is, the skills learn from the localiser
+    (:mod:`atlas_rap.skills.localising`). The same names and meanings as
+    ROS's usual topics: ``odometry`` is the dead-reckoned pose (``/odom``),
+    ``sonar()`` one reading of the ring
     (``sensor_msgs/Range`` per transducer), ``command`` a body-frame
     velocity (``/cmd_vel``).
     """
@@ -32,11 +35,6 @@ class Robot(Protocol):
     @property
     def time(self) -> float:
         """The body's clock: simulated seconds since the start."""
-        ...
-
-    @property
-    def pose(self) -> Pose:
-        """The true pose."""
         ...
 
     @property

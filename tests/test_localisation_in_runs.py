@@ -1,0 +1,77 @@
+"""The robot's pose belief in whole runs (issue 27): deliver.rap with drifting odometry, localised on the
+prior map by the localiser skill, on the real pymunk simulation; and the true pose left to the simulator."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from atlas_rap.layers import MissionEngine, RunOptions
+from atlas_rap.sim.physics import Simulation
+from atlas_rap.skills.beliefs import POSE_TRACK
+from atlas_rap.views.pose_error import pose_errors
+
+REPO = Path(__file__).resolve().parents[1]
+DELIVER = REPO / "rap_library" / "missions" / "deliver.rap"
+
+
+def drifting_world(folder: Path, drift: float) -> str:
+    """lab-corridor-office with odometry drifting ``drift`` per metre and per radian (a variant)."""
+    world = folder / f"drift-{drift}.yaml"
+    world.write_text(f"base: lab-corridor-office\nname: lab-corridor-office\nrobot: {{odometry_drift: {drift}}}\n",
+                     encoding="utf-8")
+    return str(world)
+
+
+def deliver(world: str, seed: int, localisation: str = "mcl") -> MissionEngine:
+    engine = MissionEngine(RunOptions(world=world, seed=seed, localisation=localisation))
+    engine.load_file(DELIVER, require_post=True)
+    engine.result = engine.run_mission(600)
+    return engine
+
+
+def test_deliver_succeeds_on_ten_seeds_at_5_percent_drift_with_the_belief_within_15_cm(tmp_path):
+    world = drifting_world(tmp_path, 0.05)
+    for seed in range(10):
+        engine = deliver(world, seed)
+        errors = pose_errors(engine.system)
+        assert engine.result.ok, (seed, engine.result.ended_by)
+        assert errors.rmse <= 0.15, (seed, errors.line())
+
+
+def test_dead_reckoning_alone_is_metres_off_where_the_localiser_is_centimetres_off(tmp_path):
+    world = drifting_world(tmp_path, 0.05)
+    belief = pose_errors(deliver(world, 1).system)
+    odometry = pose_errors(deliver(world, 1, localisation="odometry").system)
+    assert odometry.rmse > 5 * belief.rmse, (belief.line(), odometry.line())
+
+
+def test_the_localiser_posts_localised_and_the_robot_is_never_lost_on_an_ordinary_errand(tmp_path):
+    engine = deliver(drifting_world(tmp_path, 0.05), 2)
+    facts = {str(fact) for fact in engine.sequencer.memory.facts()}
+    assert "(localised)" in facts and "(lost)" not in facts
+
+
+def test_no_skill_layer_or_rap_reads_the_true_pose(tmp_path, monkeypatch):
+    """The simulator's true pose is broken for the run: a mission that still succeeds never read it."""
+    def broken(self):
+        raise AssertionError("the true pose was read outside the simulator")
+
+    monkeypatch.setattr(Simulation, "pose", property(broken))
+    engine = deliver(drifting_world(tmp_path, 0.02), 0)
+    assert engine.result.ok, engine.result.ended_by
+    monkeypatch.undo()
+    assert pose_errors(engine.system).rmse < 0.15  # the evaluation reads the true path, after the run
+
+
+@pytest.mark.parametrize("prior_map", [True, False])
+def test_the_same_seed_gives_the_same_belief(tmp_path, prior_map):
+    world = drifting_world(tmp_path, 0.05)
+    tracks = []
+    for _ in range(2):
+        engine = MissionEngine(RunOptions(world=world, seed=3, prior_map=prior_map))
+        engine.load_file(DELIVER, require_post=True)
+        engine.run(30.0)
+        tracks.append(list(engine.system.manager.context.beliefs.get(POSE_TRACK)))
+    assert tracks[0] == tracks[1] and len(tracks[0]) > 100
