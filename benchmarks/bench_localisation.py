@@ -1,4 +1,4 @@
-"""Benchmark Monte Carlo localisation (issue 27, the filter alone): how well it knows where the robot is.
+"""Benchmark Monte Carlo localisation (issue 27): how well the robot knows where it is, and what it costs.
 
 The lab's robot (``worlds/lab-corridor-office.yaml``, the real pymunk
 simulation with its sonar ring's noise and dropout) turns on the spot, then
@@ -15,8 +15,12 @@ alone, on the same drive. One JSON object a line:
 - ``localisation-cost``: particles per update (KLD-sampling: mean, least,
   most) and the filter's wall time per sonar ring (ms).
 
-Not yet measured (the filter is not wired into runs): ``deliver.rap`` with
-and without localisation, the kidnapped robot, mapping with pose correction.
+- ``localisation-deliver``: ``deliver.rap`` on ``lab-corridor-office`` at
+  5 % drift over ``--deliver-seeds`` seeds (default 20), with the localiser
+  (``--localisation mcl``) beside dead reckoning (``odometry``), the peer:
+  successes, the belief's position RMSE, and the wall time per simulated
+  second of each and their ratio (per simulated second, because a run that
+  fails or wanders lasts longer; the target is 1.5 or less).
 
 Run: ``pip install . && python benchmarks/bench_localisation.py`` (``--seeds N``; ``--quick``: 3 seeds).
 """
@@ -46,6 +50,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10, help="seeds per drift (default 10)")
     parser.add_argument("--quick", action="store_true", help="3 seeds")
+    parser.add_argument("--deliver-seeds", type=int, default=20, help="seeds of deliver.rap (default 20)")
     args = parser.parse_args()
     seeds = range(3 if args.quick else args.seeds)
     counts, per_ring = [], []
@@ -66,6 +71,40 @@ def main() -> None:
     emit({"bench": "localisation-cost", "particles_mean": round(float(np.mean(counts)), 1),
           "particles_min": int(np.min(counts)), "particles_max": int(np.max(counts)),
           "ms_per_sonar_ring": round(1000 * float(np.mean(per_ring)), 3)})
+    deliver_side_by_side(range(3 if args.quick else args.deliver_seeds))
+
+
+def deliver_side_by_side(seeds: range, drift: float = 0.05) -> None:
+    """deliver.rap with the localiser and with dead reckoning, on the same seeds (one JSON line)."""
+    import tempfile
+    import time
+
+    from atlas_rap.layers import MissionEngine, RunOptions
+    from atlas_rap.views.pose_error import pose_errors
+
+    mission = HERE.parent / "rap_library" / "missions" / "deliver.rap"
+    record: dict = {"bench": "localisation-deliver", "drift": drift, "seeds": len(seeds)}
+    with tempfile.TemporaryDirectory() as folder:
+        world = Path(folder) / "drifting.yaml"
+        world.write_text(f"base: lab-corridor-office\nname: lab-corridor-office\nrobot: {{odometry_drift: {drift}}}\n",
+                         encoding="utf-8")
+        for mode in ("mcl", "odometry"):
+            ok, rmse, wall, simulated = 0, [], 0.0, 0.0
+            for seed in seeds:
+                engine = MissionEngine(RunOptions(world=str(world), seed=seed, localisation=mode))
+                engine.load_file(mission, require_post=True)
+                started = time.perf_counter()
+                result = engine.run_mission(600)
+                wall += time.perf_counter() - started
+                simulated += result.time
+                ok += result.ok
+                rmse.append(pose_errors(engine.system).rmse)
+            record[mode] = {"succeeded": ok, "rmse_m_mean": round(float(np.mean(rmse)), 3),
+                            "rmse_m_worst": round(float(np.max(rmse)), 3),
+                            "wall_ms_per_simulated_s": round(1000 * wall / simulated, 3)}
+    record["ratio_wall_mcl_to_odometry"] = round(record["mcl"]["wall_ms_per_simulated_s"]
+                                                 / record["odometry"]["wall_ms_per_simulated_s"], 3)
+    emit(record)
 
 
 if __name__ == "__main__":
