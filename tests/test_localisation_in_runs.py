@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from atlas_rap.layers import MissionEngine, RunOptions
@@ -24,8 +25,11 @@ def drifting_world(folder: Path, drift: float) -> str:
     return str(world)
 
 
-def deliver(world: str, seed: int, localisation: str = "mcl") -> MissionEngine:
+def deliver(world: str, seed: int, localisation: str = "mcl", records: list | None = None) -> MissionEngine:
+    """deliver.rap run to its end (``engine.result``); its trace records into ``records`` if given."""
     engine = MissionEngine(RunOptions(world=world, seed=seed, localisation=localisation))
+    if records is not None:
+        engine.trace.add_sink(records.append)
     engine.load_file(DELIVER, require_post=True)
     engine.result = engine.run_mission(600)
     return engine
@@ -75,3 +79,37 @@ def test_the_same_seed_gives_the_same_belief(tmp_path, prior_map):
         engine.run(30.0)
         tracks.append(list(engine.system.manager.context.beliefs.get(POSE_TRACK)))
     assert tracks[0] == tracks[1] and len(tracks[0]) > 100
+
+
+def kidnapped_world(folder: Path) -> str:
+    """lab-corridor-office at the default noise, the robot teleported at 20 s from the corridor (it is
+    near (11.6, 5.0) then, on its way east) into the lab, 5 m away, facing east: it is not told."""
+    world = folder / "kidnap.yaml"
+    world.write_text("base: lab-corridor-office\nname: lab-corridor-office\n"
+                     "robot: {teleports: [{at: 20, to: [7.0, 3.0, 0]}]}\n", encoding="utf-8")
+    return str(world)
+
+
+def relocalised_after(engine: MissionEngine, since: float, within: float = 0.5) -> float | None:
+    """Seconds after ``since`` from which the belief stays within ``within`` metres of the truth."""
+    track = np.asarray(engine.system.manager.context.beliefs.get(POSE_TRACK))
+    truth = np.asarray(engine.simulation.path)
+    x, y = (np.interp(track[:, 0], truth[:, 0], truth[:, i]) for i in (1, 2))
+    far = (track[:, 0] >= since) & (np.hypot(track[:, 1] - x, track[:, 2] - y) > within)
+    if not far.any():
+        return 0.0
+    last_far = track[np.flatnonzero(far)[-1], 0]
+    return float(last_far - since) if last_far < track[-1, 0] else None
+
+
+def test_a_kidnapped_robot_is_found_again_within_30_s_and_the_errand_completes(tmp_path):
+    world = kidnapped_world(tmp_path)
+    for seed in range(4):
+        records: list[dict] = []
+        engine = deliver(world, seed, records=records)
+        assert [t for t, _, _ in engine.simulation.kidnaps] == [pytest.approx(20.0)]
+        took = relocalised_after(engine, 20.0)
+        assert took is not None and took <= 30.0, (seed, took)
+        assert engine.result.ok, (seed, engine.result.ended_by)
+        lost = [r["t"] for r in records if r["event"] == "fact-asserted" and r["fact"] == "(lost)"]
+        assert lost and 20.0 < lost[0] < 20.0 + took, (seed, lost)  # it knew it was lost, and turned to look

@@ -40,7 +40,8 @@ from scipy import ndimage
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.model import Segment
 
-__all__ = ["FilterSettings", "LikelihoodField", "MotionNoise", "ParticleFilter", "SonarLikelihood", "wall_mask"]
+__all__ = ["FilterSettings", "LikelihoodField", "MotionNoise", "ParticleFilter", "Pose", "SonarLikelihood", "between",
+           "compose", "wall_mask"]
 
 Pose = tuple[float, float, float]
 
@@ -293,6 +294,18 @@ class ParticleFilter:
         self.weights = np.full(n, 1.0 / n)
         return True
 
+    def reseed(self, poses: np.ndarray, log_scores: np.ndarray, spread: Pose = (0.15, 0.15, math.radians(5.0))) -> None:
+        """Start again from ``poses`` (k x 3) with their log-likelihoods: ``max_particles`` particles
+        drawn among them in proportion to their likelihood and spread by ``spread`` (standard
+        deviations); the recovery averages start again from the slow one."""
+        n = self.settings.max_particles
+        weights = np.exp(np.asarray(log_scores, dtype=float) - np.max(log_scores))
+        chosen = self.rng.choice(len(poses), n, p=weights / weights.sum())
+        particles = poses[chosen] + self.rng.normal(0.0, 1.0, (n, 3)) * np.asarray(spread)
+        particles[:, 2] = _wrap(particles[:, 2])
+        self.particles, self.weights = particles, np.full(n, 1.0 / n)
+        self.w_fast = self.w_slow
+
     def estimate(self) -> tuple[Pose, np.ndarray]:
         """The belief as a pose (weighted mean; heading on the circle) and its 3 x 3 covariance."""
         w, p = self.weights, self.particles
@@ -343,6 +356,19 @@ class ParticleFilter:
         bound = np.where(k > 1, bound, st.min_particles)  # one bin: the bound says nothing
         enough = np.flatnonzero(np.arange(1, len(drawn) + 1) >= np.maximum(bound, st.min_particles))
         return int(min(enough[0] + 1 if enough.size else len(drawn), st.max_particles))
+
+
+def between(a: Pose, b: Pose) -> Pose:
+    """The motion from pose ``a`` to pose ``b``, in ``a``'s frame (ROS's ``a.inverse() * b``)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return dx * c + dy * s, dy * c - dx * s, _wrap(b[2] - a[2])
+
+
+def compose(a: Pose, delta: Pose) -> Pose:
+    """Pose ``a`` moved by ``delta`` in its own frame (ROS's ``a * delta``)."""
+    c, s = math.cos(a[2]), math.sin(a[2])
+    return a[0] + delta[0] * c - delta[1] * s, a[1] + delta[0] * s + delta[1] * c, _wrap(a[2] + delta[2])
 
 
 def _wrap(angle):

@@ -64,13 +64,14 @@ import numpy as np
 
 from atlas_rap.logic import Compound
 from atlas_rap.maps.frame import GridFrame
-from atlas_rap.maps.localisation import LikelihoodField, ParticleFilter, SonarLikelihood, wall_mask
+from atlas_rap.maps.localisation import LikelihoodField, ParticleFilter, SonarLikelihood, between, compose, wall_mask
+from atlas_rap.maps.relocalisation import best_poses
 from atlas_rap.skills.beliefs import LOCALISATION, POSE, POSE_ESTIMATE, POSE_TRACK, SONAR, PoseEstimate
 from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.robot import Pose
 from atlas_rap.skills.skill import Skill
 
-__all__ = ["LOCALISED_HEADING", "LOCALISED_SPREAD", "Localiser", "UPDATE_ANGLE", "UPDATE_DISTANCE", "between", "compose"]
+__all__ = ["LOCALISED_HEADING", "LOCALISED_SPREAD", "Localiser", "UPDATE_ANGLE", "UPDATE_DISTANCE"]
 
 UPDATE_DISTANCE = 0.1
 """Metres the odometry must move between two updates (AMCL's ``update_min_d``, 0.25 m for a laser of
@@ -85,6 +86,10 @@ LOCALISED_SPREAD = 0.3
 """Metres: the largest position spread (1 sigma) at which the robot counts as localised; lost at twice it."""
 LOCALISED_HEADING = math.radians(15.0)
 """Radians: the largest heading spread at which the robot counts as localised; lost at twice it."""
+SEARCH_TURN = 2 * math.pi
+"""Radians the robot turns while lost (the relocalise RAP's spin) before its rings are searched for."""
+SEARCH_DISTANCE = 2.0
+"""Metres it drives while lost before its rings are searched for, if it does not turn."""
 START_SPREAD = (0.1, 0.1, math.radians(5.0))
 """The initial belief's spread (x, y, heading) around the start pose."""
 
@@ -119,6 +124,8 @@ class Localiser(Skill):
                                      robot_radius=world.robot.radius, max_range=world.sonar.max_range,
                                      sensor=self._sensor)
         self._anchor = (self.filter.estimate(), self._odometry)
+        self._lost_rings: list[tuple[Pose, np.ndarray, np.ndarray]] = []
+        self._searched = False
 
     @staticmethod
     def _prior_field(world) -> LikelihoodField:
@@ -162,9 +169,28 @@ class Localiser(Skill):
         pf.predict(last, odometry)
         self._odometry = odometry
         pf.correct(reading[0], self._angles)
+        if self.localised is False:
+            self._search(odometry, reading[0])
+        else:
+            self._lost_rings.clear()
         estimate = pf.estimate()
         pf.resample()
         return estimate
+
+    def _search(self, odometry: Pose, ranges: np.ndarray) -> None:
+        """While lost, keep the rings; once they span a turn on the spot or :data:`SEARCH_DISTANCE` of
+        driving, search the whole map for where they fit (:mod:`atlas_rap.maps.relocalisation`) and
+        start the filter again from the best poses found."""
+        rings = self._lost_rings
+        rings.append((odometry, ranges, self._angles))
+        turned = sum(abs(_wrap(b[0][2] - a[0][2])) for a, b in zip(rings, rings[1:]))
+        travelled = sum(math.hypot(b[0][0] - a[0][0], b[0][1] - a[0][1]) for a, b in zip(rings, rings[1:]))
+        if turned < SEARCH_TURN and travelled < SEARCH_DISTANCE:
+            return
+        poses, scores = best_poses(self.filter, rings, odometry, clearance=self.context.world.robot.radius)
+        self.filter.reseed(poses, scores / len(rings))
+        rings.clear()
+        self._searched = True
 
     def _localised(self, covariance: np.ndarray) -> bool:
         """Whether the robot counts as localised now (with the hysteresis of the module docstring);
@@ -173,29 +199,17 @@ class Localiser(Skill):
         heading = math.sqrt(max(0.0, covariance[2, 2]))
         if self.filter.surprised:
             localised = False
-        elif self.localised is False:
-            localised = spread <= LOCALISED_SPREAD and heading <= LOCALISED_HEADING
+        elif self.localised is False:  # found again only by a search of the whole map (see _search)
+            localised = self._searched and spread <= LOCALISED_SPREAD and heading <= LOCALISED_HEADING
         else:
             localised = spread <= 2 * LOCALISED_SPREAD and heading <= 2 * LOCALISED_HEADING
         if localised != self.localised:
+            self._searched = False
             if self.localised is not None:
                 self.context.retract_fact(Compound("lost" if localised else "localised", ()))
             self.context.assert_fact(Compound("localised" if localised else "lost", ()))
             self.localised = localised
         return localised
-
-
-def between(a: Pose, b: Pose) -> Pose:
-    """The motion from pose ``a`` to pose ``b``, in ``a``'s frame (ROS's ``a.inverse() * b``)."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    return dx * c + dy * s, dy * c - dx * s, _wrap(b[2] - a[2])
-
-
-def compose(a: Pose, delta: Pose) -> Pose:
-    """Pose ``a`` moved by ``delta`` in its own frame (ROS's ``a * delta``)."""
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return a[0] + delta[0] * c - delta[1] * s, a[1] + delta[0] * s + delta[1] * c, _wrap(a[2] + delta[2])
 
 
 def _wrap(angle: float) -> float:
