@@ -24,9 +24,14 @@ How it knows where the robot is, in the manner of nav2's AMCL
   updates the pose is the last estimate moved as the odometry has moved
   since (AMCL's ``map`` → ``odom`` transform: cheap, and as smooth as the
   odometry). Random particles are injected when the scans fit worse than
-  they used to (``recovery_alpha_slow`` / ``_fast``), so a kidnapped robot
-  is found again.
-- **Without one** (``--no-prior-map``, ``atlas map build``, the experiment):
+  they used to (``recovery_alpha_slow`` / ``_fast``). Once lost, the rings
+  are kept until they span a turn on the spot (the relocalise RAP's spin)
+  or :data:`SEARCH_DISTANCE` of driving; then the whole map is searched for
+  where they fit (:mod:`atlas_rap.maps.relocalisation`) and the filter
+  starts again from the best poses. The robot counts as localised again
+  only after such a search: random particles alone settle as readily on a
+  wrong room as on the right one.
+- **Without one** (``--no-prior-map``, the experiment; ``atlas map build`` has its world's walls):
   dead reckoning, the odometry alone. Matching the sonar against the map
   being built was measured and made the pose worse, not better: with
   ``deliver.rap --no-prior-map`` on ``lab-corridor-office`` at 2 % drift,
