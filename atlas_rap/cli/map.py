@@ -71,7 +71,7 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
     from atlas_rap.views.map_levels import write_levels
     from atlas_rap.outputs import naming, write_all
     from atlas_rap.shipped import resolve_user_path
-    from atlas_rap.skills.beliefs import POSES
+    from atlas_rap.skills.beliefs import POSE, POSES
 
     if world == "none":
         raise click.UsageError("atlas map build needs a world to drive in, not 'none'")
@@ -94,14 +94,15 @@ def build_command(world: str, mission_file: str | None, out_dir: str, seed: int,
         poses = engine.manager.context.beliefs[POSES]
         failed = write_all({"--out": lambda: _save_grid(grid, out)})
     sim, radius = engine.simulation, engine.world.robot.radius
-    inference = InferenceGrid(grid, sim.pose[:2], radius, engine.world.sonar.max_range, poses)
+    here = engine.manager.context.beliefs[POSE][:2]  # where the robot believes it is: the map is in its frame
+    inference = InferenceGrid(grid, here, radius, engine.world.sonar.max_range, poses)
     quality = inference.quality()
     click.echo(f"mission {ended} at {sim.time:.1f} s simulated; map quality {quality:.3f}")
     if failed:  # after the line that says how the run went
         raise failed["--out"]
     p_occ = grid.probabilities()
     p_occ[~grid.updated] = float("nan")
-    path_xy = [(x, y) for _, x, y, _ in sim.path]
+    path_xy = [(x, y) for x, y, _ in poses]  # the believed poses the grid was built from
     grid_files = [out / "occupancy.npz", out / "occupancy.yaml"]
     try:
         result = abstract_map(p_occ, grid.frame, radius, source=f"the map of {world}",
