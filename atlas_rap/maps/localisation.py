@@ -281,18 +281,30 @@ class ParticleFilter:
         st = self.settings
         if not force and self.effective_size >= st.resample_below * self.count:
             return False
-        n_max = st.max_particles
-        positions = (self.rng.random() + np.arange(n_max)) / n_max  # low-variance: one random offset
-        chosen = np.minimum(np.searchsorted(np.cumsum(self.weights), positions), self.count - 1)
-        drawn = self.particles[self.rng.permutation(chosen)]
         inject = max(0.0, 1.0 - self.w_fast / (st.recovery_below * self.w_slow)) if self.surprised else 0.0
-        if inject > 0:
-            random = self.rng.random(n_max) < inject
-            drawn[random] = self._guessed_poses(int(random.sum()))
-        n = self._kld_count(drawn)
+        # KLD-sampling draws until the bound for the bins occupied is met; drawing twice the particles
+        # there are, and four times more while the bound is not met, spares drawing max_particles each time
+        m = min(st.max_particles, max(st.min_particles, 2 * self.count))
+        while True:
+            drawn = self._draw(m, inject)
+            n = self._kld_count(drawn)
+            if n < m or m == st.max_particles:
+                break
+            m = min(st.max_particles, 4 * m)
         self.particles = drawn[:n].copy()
         self.weights = np.full(n, 1.0 / n)
         return True
+
+    def _draw(self, m: int, inject: float) -> np.ndarray:
+        """``m`` particles by low-variance resampling, in random order, with a share ``inject`` of them
+        replaced by guesses (:meth:`_guessed_poses`)."""
+        positions = (self.rng.random() + np.arange(m)) / m  # low-variance: one random offset
+        chosen = np.minimum(np.searchsorted(np.cumsum(self.weights), positions), self.count - 1)
+        drawn = self.particles[self.rng.permutation(chosen)]
+        if inject > 0:
+            random = self.rng.random(m) < inject
+            drawn[random] = self._guessed_poses(int(random.sum()))
+        return drawn
 
     def reseed(self, poses: np.ndarray, log_scores: np.ndarray, spread: Pose = (0.15, 0.15, math.radians(5.0))) -> None:
         """Start again from ``poses`` (k x 3) with their log-likelihoods: ``max_particles`` particles

@@ -7,7 +7,8 @@
   the doorway, seen nearly head-on) echoes at the door's distance (closed)
   or well beyond it (open), three readings in a row (a beam counts only
   when it fits through the doorway however wrong the pose belief may be,
-  within two sigmas of its covariance); it keeps the belief
+  within two sigmas of its covariance; nothing while the robot is lost, and
+  everything seen before is forgotten once it is found again); it keeps the belief
   the route planner uses, and ``(edge-blocked A B)`` while no door it
   believes open joins places A and B;
 - ``bump-monitor``: ``(bumped robot)`` on contact, retracted a second after
@@ -66,6 +67,7 @@ class DoorMonitor(Skill):
         self.doors = [door for door in context.world.doors.values() if door.segment is not None]
         self.state: dict[str, str] = {}
         self.evidence: dict[str, tuple[str, int]] = {}
+        self.was_lost = False
         context.beliefs.setdefault(CLOSED_DOORS, set())
 
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
@@ -77,6 +79,11 @@ class DoorMonitor(Skill):
         radius, half_beam = world.robot.radius, world.sonar.beam_width / 2
         x, y, heading = pose
         estimate = self.context.beliefs.get(POSE_ESTIMATE)
+        if estimate is not None and not estimate.localised:
+            self.was_lost = True  # a robot that does not know where it is cannot tell which door it sees
+            return {}
+        if self.was_lost:
+            self._forget()
         for door in self.doors:
             cx, cy = door.center
             distance = math.hypot(cx - x, cy - y)
@@ -94,6 +101,21 @@ class DoorMonitor(Skill):
             elif reading > expected + 0.6:
                 self._evidence(door.name, "open")
         return {}
+
+    def _forget(self) -> None:
+        """Found again after being lost: what was seen of the doors before may have been seen from the
+        wrong place (a kidnapped robot takes a frame for a closed door), so it is all forgotten, facts
+        too, and the doors are looked at afresh."""
+        self.was_lost = False
+        context, closed = self.context, self.context.beliefs[CLOSED_DOORS]
+        for door, seen in self.state.items():
+            context.retract_fact(Compound(f"door-{seen}", (door,)))
+            a, b = context.world.doors[door].between
+            for pair in ((a, b), (b, a)):
+                context.retract_fact(Compound("edge-blocked", pair))
+        closed.clear()
+        self.state.clear()
+        self.evidence.clear()
 
     def _evidence(self, door: str, seen: str) -> None:
         previous, count = self.evidence.get(door, ("", 0))
