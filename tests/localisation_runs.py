@@ -11,11 +11,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from atlas_rap.maps.beam_model import BeamLikelihood, BeamParticleFilter
 from atlas_rap.maps.frame import GridFrame
-from atlas_rap.maps.localisation import LikelihoodField, ParticleFilter, SonarLikelihood, wall_mask
-from atlas_rap.model import OdometryNoise
+from atlas_rap.maps.localisation import LikelihoodField, ParticleFilter, Pose, SonarLikelihood, wall_mask
+from atlas_rap.model import OdometryNoise, World
 from atlas_rap.sim.physics import Simulation
 from atlas_rap.sim.world import load_world
+
+WALL_DEPTH = 0.075
+"""Where a wall's echo comes from, behind the first occupied cell a ray meets: wall_mask draws a wall's line
+as a band of 3 cells (0.15 m at 5 cm), half of it in front of the line on average."""
 
 
 @dataclass
@@ -30,22 +35,46 @@ class Run:
     filter_seconds: float
 
 
-def drive(seed: int, drift: float = 0.05, seconds: float = 30.0, world_name: str = "lab-corridor-office") -> Run:
-    """Turn on the spot for 4 s, then wander on a slow sine of turn rate, with the sonar read at 10 Hz."""
+def localiser(world: World, start: Pose, rng: np.random.Generator, model: str = "field") -> ParticleFilter:
+    """The particle filter on ``world``'s walls (a mask at 5 cm) around ``start``, weighing its particles by
+    ``model``: ``"field"`` (the likelihood field) or ``"beam"`` (the beam model on ray casts,
+    :mod:`atlas_rap.maps.beam_model`), each given the world's sonar."""
+    frame = GridFrame.covering(world.bounds, 0.05)
+    field, sonar = LikelihoodField(wall_mask(world.walls, frame), frame), world.sonar
+    common = dict(robot_radius=world.robot.radius, max_range=sonar.max_range)
+    if model == "beam":
+        return BeamParticleFilter(field, start, rng, **common, beam=BeamLikelihood(
+            beam_width=sonar.beam_width, rays=sonar.rays_per_beam, specular_angle=sonar.specular_angle,
+            specular_loss=sonar.specular_dropout, wall_depth=WALL_DEPTH, min_range=sonar.min_range))
+    if model == "field":
+        return ParticleFilter(field, start, rng, **common,
+                              sensor=SonarLikelihood(beam_width=sonar.beam_width, rays=sonar.rays_per_beam))
+    raise ValueError(f"model is 'field' or 'beam', not {model!r}")
+
+
+def wander(t: float) -> tuple[float, float]:
+    """The drive's command at time ``t`` (s): turn on the spot for 4 s, then wander on a slow sine of turn rate."""
+    return (0.0, 0.8) if t < 4 else (0.35, 0.25 * math.sin(t / 3))
+
+
+def drive(seed: int, drift: float = 0.05, seconds: float = 30.0, world_name: str = "lab-corridor-office",
+          model: str = "field", known_start: bool = True) -> Run:
+    """Turn on the spot for 4 s, then wander on a slow sine of turn rate, with the sonar read at 10 Hz.
+
+    ``model`` is the filter's sensor model (:func:`localiser`). Without ``known_start`` the filter starts
+    from ``max_particles`` particles spread uniformly over the map's free space (global localisation)."""
     world = load_world(world_name)
     robot = dataclasses.replace(world.robot, odometry_noise=OdometryNoise.drift(drift))  # the old one-number model
     world = dataclasses.replace(world, robot=robot)
     sim = Simulation(world, seed=seed, dt=0.01)
-    frame = GridFrame.covering(world.bounds, 0.05)
-    pf = ParticleFilter(LikelihoodField(wall_mask(world.walls, frame), frame), sim.odometry,
-                        np.random.default_rng(seed), robot_radius=world.robot.radius,
-                        max_range=world.sonar.max_range,
-                        sensor=SonarLikelihood(beam_width=world.sonar.beam_width, rays=world.sonar.rays_per_beam))
+    pf = localiser(world, sim.odometry, np.random.default_rng(seed), model)
+    if not known_start:  # a kidnapped robot: anywhere on the map's free space, any heading
+        pf.particles = pf._random_poses(pf.settings.max_particles)
+        pf.weights = np.full(pf.count, 1.0 / pf.count)
     angles = np.asarray(sim.sonar_angles)
     before, belief, odometry, counts, spent = sim.odometry, [], [], [], 0.0
     for step in range(int(seconds / 0.01)):
-        t = step * 0.01
-        sim.command(*((0.0, 0.8) if t < 4 else (0.35, 0.25 * math.sin(t / 3))))
+        sim.command(*wander(step * 0.01))
         sim.step()
         if step % 10 == 9:  # the sonar's 10 Hz
             now, ranges = sim.odometry, sim.sonar()
