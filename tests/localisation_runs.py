@@ -18,9 +18,9 @@ from atlas_rap.model import OdometryNoise, World
 from atlas_rap.sim.physics import Simulation
 from atlas_rap.sim.world import load_world
 
-WALL_DEPTH = 0.075
-"""Where a wall's echo comes from, behind the first occupied cell a ray meets: wall_mask draws a wall's line
-as a band of 3 cells (0.15 m at 5 cm), half of it in front of the line on average."""
+WALL_DEPTH = 0.05
+"""Where a wall's echo comes from, behind the first occupied cell a ray meets: wall_mask draws a wall as
+the cells whose centres are within 0.05 m of its line, so the band's front is 0.05 m before it."""
 
 
 @dataclass

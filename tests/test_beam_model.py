@@ -16,10 +16,10 @@ from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.localisation import LikelihoodField, wall_mask
 from atlas_rap.model import Segment
 
-# a 5 m x 5 m map at 5 cm with a wall along x = 3 and one along y = 4, each one cell thick (the cells
-# just above and right of the lines), so the line is the surface a ray from the lower left meets
+# a 5 m x 5 m map at 5 cm with walls through the middle of the cells just right of x = 3 and just above
+# y = 4, each one cell thick, so x = 3 and y = 4 are the surfaces a ray from the lower left meets
 FRAME = GridFrame(100, 100, 0.05, (0.0, 0.0, 0.0))
-WALLS = [Segment((3.0, 0.0), (3.0, 5.0)), Segment((0.0, 4.0), (5.0, 4.0))]
+WALLS = [Segment((3.025, 0.0), (3.025, 5.0)), Segment((0.0, 4.025), (5.0, 4.025))]
 RADIUS = 0.2
 
 

@@ -105,17 +105,32 @@ class FilterSettings:
 
 
 def wall_mask(walls: tuple[Segment, ...] | list[Segment], frame: GridFrame, thickness: float = 0.1) -> np.ndarray:
-    """The cells of ``frame`` that ``walls`` cover, drawn ``thickness`` metres thick: a map to localise on."""
-    from skimage.draw import line
-
+    """The cells of ``frame`` whose centres lie within ``thickness / 2`` metres of a wall (at least half
+    a cell, so that every wall marks a line of cells): a map to localise on. Measured from the cell
+    centres, so a wall on a cell boundary marks the cells on both sides alike; drawing the cells a
+    wall's line passes through instead puts a wall on a boundary half a cell to one side."""
     mask = np.zeros(frame.shape, dtype=bool)
+    reach = max(thickness / 2, frame.resolution / 2) + 1e-9
+    pad = int(math.ceil(reach / frame.resolution)) + 1
     for wall in walls:
-        (r0, c0), (r1, c1) = (frame.world_to_cell(*wall.a), frame.world_to_cell(*wall.b))
-        rr, cc = line(int(r0), int(c0), int(r1), int(c1))
-        keep = (rr >= 0) & (rr < frame.height) & (cc >= 0) & (cc < frame.width)
-        mask[rr[keep], cc[keep]] = True
-    grow = int(round(thickness / frame.resolution / 2))
-    return ndimage.binary_dilation(mask, iterations=grow) if grow > 0 else mask
+        (r0, c0), (r1, c1) = frame.world_to_cell(*wall.a), frame.world_to_cell(*wall.b)
+        rows = slice(max(min(r0, r1) - pad, 0), min(max(r0, r1) + pad + 1, frame.height))
+        cols = slice(max(min(c0, c1) - pad, 0), min(max(c0, c1) + pad + 1, frame.width))
+        if rows.start >= rows.stop or cols.start >= cols.stop:
+            continue
+        rr, cc = np.mgrid[rows, cols]
+        x, y = frame.cell_to_world(rr, cc)
+        mask[rows, cols] |= _distance_to_segment(x, y, wall) <= reach
+    return mask
+
+
+def _distance_to_segment(x: np.ndarray, y: np.ndarray, wall: Segment) -> np.ndarray:
+    """The distance from points (x, y) to the segment ``wall``."""
+    (ax, ay), (bx, by) = wall.a, wall.b
+    dx, dy = bx - ax, by - ay
+    length = dx * dx + dy * dy
+    t = np.clip(((x - ax) * dx + (y - ay) * dy) / length, 0.0, 1.0) if length > 0 else np.zeros_like(x)
+    return np.hypot(x - (ax + t * dx), y - (ay + t * dy))
 
 
 class LikelihoodField:
