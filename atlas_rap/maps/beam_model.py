@@ -31,27 +31,27 @@ on a shared 2-core machine)::
 
     drift   position RMSE (m)   worst error (m)   ms per update    particles (mean)
             field     beam      field    beam     field    beam    field    beam
-     2 %    0.047     0.065     0.16     0.32      0.8     4.5      293     156
-     5 %    0.050     0.064     0.14     0.20      0.8     4.7      291     154
-    10 %    0.053     0.064     0.15     0.20      0.9     5.2      290     154
+     2 %    0.029     0.042     0.11     0.63      1.3     8.8      268     151
+     5 %    0.030     0.041     0.11     0.16      1.5     8.7      269     149
+    10 %    0.038     0.044     0.18     0.19      1.0     7.4      265     148
+
+(The times are from a machine busy with other work; on a quiet one both are about half that.)
 
 Global localisation (3000 particles uniform over the free space, 5 % drift): the belief came within
-0.5 m and stayed there to the end of the 30 s on 5 of 10 seeds with either model, the same seeds
-(2, 3, 5, 8, 9), in a median 0.3 s (field) and 0.1 s (beam); on the others both settled in another
-corner of the building (the robot spends the drive in a corner of the lab). Whether it converges is
-decided by whether one of the 3000 particles starts near the robot with its heading, not by the model.
-One scan alone does point more strongly at the robot with the beam model (from 20000 uniform poses,
-50 scans: the weight within 0.5 m of the truth is 0.15 median, 0.31 mean, against the field's 0.11 and
-0.14; more on 30 of the 50 scans), as it scores no-echo readings and the free space along each beam,
-which the field cannot. A uniform belief of 3000 particles costs 47 ms a scan with the beam model, 5 ms
-with the field.
+0.5 m and stayed there to the end of the 30 s on 2 of 10 seeds with either model, the same seeds
+(2, 8); on the others both settled in another corner of the building (the robot spends the drive in a
+corner of the lab). Whether it converges is decided by whether one of the 3000 particles starts near
+the robot with its heading, not by the model (the localiser finds a lost robot by a search instead:
+:mod:`atlas_rap.maps.relocalisation`). One scan alone does point more strongly at the robot with the
+beam model (from 20000 uniform poses, 50 scans: the weight within 0.5 m of the truth is 0.16 median,
+0.34 mean, against the field's 0.10 and 0.15; more on 30 of the 50 scans), as it scores no-echo
+readings and the free space along each beam, which the field cannot.
 
-**The localiser should keep the likelihood field.** It tracks better at every drift (RMSE 0.047-0.053 m
-against 0.064-0.065 m, worst errors 0.14-0.16 m against 0.20-0.32 m) at a sixth of the cost, and it
-forgives a map's wall a few centimetres off: a beam-model Gaussian sits on one ray-cast range, so it
-needs ``wall_depth`` and ``min_range`` right (0.146 m RMSE without them), and with walls centred in
-their cells (the frame moved half a cell; seeds 100-104 at 5 % drift) the field still wins, 0.036 m
-against 0.045 m. Global localisation with this filter is a tie. The beam model's stronger single scan
+**The localiser should keep the likelihood field.** It tracks better at every drift (RMSE 0.029-0.038 m
+against 0.041-0.044 m) at a sixth of the cost, and it forgives a map's wall a few centimetres off: a
+beam-model Gaussian sits on one ray-cast range, so it needs ``wall_depth`` and ``min_range`` right
+(0.146 m RMSE without them, measured with the earlier wall drawing). Global localisation with this
+filter is a tie. The beam model's stronger single scan
 could seed the recovery's sensor-resetting guesses (``ParticleFilter._guessed_poses``) while the
 field tracks; that hybrid is not measured here.
 """
