@@ -81,13 +81,9 @@ def test_the_same_seed_gives_the_same_belief(tmp_path, prior_map):
     assert tracks[0] == tracks[1] and len(tracks[0]) > 100
 
 
-def kidnapped_world(folder: Path) -> str:
-    """lab-corridor-office at the default noise, the robot teleported at 20 s from the corridor (it is
-    near (11.6, 5.0) then, on its way east) into the lab, 5 m away, facing east: it is not told."""
-    world = folder / "kidnap.yaml"
-    world.write_text("base: lab-corridor-office\nname: lab-corridor-office\n"
-                     "robot: {teleports: [{at: 20, to: [7.0, 3.0, 0]}]}\n", encoding="utf-8")
-    return str(world)
+KIDNAP = str(REPO / "tests" / "worlds" / "lab-corridor-office-kidnap.yaml")
+"""lab-corridor-office at the default noise, the robot teleported at 20 s from the corridor (it is near
+(11.6, 5.0) then, on its way east) into the lab, 5 m away, facing east: it is not told."""
 
 
 def relocalised_after(engine: MissionEngine, since: float, within: float = 0.5) -> float | None:
@@ -102,11 +98,10 @@ def relocalised_after(engine: MissionEngine, since: float, within: float = 0.5) 
     return float(last_far - since) if last_far < track[-1, 0] else None
 
 
-def test_a_kidnapped_robot_is_found_again_within_30_s_and_the_errand_completes(tmp_path):
-    world = kidnapped_world(tmp_path)
+def test_a_kidnapped_robot_is_found_again_within_30_s_and_the_errand_completes():
     for seed in range(4):
         records: list[dict] = []
-        engine = deliver(world, seed, records=records)
+        engine = deliver(KIDNAP, seed, records=records)
         assert [t for t, _, _ in engine.simulation.kidnaps] == [pytest.approx(20.0)]
         took = relocalised_after(engine, 20.0)
         assert took is not None and took <= 30.0, (seed, took)

@@ -108,7 +108,7 @@ class RunPicture:
         render_run(engine.world, out_png, path=sim.path, doors_open=sim.doors_open, obstacles=sim.obstacles(),
                    task_marks=self.marks(), title=f"{title}, seed {engine.seed}", plan_events=self.plan_events,
                    objects=self.objects(), believed_path=beliefs.get(POSE_TRACK) or (),
-                   estimate=beliefs.get(POSE_ESTIMATE))
+                   estimate=beliefs.get(POSE_ESTIMATE), kidnaps=sim.kidnaps)
 
     def objects(self) -> list[tuple[str, str, str, tuple[float, float]]]:
         """The world's objects where they are now: (name, colour, kind, (x, y)); what lies in a

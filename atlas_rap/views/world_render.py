@@ -163,6 +163,7 @@ def render_run(
     plan_events: Sequence[Mapping[str, Any]] = (),
     objects: Sequence[tuple[str, str, str, tuple[float, float]]] = (),
     believed_path: Sequence[tuple[float, float, float, float]] = (),
+    kidnaps: Sequence[tuple[float, tuple[float, float, float], tuple[float, float, float]]] = (),
     estimate: Any = None,
 ) -> Path:
     """Draw ``world`` and a run in it to the PNG ``out_png``; return its path.
@@ -182,9 +183,12 @@ def render_run(
     ``(name, colour, kind, (x, y))``: a disc of their colour, named (a bin
     is a square). ``believed_path`` is where the robot believed it was
     (the localiser's track, ``(t, x, y, heading)`` items), drawn beside
-    ``path``; ``estimate`` the last :class:`~atlas_rap.skills.beliefs.PoseEstimate`
-    (anything with ``time``, ``pose`` and a 3 x 3 ``covariance``), drawn as
-    its 2-sigma ellipse. The parent directory of ``out_png`` is created if needed.
+    ``path``; ``kidnaps`` the times the robot was carried (``(t, pose
+    before, pose after)``, the simulator's ``kidnaps``), drawn as dotted
+    arrows and not as driving; ``estimate`` the last
+    :class:`~atlas_rap.skills.beliefs.PoseEstimate` (anything with
+    ``time``, ``pose`` and a 3 x 3 ``covariance``), drawn as its 2-sigma
+    ellipse. The parent directory of ``out_png`` is created if needed.
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -224,7 +228,7 @@ def render_run(
         _draw_obstacles(ax, obstacles, handles)
         _draw_objects(ax, objects, handles)
         _draw_path(fig, ax, path, handles, left / fig_w, (bottom - 0.78) / fig_h, map_w / fig_w,
-                   "true path" if believed_path else "path")
+                   "true path" if believed_path else "path", kidnaps)
         _draw_belief(ax, believed_path, estimate, handles)
         _draw_robot(ax, world, path, handles)
         taken: list[tuple[float, float, float, float]] = []
@@ -405,7 +409,7 @@ def _draw_objects(ax, objects, handles: list) -> None:
 
 
 def _draw_path(fig, ax, path, handles: list, cb_left: float, cb_bottom: float, cb_width: float,
-               name: str = "path") -> None:
+               name: str = "path", kidnaps=()) -> None:
     from matplotlib.collections import LineCollection
     from matplotlib.colors import Normalize
     from matplotlib.lines import Line2D
@@ -418,14 +422,22 @@ def _draw_path(fig, ax, path, handles: list, cb_left: float, cb_bottom: float, c
     if not (t1 > t0):
         t1 = t0 + 1.0
     norm = Normalize(vmin=t0, vmax=t1)
+    jumps = [t for t, _, _ in kidnaps]  # the robot did not drive across these: it was carried
+    steps = [i for i in range(len(pts) - 1) if not any(ts[i] < t <= ts[i + 1] + 1e-9 for t in jumps)]
     lc = LineCollection(
-        [(pts[i], pts[i + 1]) for i in range(len(pts) - 1)],
+        [(pts[i], pts[i + 1]) for i in steps],
         cmap="viridis", norm=norm, linewidths=2.0, capstyle="round", joinstyle="round", zorder=5,
     )
-    lc.set_array([(ts[i] + ts[i + 1]) / 2 for i in range(len(ts) - 1)])
+    lc.set_array([(ts[i] + ts[i + 1]) / 2 for i in steps])
     ax.add_collection(lc)
     ax.plot(*pts[0], marker="o", markersize=6, markerfacecolor="white",
             markeredgecolor="#440154", markeredgewidth=1.5, zorder=5.5)
+    for t, before, after in kidnaps:
+        ax.annotate("", xy=after[:2], xytext=before[:2], zorder=5.2,
+                    arrowprops={"arrowstyle": "->", "linestyle": ":", "color": "#555555", "linewidth": 1.2})
+    if kidnaps:
+        handles.append(Line2D([], [], color="#555555", linestyle=":", linewidth=1.2,
+                              label="kidnapped at " + ", ".join(f"{t:g} s" for t, _, _ in kidnaps)))
     handles.append(Line2D([], [], color="#21918c", linewidth=2.0, label=f"{name} (colour = time)"))
     handles.append(Line2D([], [], linestyle="none", marker="o", markersize=6, markerfacecolor="white",
                           markeredgecolor="#440154", markeredgewidth=1.5, label=f"start, t = {ts[0]:g} s"))
