@@ -63,7 +63,8 @@ def repl(files: tuple[str, ...], world: str | None, seed: int, trace_file: str |
                           map_in=map_in, map_out=map_out, layers=layers, layer_rules=layer_rules,
                           localisation=localisation)
     check_bus_options(bus, **{"--world": world, "--no-prior-map": no_prior_map, "--map-in": map_in,
-                      "--layers": tuple(layers) != ("I", "II", "III", "IV")})
+                      "--layers": tuple(layers) != ("I", "II", "III", "IV"),
+                      "--localisation (the host's localiser runs beside its sensors)": localisation != "mcl"})
     session = Session(options, out=out, err=err, trace_file=trace_file, verbose=verbose)
     try:
         for path in files:

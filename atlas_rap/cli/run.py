@@ -83,7 +83,8 @@ def run(mission_file: str, world: str | None, seed: int, trace_file: str | None,
         "--world": world, "--map": topology_file, "--render": render,
         "--live (the host serves the world live: atlas skills serve --live)": live, "--no-prior-map": no_prior_map,
         "--map-in": map_in, "--layers": tuple(layers) != ("I", "II", "III", "IV"),
-        "--seed (the host's: atlas skills serve --seed)": seed})
+        "--seed (the host's: atlas skills serve --seed)": seed,
+        "--localisation (the host's localiser runs beside its sensors)": localisation != "mcl"})
     engine = MissionEngine(options)
     recorder = _recorder(engine, record_file, live, live_port, out)
     name = click.format_filename(mission_file)
