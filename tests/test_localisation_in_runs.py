@@ -108,3 +108,16 @@ def test_a_kidnapped_robot_is_found_again_within_30_s_and_the_errand_completes()
         assert engine.result.ok, (seed, engine.result.ended_by)
         lost = [r["t"] for r in records if r["event"] == "fact-asserted" and r["fact"] == "(lost)"]
         assert lost and 20.0 < lost[0] < 20.0 + took, (seed, lost)  # it knew it was lost, and turned to look
+
+
+def test_atlas_run_ends_with_the_pose_error_in_simulation_and_says_none_without_noise(tmp_path):
+    from cli_process import atlas
+
+    done = atlas("run", str(DELIVER), "--quiet", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    (line,) = [line for line in done.stdout.splitlines() if "pose error:" in line]
+    final = float(line.split("pose error:")[1].split(" m at the end")[0])
+    assert 0.0 <= final < 0.3, line
+    exact = atlas("run", str(DELIVER), "--quiet", "--world", str(REPO / "tests" / "worlds" / "lab-corridor-office-exact.yaml"),
+                  cwd=tmp_path)
+    assert exact.returncode == 0 and "pose error" not in exact.stdout  # exact odometry: nothing to estimate
