@@ -206,12 +206,12 @@ def correlative_match(reference: SettledMap, pose: Pose, points: np.ndarray, rin
     res = frame.resolution
     table, settled = reference.score.ravel(), reference.settled.ravel()
 
-    def world(heading: float) -> np.ndarray:
+    def world(heading: float, local: np.ndarray) -> np.ndarray:
         c, si = math.cos(heading), math.sin(heading)
-        return np.stack([pose[0] + c * points[..., 0] - si * points[..., 1],
-                         pose[1] + si * points[..., 0] + c * points[..., 1]], axis=-1)
+        return np.stack([pose[0] + c * local[..., 0] - si * local[..., 1],
+                         pose[1] + si * local[..., 0] + c * local[..., 1]], axis=-1)
 
-    coverage = float(settled.take(reference.cells(world(pose[2]))).any(axis=1).mean())
+    coverage = float(settled.take(reference.cells(world(pose[2], points))).any(axis=1).mean())
     if coverage < s.coverage:
         return None
     turns = np.arange(-s.search_heading, s.search_heading + 1e-9, s.step_heading)
@@ -221,12 +221,16 @@ def correlative_match(reference: SettledMap, pose: Pose, points: np.ndarray, rin
     du, dv = np.meshgrid(steps, steps, indexing="xy")
     du, dv = du.ravel(), dv.ravel()
     shift = dv * reference.width + du  # the offsets in cells of the frame, as flat index steps
-    beams, rays = points.shape[0], points.shape[1]
+    rays = points.shape[1]
+    by_ray = np.ascontiguousarray(points.transpose(1, 0, 2))  # (rays, beams, 2): each ray's points together
     log_fit = np.empty((len(turns), len(shift)))
     for i, turn in enumerate(turns):
-        cells = reference.cells(world(pose[2] + turn)).ravel()
-        fit = table.take(cells[None, :] + shift[:, None]).reshape(len(shift), beams, rays)
-        log_fit[i] = fit.max(axis=2).sum(axis=1)  # each beam at its best fit across its cone
+        cells = reference.cells(world(pose[2] + turn, by_ray)).reshape(rays, 1, -1)
+        fit = table.take(cells + shift[None, :, None])  # (rays, offsets, beams)
+        best = fit[0]
+        for other in fit[1:]:  # each beam at its best fit across its cone
+            np.maximum(best, other, out=best)
+        log_fit[i] = best.sum(axis=1)
     yaw = frame.origin[2]
     ox, oy = du * res, dv * res  # the offsets in the frame's axes, then in the world's
     wx, wy = (ox, oy) if not yaw else (math.cos(yaw) * ox - math.sin(yaw) * oy,
@@ -276,7 +280,9 @@ class MapMatcher:
         self._last_odometry: Pose | None = None
         self._matched_at: tuple[float, float] | None = None  # (travelled, heading) at the last match
         self._snapshots: list[tuple[float, np.ndarray, np.ndarray]] = []  # (time, log_odds, updated)
+        self._grid = None  # the grid copied
         self._frame: GridFrame | None = None
+        self._cells_updated = 0  # the grid's count of cell updates at the last copy
         self._reference: SettledMap | None = None
         self._reference_of: tuple[float, float] | None = None  # the snapshots' times it was made from
         self.matches = 0  # matches made (a correction applied)
@@ -298,12 +304,15 @@ class MapMatcher:
         """Copy the grid (an :class:`~atlas_rap.maps.grid.OccupancyGrid`) when a copy is due. The first
         copy of a grid that already holds a map (carried from an earlier run) counts as settled long ago."""
         s = self.settings
-        if grid.frame != self._frame:  # a new grid: start again
-            self._frame, self._snapshots, self._reference, self._reference_of = grid.frame, [], None, None
+        if grid is not self._grid:  # a new grid: start again
+            self._grid, self._frame, self._snapshots = grid, grid.frame, []
+            self._reference, self._reference_of = None, None
             carried = bool(grid.updated.any())
+            self._cells_updated = grid.cells_updated
             self._snapshots.append((-math.inf if carried else now, grid.log_odds.copy(), grid.updated.copy()))
             return
-        if now - self._snapshots[-1][0] >= s.snapshot_every:
+        if now - self._snapshots[-1][0] >= s.snapshot_every and grid.cells_updated != self._cells_updated:
+            self._cells_updated = grid.cells_updated  # an unchanged grid (mapping off) needs no new copy
             self._snapshots.append((now, grid.log_odds.copy(), grid.updated.copy()))
             horizon = now - s.lag - s.settled_for - 2 * s.snapshot_every  # older copies are never used again
             while len(self._snapshots) > 2 and self._snapshots[1][0] < horizon:
