@@ -42,8 +42,9 @@ to match against while it is being drawn, so each part is chosen for that
   the posterior is much narrower than the prior: across a corridor, not
   along it), and only when the best fit is inside the search, not on its
   edge (a slope is no peak). Without these two, matching against a map
-  only three seconds old made the pose run away along the corridor on a
-  third of the seeds.
+  only three seconds old (a lag of 3 s, settled for 2 s) left the pose
+  1.5-2.7 m off along the corridor on seven seeds of twelve; with them,
+  0.44-0.48 m on average, against 0.53 m by dead reckoning.
 
 The carried map keeps its frame: a map from an earlier run counts as
 settled from the start, and the pose is pulled onto it.
