@@ -23,8 +23,9 @@ from atlas_rap.skills.beliefs import GRID, Belief, Beliefs
 
 REPO = Path(__file__).resolve().parents[1]
 RULES = shipped_root("rap_library") / "layers.rap"
-# The layers' mechanism (Figs. 12 and 13) is tested with exact odometry: mapping has no pose correction
-# (README, "Where the robot is"); the experiment at the default noise is tested on its own below.
+# The layers' mechanism (Figs. 12 and 13) is tested with exact odometry, so that what it checks does not
+# hang on how well the pose is corrected while mapping (README, "Where the robot is"); the experiment at
+# the default noise is tested on its own below and in test_mapping_correction.py.
 EXACT = str(REPO / "tests" / "worlds" / "lab-corridor-office-exact.yaml")
 EXACT_OBSTACLES = str(REPO / "tests" / "worlds" / "lab-corridor-office-obstacles-exact.yaml")
 
@@ -297,8 +298,8 @@ def test_the_experiment_command_writes_its_figures_json_csv_and_pngs(tmp_path):
     assert timeline and set(timeline[0]) >= {"t", "layer", "reason"}
     rows = (out / "runs.csv").read_text().splitlines()
     assert rows[0].startswith("run,map_quality,map_agreement,pose_rmse_m,duration_s,optimal_s") and len(rows) == 3
-    # at the default odometry noise, by dead reckoning: every run gets there, and the map it carries
-    # agrees with the true walls on at least 90 % of the cells it labels
+    # at the default odometry noise, the pose corrected against the map: every run gets there, and the map
+    # it carries agrees with the true walls on at least 90 % of the cells it labels
     assert all(run["ok"] for run in data["runs"])
     assert all(run["map_agreement"] >= 0.9 and run["pose_rmse_m"] > 0 for run in data["runs"]), data["runs"]
     for name in ("fig12a-map-quality", "fig12b-durations", "fig13a-layers-per-run", "fig13b-obstacles"):

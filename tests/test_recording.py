@@ -70,7 +70,8 @@ def mapping_run(tmp_path_factory) -> tuple[Path, Path, object]:
 def test_a_recording_has_every_channel_in_time_order_and_agrees_with_the_trace(mapping_run):
     mcap, trace, _ = mapping_run
     written = file_order(mcap)
-    # no prior map: the belief is dead reckoning, so its path is recorded but there is no filter estimate
+    # no prior map: the belief is the odometry corrected against the map being built, so its path is
+    # recorded but there is no filter estimate
     assert set(written) == set(TOPICS) - (set(ESTIMATE_TOPICS) - {"/robot/estimated_path"})
     for topic, messages in written.items():
         assert {schema for _, schema, _ in messages} == {TOPICS[topic][0]}, topic

@@ -25,10 +25,14 @@ def experiment_group() -> None:
               help="The world of the obstacle scenario, run on the last run's map ('none': skip it).")
 @click.option("--layer-rules", "layer_rules", type=click.Path(dir_okay=False, exists=True), metavar="RULES.rap",
               help="Memory rules that choose the primary layer (default: the shipped rap_library/layers.rap).")
+@click.option("--localisation", "localisation", type=click.Choice(["mcl", "odometry"]), default="mcl",
+              show_default=True,
+              help="How the robot knows where it is: its odometry corrected against the map it builds and "
+                   "carries (mcl), or its odometry alone (dead reckoning, to compare).")
 @click.option("--out", "out_dir", required=True, type=OutputFolder(writes=lambda: _result_files()),
               help="Folder for the results and figures.")
 def skill_acquisition_command(runs: int, seed: int, world: str, obstacles: str, layer_rules: str | None,
-                              out_dir: str) -> None:
+                              localisation: str, out_dir: str) -> None:
     """The ATLAS paper's skill-acquisition experiment (seed 000 §5.2, Figs. 12 and 13).
 
     A robot with no prior map drives from the lab to the office and back,
@@ -52,7 +56,7 @@ def skill_acquisition_command(runs: int, seed: int, world: str, obstacles: str, 
     from atlas_rap.outputs import naming, write_all
 
     settings = Settings(world=world, runs=runs, seed=seed, obstacles=None if obstacles == "none" else obstacles,
-                        layer_rules=layer_rules)
+                        layer_rules=layer_rules, localisation=localisation)
     started = time.perf_counter()
     steps = runs + (settings.obstacles is not None)
     with Progress(transient=True, console=console(err=True)) as progress:

@@ -183,7 +183,8 @@ def layer_options(command):
                      help="Write the occupancy grid built while driving, even if the run fails or is interrupted."),
         click.option("--localisation", "localisation", type=click.Choice(["mcl", "odometry"]), default="mcl",
                      show_default=True,
-                     help="How the robot knows where it is: Monte Carlo localisation on its map (mcl), or its "
+                     help="How the robot knows where it is: Monte Carlo localisation on its prior map, or "
+                          "without one its odometry corrected against the map it builds (mcl); or its "
                           "odometry alone (dead reckoning, to compare)."),
         click.option("--layers", "layers", default="I,II,III,IV", show_default=True, metavar="I,II,...",
                      callback=lambda ctx, param, value: parse_layers(value),

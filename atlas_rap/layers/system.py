@@ -65,8 +65,8 @@ class RunOptions:
       rules (None: the shipped ``rap_library/layers.rap``).
     - ``realtime``: pace simulated time to the wall clock.
     - ``localisation``: how the robot knows where it is (``--localisation``): ``mcl``, Monte
-      Carlo localisation on its map, or ``odometry``, dead reckoning alone
-      (:mod:`atlas_rap.skills.localising`).
+      Carlo localisation on its prior map (without one, the odometry corrected against the map
+      being built), or ``odometry``, dead reckoning alone (:mod:`atlas_rap.skills.localising`).
     - ``bus``: the skill hosts to use instead of a world here (``--connect``,
       ``--robot``, tokens: :class:`~atlas_rap.skillbus.remote.BusSettings`).
     """

@@ -9,6 +9,9 @@
   written as files and their pictures are :mod:`atlas_rap.views` (``map_levels``,
   ``map_render``).
 - ``rooms``: rooms and doorways; ``gridpath``: shortest paths on a grid.
+- ``localisation``: Monte Carlo localisation on a known map; ``scan_matching``: the
+  pose of a robot that maps, corrected against its map; ``agreement``: how well a
+  built map agrees with the true walls.
 - ``rosmap``: ROS map_server files.
 
 The names below are imported from their modules at first use (``atlas_rap.exports``).

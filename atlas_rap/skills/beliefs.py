@@ -200,8 +200,10 @@ class ObjectDevices(Protocol):
 POSE: Belief[tuple] = Belief("pose", tuple, "(x, y, heading) the robot believes it has (the localiser's estimate)")
 POSE_ESTIMATE: Belief[PoseEstimate] = Belief("pose-estimate", PoseEstimate,
                                              "the localiser's belief: pose, covariance, particles, localised or not")
-LOCALISATION: Belief[str] = Belief("localisation", str, "how the localiser knows the pose: 'mcl' (default) or "
-                                                        "'odometry' (dead reckoning; atlas run --localisation)")
+LOCALISATION: Belief[str] = Belief("localisation", str, "how the localiser knows the pose: 'mcl' (default: the "
+                                                        "filter on a prior map, or without one the odometry "
+                                                        "corrected against the grid) or 'odometry' (dead "
+                                                        "reckoning; atlas run --localisation)")
 POSE_TRACK: Belief[list] = Belief("pose-track", list, "the believed poses (t, x, y, heading) so far, every period of the localiser")
 SONAR: Belief[tuple] = Belief("sonar", tuple, "the latest sonar ring: (ranges from the rim, body-frame angles)")
 CLOSED_DOORS: Belief[set] = Belief("closed-doors", set, "door names seen closed (door monitor); routes avoid them")

@@ -71,7 +71,10 @@ RESULT_FILES = ("errand.rap", "figures.json", "runs.csv", "map-run*.npz", "map-o
 
 @dataclass(frozen=True)
 class Settings:
-    """What the experiment runs: ``runs`` errands in ``world`` from ``home`` to ``goal`` and back."""
+    """What the experiment runs: ``runs`` errands in ``world`` from ``home`` to ``goal`` and back.
+    ``localisation`` is how the robot knows where it is (:class:`~atlas_rap.layers.system.RunOptions`):
+    ``mcl``, its odometry corrected against the map it builds and carries, or ``odometry``, dead
+    reckoning alone, to compare."""
 
     world: str = "lab-corridor-office"
     runs: int = 7
@@ -80,6 +83,7 @@ class Settings:
     goal: str = "office"
     obstacles: str | None = OBSTACLE_WORLD
     layer_rules: str | None = None
+    localisation: str = "mcl"
 
 
 def errand_file(out: Path, settings: Settings) -> Path:
@@ -102,12 +106,12 @@ def optimal_seconds(world_name: str, home: str, goal: str) -> float:
 
 
 def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: Path,
-            layer_rules: str | None) -> tuple[dict[str, Any], LayerStack]:
+            layer_rules: str | None, localisation: str = "mcl") -> tuple[dict[str, Any], LayerStack]:
     """One errand with no prior map, from ``map_in``: its figures (the grid written to
     ``map_out``), and the layer stack it ran with (for its settings). Ctrl-C: the grid
     it has is written, then KeyboardInterrupt goes on up (the whole experiment stops)."""
     engine = MissionEngine(RunOptions(world=world, seed=seed, prior_map=False, map_in=map_in,
-                                       layer_rules=layer_rules))
+                                       layer_rules=layer_rules, localisation=localisation))
     engine.load_file(mission, require_post=True)
     try:
         result = engine.run_mission(RUN_LIMIT)
@@ -142,8 +146,8 @@ def skill_acquisition(out: str | Path, settings: Settings = Settings(),
     mission = errand_file(out, settings)
     optimal = round(optimal_seconds(settings.world, settings.home, settings.goal), 2)
     runs: list[dict[str, Any]] = []
-    data: dict[str, Any] = {"world": settings.world, "seed": settings.seed, "threshold": 0.9, "runs": runs,
-                            "runs_asked": settings.runs, "complete": True}
+    data: dict[str, Any] = {"world": settings.world, "seed": settings.seed, "localisation": settings.localisation,
+                            "threshold": 0.9, "runs": runs, "runs_asked": settings.runs, "complete": True}
     map_in: Path | None = None
     during = ""
     try:
@@ -151,7 +155,8 @@ def skill_acquisition(out: str | Path, settings: Settings = Settings(),
             if progress is not None:
                 progress(f"run {number} of {settings.runs}")
             map_out = out / f"map-run{number}.npz"
-            run, stack = one_run(mission, settings.world, settings.seed, map_in, map_out, settings.layer_rules)
+            run, stack = one_run(mission, settings.world, settings.seed, map_in, map_out, settings.layer_rules,
+                                 settings.localisation)
             runs.append({"run": number, **run, "optimal_s": optimal})
             data["threshold"] = stack.setting("map-quality-threshold", 0.9)  # the rules file's, as the runs used it
             map_in = map_out
@@ -174,7 +179,7 @@ def obstacle_scenario(mission: Path, settings: Settings, map_in: Path | None, ou
     from atlas_rap.sim.world import load_world
 
     run, _ = one_run(mission, settings.obstacles, settings.seed, map_in, out / "map-obstacles.npz",
-                     settings.layer_rules)
+                     settings.layer_rules, settings.localisation)
     world = load_world(settings.obstacles)
     events = [{"t": d.start, "what": f"{'a person starts to cross' if d.kind == 'person' else 'a box is put down'}"
                                     f" ({d.name})"} for d in world.disturbances]

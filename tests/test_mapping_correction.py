@@ -1,0 +1,51 @@
+"""Mapping that corrects its own pose (issue 27, part 3), in whole runs at the default odometry noise:
+without a prior map the localiser corrects the odometry against the map being built and carried, and
+``localisation="odometry"`` (``--localisation odometry``) is the same run by dead reckoning alone. The
+true pose and walls are read here, by the evaluation, only."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from atlas_rap.layers import MissionEngine, RunOptions
+from atlas_rap.maps.agreement import map_agreement
+from atlas_rap.views.experiment import Settings, skill_acquisition
+from atlas_rap.views.pose_error import pose_errors
+
+REPO = Path(__file__).resolve().parents[1]
+DELIVER = REPO / "rap_library" / "missions" / "deliver.rap"
+
+
+def deliver(seed: int, localisation: str) -> MissionEngine:
+    engine = MissionEngine(RunOptions(world="lab-corridor-office", seed=seed, prior_map=False,
+                                      localisation=localisation))
+    engine.load_file(DELIVER, require_post=True)
+    engine.result = engine.run_mission(600)
+    return engine
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_experiment_maps_agree_better_with_the_pose_correction_than_without(tmp_path, seed):
+    runs = {mode: skill_acquisition(tmp_path / mode, Settings(runs=7, seed=seed, obstacles=None,
+                                                              localisation=mode))["runs"]
+            for mode in ("mcl", "odometry")}
+    table = "\n".join(f"{mode:9s} agreement {[run['map_agreement'] for run in runs[mode]]} "
+                      f"RMSE {[run['pose_rmse_m'] for run in runs[mode]]}" for mode in runs)
+    print(table)
+    assert all(run["ok"] for run in runs["mcl"]), table
+    assert all(run["map_agreement"] >= 0.9 for run in runs["mcl"]), table
+    assert runs["mcl"][-1]["map_agreement"] > runs["odometry"][-1]["map_agreement"], table
+
+
+def test_deliver_without_a_prior_map_is_closer_to_the_truth_with_the_correction_on_every_seed():
+    for seed in (0, 3, 4):
+        corrected, reckoned = deliver(seed, "mcl"), deliver(seed, "odometry")
+        assert corrected.result.ok and reckoned.result.ok, seed
+        with_, without = pose_errors(corrected.system), pose_errors(reckoned.system)
+        agree = [map_agreement(engine.grid, engine.world.walls).share for engine in (corrected, reckoned)]
+        print(f"seed {seed}: {with_.line()}, map agreement {agree[0]:.3f}; "
+              f"dead reckoning {without.line()}, map agreement {agree[1]:.3f}")
+        assert with_.rmse < without.rmse, seed
+        assert agree[0] > agree[1], seed
