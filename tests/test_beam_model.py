@@ -36,7 +36,6 @@ def test_the_ray_cast_expects_the_distance_to_the_wall_from_the_rim():
                       [1.0, 1.0, math.pi]])        # facing away: the map's edge, no wall within 5 m
     expected, cosine = model().expected_ranges(poses, np.array([0.0]))
     by_hand = [2.0 - RADIUS, 3.0 - RADIUS, math.sqrt(2) - RADIUS, 1.0 - RADIUS, math.inf]
-    print("ray cast", expected.ravel(), "by hand", by_hand)
     assert expected[:4].ravel() == pytest.approx(by_hand[:4], abs=0.02)  # within the quarter cell a hit is placed to
     assert expected[4, 0, 0] == math.inf
     # the angle to the wall's normal: head-on, head-on, 45 and 60 degrees
@@ -64,7 +63,6 @@ def test_a_max_reading_is_likelier_where_no_wall_is_in_range_than_before_a_near_
                       [1.0, 1.0, 0.0]])           # the wall x = 3 head-on, 1.8 m away
     no_echo = beam.log_likelihood(poses, np.array([5.0]), np.array([0.0]))
     echo = beam.log_likelihood(poses, np.array([1.8]), np.array([0.0]))
-    print("max reading", no_echo, "a reading of 1.8 m", echo)
     nothing, oblique, head_on = no_echo
     assert nothing > oblique > head_on
     assert math.exp(nothing - head_on) > 10  # z_max + z_hit against z_max alone
@@ -83,8 +81,6 @@ def test_the_filter_with_the_beam_model_tracks_a_robot_whose_odometry_drifts_5_p
     for seed in (0, 1, 2):
         run = drive(seed, model="beam")
         rmse = math.sqrt(np.mean(run.belief ** 2))
-        print(f"seed {seed}: belief RMSE {rmse:.3f} m, worst {run.belief.max():.3f} m, "
-              f"odometry at the end {run.odometry[-1]:.3f} m")
         assert rmse <= 0.1, (seed, rmse, run.belief.max())
         assert run.belief.max() <= 0.4, (seed, run.belief.max())
         ends.append(run.belief[-1])
