@@ -37,7 +37,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE.parent), str(HERE.parent / "tests")]  # the checkout, and the test bed's drive
 
-from localisation_runs import drive  # noqa: E402
+from localisation_runs import deliver, drifting_world, drive  # noqa: E402
 
 DRIFTS = (0.0, 0.02, 0.05, 0.1)
 
@@ -77,28 +77,20 @@ def main() -> None:
 def deliver_side_by_side(seeds: range, drift: float = 0.05) -> None:
     """deliver.rap with the localiser and with dead reckoning, on the same seeds (one JSON line)."""
     import tempfile
-    import time
 
-    from atlas_rap.layers import MissionEngine, RunOptions
     from atlas_rap.views.pose_error import pose_errors
 
-    mission = HERE.parent / "rap_library" / "missions" / "deliver.rap"
     record: dict = {"bench": "localisation-deliver", "drift": drift, "seeds": len(seeds)}
     with tempfile.TemporaryDirectory() as folder:
-        world = Path(folder) / "drifting.yaml"
-        world.write_text(f"base: lab-corridor-office\nname: lab-corridor-office\nrobot: {{odometry_drift: {drift}}}\n",
-                         encoding="utf-8")
+        world = drifting_world(Path(folder), drift)
         for mode in ("mcl", "odometry"):
             ok, rmse, wall, simulated = 0, [], 0.0, 0.0
             for seed in seeds:
-                engine = MissionEngine(RunOptions(world=str(world), seed=seed, localisation=mode))
-                engine.load_file(mission, require_post=True)
-                started = time.perf_counter()
-                result = engine.run_mission(600)
-                wall += time.perf_counter() - started
-                simulated += result.time
-                ok += result.ok
-                rmse.append(pose_errors(engine.system).rmse)
+                run = deliver(world, seed, localisation=mode)
+                wall += run.seconds
+                simulated += run.result.time
+                ok += run.result.ok
+                rmse.append(pose_errors(run.engine.system).rmse)
             record[mode] = {"succeeded": ok, "rmse_m_mean": round(float(np.mean(rmse)), 3),
                             "rmse_m_worst": round(float(np.max(rmse)), 3),
                             "wall_ms_per_simulated_s": round(1000 * wall / simulated, 3)}

@@ -34,14 +34,13 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path[:0] = [str(HERE.parent)]  # the checkout
+sys.path[:0] = [str(HERE.parent), str(HERE.parent / "tests")]  # the checkout, and the test bed's runs
 
-from atlas_rap.layers import MissionEngine, RunOptions  # noqa: E402
+from localisation_runs import deliver, drifting_world  # noqa: E402
 from atlas_rap.maps.agreement import map_agreement  # noqa: E402
 from atlas_rap.views.experiment import Settings, skill_acquisition  # noqa: E402
 from atlas_rap.views.pose_error import pose_errors  # noqa: E402
 
-MISSION = HERE.parent / "rap_library" / "missions" / "deliver.rap"
 MODES = ("mcl", "odometry")
 
 
@@ -49,31 +48,18 @@ def emit(record: dict) -> None:
     print(json.dumps(record), flush=True)
 
 
-def drifting_world(folder: Path, drift: float | None) -> str:
-    """lab-corridor-office at its default noise (None), or drifting ``drift`` per metre and radian."""
-    if drift is None:
-        return "lab-corridor-office"
-    world = folder / f"drift-{drift}.yaml"
-    world.write_text(f"base: lab-corridor-office\nname: lab-corridor-office\nrobot: {{odometry_drift: {drift}}}\n",
-                     encoding="utf-8")
-    return str(world)
-
-
-def deliver(world: str, seeds: range, drift: float | None) -> None:
+def deliver_side_by_side(world: str, seeds: range, drift: float | None) -> None:
     """deliver.rap --no-prior-map with the correction and without, on the same seeds (one line)."""
     record: dict = {"bench": "mapping-deliver", "drift": "default" if drift is None else drift, "seeds": len(seeds)}
     for mode in MODES:
         ok, rmse, agreement, wall, simulated = 0, [], [], 0.0, 0.0
         for seed in seeds:
-            engine = MissionEngine(RunOptions(world=world, seed=seed, prior_map=False, localisation=mode))
-            engine.load_file(MISSION, require_post=True)
-            started = time.perf_counter()
-            result = engine.run_mission(600)
-            wall += time.perf_counter() - started
-            simulated += result.time
-            ok += result.ok
-            rmse.append(pose_errors(engine.system).rmse)
-            agreement.append(map_agreement(engine.grid, engine.world.walls).share)
+            run = deliver(world, seed, prior_map=False, localisation=mode)
+            wall += run.seconds
+            simulated += run.result.time
+            ok += run.result.ok
+            rmse.append(pose_errors(run.engine.system).rmse)
+            agreement.append(map_agreement(run.engine.grid, run.engine.world.walls).share)
         record[mode] = {"succeeded": ok, "rmse_m_mean": round(float(np.mean(rmse)), 3),
                         "rmse_m_worst": round(float(np.max(rmse)), 3),
                         "agreement_mean": round(float(np.mean(agreement)), 4),
@@ -107,8 +93,8 @@ def main() -> None:
     if args.quick:
         args.seeds, args.drift_seeds, args.experiment_seeds = 3, 2, 1
     with tempfile.TemporaryDirectory() as folder:
-        deliver(drifting_world(Path(folder), None), range(args.seeds), None)
-        deliver(drifting_world(Path(folder), 0.05), range(args.drift_seeds), 0.05)
+        deliver_side_by_side("lab-corridor-office", range(args.seeds), None)  # the default noise
+        deliver_side_by_side(drifting_world(Path(folder), 0.05), range(args.drift_seeds), 0.05)
     for seed in range(args.experiment_seeds):
         experiment(seed)
 

@@ -1,6 +1,8 @@
 """A robot driving in a shipped world with drifting odometry, localised by the particle filter: the errors
 of the belief and of the odometry against the simulator's true pose, for the tests and
-``benchmarks/bench_localisation.py`` alike (the true pose is read here, by the evaluation, only)."""
+``benchmarks/bench_localisation.py`` alike (the true pose is read here, by the evaluation, only); and
+``deliver.rap`` run whole on a drifting world (:func:`drifting_world`, :func:`deliver`), for the tests and
+benchmarks of localisation in runs."""
 
 from __future__ import annotations
 
@@ -8,15 +10,19 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from atlas_rap.layers import MissionEngine, RunOptions, RunResult
 from atlas_rap.maps.beam_model import BeamLikelihood, BeamParticleFilter
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.localisation import LikelihoodField, ParticleFilter, Pose, SonarLikelihood, wall_mask
 from atlas_rap.model import OdometryNoise, World
 from atlas_rap.sim.physics import Simulation
 from atlas_rap.sim.world import load_world
+
+DELIVER = Path(__file__).resolve().parents[1] / "rap_library" / "missions" / "deliver.rap"
 
 WALL_DEPTH = 0.05
 """Where a wall's echo comes from, behind the first occupied cell a ray meets: wall_mask draws a wall as
@@ -90,3 +96,33 @@ def drive(seed: int, drift: float = 0.05, seconds: float = 30.0, world_name: str
             belief.append(math.hypot(x - tx, y - ty))
             odometry.append(math.hypot(now[0] - tx, now[1] - ty))
     return Run(np.array(belief), np.array(odometry), pf, np.array(counts), spent)
+
+
+def drifting_world(folder: Path, drift: float) -> str:
+    """lab-corridor-office with odometry drifting ``drift`` per metre and per radian (a variant written
+    into ``folder``): its path."""
+    world = folder / f"drift-{drift}.yaml"
+    world.write_text(f"base: lab-corridor-office\nname: lab-corridor-office\nrobot: {{odometry_drift: {drift}}}\n",
+                     encoding="utf-8")
+    return str(world)
+
+
+@dataclass
+class Delivered:
+    """deliver.rap run to its end: the engine, how the run ended, and its wall time (s, the run alone)."""
+
+    engine: MissionEngine
+    result: RunResult
+    seconds: float
+
+
+def deliver(world: str, seed: int, *, records: list | None = None, **options) -> Delivered:
+    """deliver.rap in ``world`` with ``seed`` and any other :class:`RunOptions` (``localisation``,
+    ``prior_map``), to its end or 600 s; its trace records go into ``records`` if given."""
+    engine = MissionEngine(RunOptions(world=world, seed=seed, **options))
+    if records is not None:
+        engine.trace.add_sink(records.append)
+    engine.load_file(DELIVER, require_post=True)
+    started = time.perf_counter()
+    result = engine.run_mission(600)
+    return Delivered(engine, result, time.perf_counter() - started)

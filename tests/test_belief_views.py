@@ -21,6 +21,7 @@ from scipy.ndimage import binary_dilation
 from skimage.draw import line as draw_line
 
 from cli_process import REPO
+from localisation_runs import drifting_world
 from atlas_rap.layers import MissionEngine, RunOptions
 from atlas_rap.sequencer import Trace
 from atlas_rap.skills.beliefs import POSE_ESTIMATE, POSE_TRACK
@@ -68,12 +69,7 @@ def run_deliver(world: Path, folder: Path) -> Run:
 @pytest.fixture(scope="module")
 def drifting(tmp_path_factory) -> Run:
     folder = tmp_path_factory.mktemp("drifting")
-    text = (REPO / "worlds" / "lab-corridor-office.yaml").read_text(encoding="utf-8")
-    assert "  max_turn_rate_deg: 115\n" in text
-    world = folder / "drifting.yaml"
-    world.write_text(text.replace("  max_turn_rate_deg: 115\n", "  max_turn_rate_deg: 115\n  odometry_drift: 0.05\n"),
-                     encoding="utf-8")
-    return run_deliver(world, folder)
+    return run_deliver(Path(drifting_world(folder, 0.05)), folder)
 
 
 @pytest.fixture(scope="module")

@@ -8,51 +8,34 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from localisation_runs import DELIVER, deliver, drifting_world
+
 from atlas_rap.layers import MissionEngine, RunOptions
 from atlas_rap.sim.physics import Simulation
 from atlas_rap.skills.beliefs import POSE_TRACK
 from atlas_rap.views.pose_error import pose_errors
 
 REPO = Path(__file__).resolve().parents[1]
-DELIVER = REPO / "rap_library" / "missions" / "deliver.rap"
-
-
-def drifting_world(folder: Path, drift: float) -> str:
-    """lab-corridor-office with odometry drifting ``drift`` per metre and per radian (a variant)."""
-    world = folder / f"drift-{drift}.yaml"
-    world.write_text(f"base: lab-corridor-office\nname: lab-corridor-office\nrobot: {{odometry_drift: {drift}}}\n",
-                     encoding="utf-8")
-    return str(world)
-
-
-def deliver(world: str, seed: int, localisation: str = "mcl", records: list | None = None) -> MissionEngine:
-    """deliver.rap run to its end (``engine.result``); its trace records into ``records`` if given."""
-    engine = MissionEngine(RunOptions(world=world, seed=seed, localisation=localisation))
-    if records is not None:
-        engine.trace.add_sink(records.append)
-    engine.load_file(DELIVER, require_post=True)
-    engine.result = engine.run_mission(600)
-    return engine
 
 
 def test_deliver_succeeds_on_ten_seeds_at_5_percent_drift_with_the_belief_within_15_cm(tmp_path):
     world = drifting_world(tmp_path, 0.05)
     for seed in range(10):
-        engine = deliver(world, seed)
-        errors = pose_errors(engine.system)
-        assert engine.result.ok, (seed, engine.result.ended_by)
+        run = deliver(world, seed)
+        errors = pose_errors(run.engine.system)
+        assert run.result.ok, (seed, run.result.ended_by)
         assert errors.rmse <= 0.15, (seed, errors.line())
 
 
 def test_dead_reckoning_alone_is_metres_off_where_the_localiser_is_centimetres_off(tmp_path):
     world = drifting_world(tmp_path, 0.05)
-    belief = pose_errors(deliver(world, 1).system)
-    odometry = pose_errors(deliver(world, 1, localisation="odometry").system)
+    belief = pose_errors(deliver(world, 1).engine.system)
+    odometry = pose_errors(deliver(world, 1, localisation="odometry").engine.system)
     assert odometry.rmse > 5 * belief.rmse, (belief.line(), odometry.line())
 
 
 def test_the_localiser_posts_localised_and_the_robot_is_never_lost_on_an_ordinary_errand(tmp_path):
-    engine = deliver(drifting_world(tmp_path, 0.05), 2)
+    engine = deliver(drifting_world(tmp_path, 0.05), 2).engine
     facts = {str(fact) for fact in engine.sequencer.memory.facts()}
     assert "(localised)" in facts and "(lost)" not in facts
 
@@ -63,10 +46,10 @@ def test_no_skill_layer_or_rap_reads_the_true_pose(tmp_path, monkeypatch):
         raise AssertionError("the true pose was read outside the simulator")
 
     monkeypatch.setattr(Simulation, "pose", property(broken))
-    engine = deliver(drifting_world(tmp_path, 0.02), 0)
-    assert engine.result.ok, engine.result.ended_by
+    run = deliver(drifting_world(tmp_path, 0.02), 0)
+    assert run.result.ok, run.result.ended_by
     monkeypatch.undo()
-    assert pose_errors(engine.system).rmse < 0.15  # the evaluation reads the true path, after the run
+    assert pose_errors(run.engine.system).rmse < 0.15  # the evaluation reads the true path, after the run
 
 
 @pytest.mark.parametrize("prior_map", [True, False])
@@ -101,11 +84,12 @@ def relocalised_after(engine: MissionEngine, since: float, within: float = 0.5) 
 def test_a_kidnapped_robot_is_found_again_within_30_s_and_the_errand_completes():
     for seed in range(4):
         records: list[dict] = []
-        engine = deliver(KIDNAP, seed, records=records)
+        run = deliver(KIDNAP, seed, records=records)
+        engine = run.engine
         assert [t for t, _, _ in engine.simulation.kidnaps] == [pytest.approx(20.0)]
         took = relocalised_after(engine, 20.0)
         assert took is not None and took <= 30.0, (seed, took)
-        assert engine.result.ok, (seed, engine.result.ended_by)
+        assert run.result.ok, (seed, run.result.ended_by)
         lost = [r["t"] for r in records if r["event"] == "fact-asserted" and r["fact"] == "(lost)"]
         assert lost and 20.0 < lost[0] < 20.0 + took, (seed, lost)  # it knew it was lost, and turned to look
 

@@ -5,25 +5,13 @@ true pose and walls are read here, by the evaluation, only."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
-from atlas_rap.layers import MissionEngine, RunOptions
+from localisation_runs import deliver
+
 from atlas_rap.maps.agreement import map_agreement
 from atlas_rap.views.experiment import Settings, skill_acquisition
 from atlas_rap.views.pose_error import pose_errors
-
-REPO = Path(__file__).resolve().parents[1]
-DELIVER = REPO / "rap_library" / "missions" / "deliver.rap"
-
-
-def deliver(seed: int, localisation: str) -> MissionEngine:
-    engine = MissionEngine(RunOptions(world="lab-corridor-office", seed=seed, prior_map=False,
-                                      localisation=localisation))
-    engine.load_file(DELIVER, require_post=True)
-    engine.result = engine.run_mission(600)
-    return engine
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -41,10 +29,11 @@ def test_the_experiment_maps_agree_better_with_the_pose_correction_than_without(
 
 def test_deliver_without_a_prior_map_is_closer_to_the_truth_with_the_correction_on_every_seed():
     for seed in (0, 3, 4):
-        corrected, reckoned = deliver(seed, "mcl"), deliver(seed, "odometry")
+        corrected, reckoned = (deliver("lab-corridor-office", seed, prior_map=False, localisation=mode)
+                               for mode in ("mcl", "odometry"))
         assert corrected.result.ok and reckoned.result.ok, seed
-        with_, without = pose_errors(corrected.system), pose_errors(reckoned.system)
-        agree = [map_agreement(engine.grid, engine.world.walls).share for engine in (corrected, reckoned)]
+        with_, without = pose_errors(corrected.engine.system), pose_errors(reckoned.engine.system)
+        agree = [map_agreement(run.engine.grid, run.engine.world.walls).share for run in (corrected, reckoned)]
         print(f"seed {seed}: {with_.line()}, map agreement {agree[0]:.3f}; "
               f"dead reckoning {without.line()}, map agreement {agree[1]:.3f}")
         assert with_.rmse < without.rmse, seed

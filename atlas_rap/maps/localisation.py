@@ -41,7 +41,7 @@ from atlas_rap.maps.frame import GridFrame
 from atlas_rap.model import Segment
 
 __all__ = ["FilterSettings", "LikelihoodField", "MotionNoise", "ParticleFilter", "Pose", "SonarLikelihood", "between",
-           "compose", "wall_mask"]
+           "compose", "wall_mask", "wrap"]
 
 Pose = tuple[float, float, float]
 
@@ -196,7 +196,7 @@ class ParticleFilter:
         self.motion, self.sensor, self.settings = motion, sensor, settings
         n = settings.start_particles
         self.particles = np.column_stack([rng.normal(start[i], spread[i], n) for i in range(3)])
-        self.particles[:, 2] = _wrap(self.particles[:, 2])
+        self.particles[:, 2] = wrap(self.particles[:, 2])
         self.weights = np.full(n, 1.0 / n)
         self.w_slow = self.w_fast = 0.0
         self._scan: tuple[np.ndarray, np.ndarray] | None = None  # the latest scan with an echo
@@ -220,10 +220,10 @@ class ParticleFilter:
         """Move every particle by the odometry's motion from ``before`` to ``after``, with noise."""
         dx, dy = after[0] - before[0], after[1] - before[1]
         trans = math.hypot(dx, dy)
-        rot1 = _wrap(math.atan2(dy, dx) - before[2]) if trans > 1e-3 else 0.0
+        rot1 = wrap(math.atan2(dy, dx) - before[2]) if trans > 1e-3 else 0.0
         if abs(rot1) > math.pi / 2:  # driving backwards: the same line the other way
-            rot1, trans = _wrap(rot1 - math.pi), -trans
-        rot2 = _wrap(after[2] - before[2] - rot1)
+            rot1, trans = wrap(rot1 - math.pi), -trans
+        rot2 = wrap(after[2] - before[2] - rot1)
         a = self.motion
         n, rng = self.count, self.rng
         r1 = rot1 - rng.normal(0.0, math.sqrt(a.alpha1 * rot1 ** 2 + a.alpha2 * trans ** 2), n)
@@ -233,7 +233,7 @@ class ParticleFilter:
         heading = p[:, 2] + r1
         p[:, 0] += t * np.cos(heading)
         p[:, 1] += t * np.sin(heading)
-        p[:, 2] = _wrap(heading + r2)
+        p[:, 2] = wrap(heading + r2)
 
     def correct(self, ranges: np.ndarray, angles: np.ndarray) -> float:
         """Weigh every particle by one sonar scan (readings at ``max_range`` left out); the scan's mean
@@ -329,7 +329,7 @@ class ParticleFilter:
         weights = np.exp(np.asarray(log_scores, dtype=float) - np.max(log_scores))
         chosen = self.rng.choice(len(poses), n, p=weights / weights.sum())
         particles = poses[chosen] + self.rng.normal(0.0, 1.0, (n, 3)) * np.asarray(spread)
-        particles[:, 2] = _wrap(particles[:, 2])
+        particles[:, 2] = wrap(particles[:, 2])
         self.particles, self.weights = particles, np.full(n, 1.0 / n)
         self.w_fast = self.w_slow
 
@@ -338,7 +338,7 @@ class ParticleFilter:
         w, p = self.weights, self.particles
         x, y = float(w @ p[:, 0]), float(w @ p[:, 1])
         heading = math.atan2(float(w @ np.sin(p[:, 2])), float(w @ np.cos(p[:, 2])))
-        residual = np.column_stack([p[:, 0] - x, p[:, 1] - y, _wrap(p[:, 2] - heading)])
+        residual = np.column_stack([p[:, 0] - x, p[:, 1] - y, wrap(p[:, 2] - heading)])
         covariance = (residual * w[:, None]).T @ residual
         return (x, y, heading), covariance
 
@@ -389,15 +389,15 @@ def between(a: Pose, b: Pose) -> Pose:
     """The motion from pose ``a`` to pose ``b``, in ``a``'s frame (ROS's ``a.inverse() * b``)."""
     c, s = math.cos(a[2]), math.sin(a[2])
     dx, dy = b[0] - a[0], b[1] - a[1]
-    return dx * c + dy * s, dy * c - dx * s, _wrap(b[2] - a[2])
+    return dx * c + dy * s, dy * c - dx * s, wrap(b[2] - a[2])
 
 
 def compose(a: Pose, delta: Pose) -> Pose:
     """Pose ``a`` moved by ``delta`` in its own frame (ROS's ``a * delta``)."""
     c, s = math.cos(a[2]), math.sin(a[2])
-    return a[0] + delta[0] * c - delta[1] * s, a[1] + delta[0] * s + delta[1] * c, _wrap(a[2] + delta[2])
+    return a[0] + delta[0] * c - delta[1] * s, a[1] + delta[0] * s + delta[1] * c, wrap(a[2] + delta[2])
 
 
-def _wrap(angle):
+def wrap(angle):
     """Angles (a number or an array) into [-pi, pi)."""
     return (angle + math.pi) % (2 * math.pi) - math.pi

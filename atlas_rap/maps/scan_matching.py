@@ -60,6 +60,7 @@ import numpy as np
 from scipy import ndimage
 
 from atlas_rap.maps.frame import GridFrame
+from atlas_rap.maps.localisation import wrap
 
 __all__ = ["Match", "MatchSettings", "MapMatcher", "SettledMap", "correlative_match", "scan_points"]
 
@@ -296,7 +297,7 @@ class MapMatcher:
         self._last_odometry = odometry
         last = self.rings[-1] if self.rings else None
         if last is None or self.travelled - last[2] >= s.ring_spacing \
-                or abs(_wrap(odometry[2] - last[0][2])) >= s.ring_turn:
+                or abs(wrap(odometry[2] - last[0][2])) >= s.ring_turn:
             self.rings.append((odometry, np.array(ranges, dtype=float), self.travelled))
         while self.rings and self.travelled - self.rings[0][2] > s.window:
             self.rings.popleft()
@@ -325,7 +326,7 @@ class MapMatcher:
         if self._matched_at is None:
             return True
         travelled, heading = self._matched_at
-        return self.travelled - travelled >= s.match_every or abs(_wrap(odometry[2] - heading)) >= s.match_turn
+        return self.travelled - travelled >= s.match_every or abs(wrap(odometry[2] - heading)) >= s.match_turn
 
     def correct(self, pose: Pose, odometry: Pose, now: float) -> Pose | None:
         """The pose corrected by a match of the local scan round ``pose`` (the robot at ``odometry``),
@@ -343,7 +344,7 @@ class MapMatcher:
             return None
         self.matches += 1
         dx, dy, dh = match.correction
-        return pose[0] + dx, pose[1] + dy, _wrap(pose[2] + dh)
+        return pose[0] + dx, pose[1] + dy, wrap(pose[2] + dh)
 
     def _settled_map(self, now: float) -> SettledMap | None:
         """The reference now: the latest copy at least :attr:`~MatchSettings.lag` old, its settled cells
@@ -364,7 +365,3 @@ class MapMatcher:
             self._reference = SettledMap(ref[1], ref[2], self._frame, s, earlier)
             self._reference_of = key
         return self._reference
-
-
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2 * math.pi) - math.pi

@@ -74,7 +74,8 @@ import numpy as np
 
 from atlas_rap.logic import Compound
 from atlas_rap.maps.frame import GridFrame
-from atlas_rap.maps.localisation import LikelihoodField, ParticleFilter, SonarLikelihood, between, compose, wall_mask
+from atlas_rap.maps.localisation import (LikelihoodField, ParticleFilter, SonarLikelihood, between, compose, wall_mask,
+                                         wrap)
 from atlas_rap.maps.relocalisation import best_poses
 from atlas_rap.maps.scan_matching import MapMatcher
 from atlas_rap.skills.beliefs import GRID, LOCALISATION, POSE, POSE_ESTIMATE, POSE_TRACK, SONAR, PoseEstimate
@@ -214,7 +215,7 @@ class Localiser(Skill):
         last, pf = self._odometry, self.filter
         step = 1.0 if self.localised and pf.w_fast >= DOUBT * pf.w_slow else DOUBTFUL_STEP
         if math.hypot(odometry[0] - last[0], odometry[1] - last[1]) < step * UPDATE_DISTANCE \
-                and abs(_wrap(odometry[2] - last[2])) < step * UPDATE_ANGLE:
+                and abs(wrap(odometry[2] - last[2])) < step * UPDATE_ANGLE:
             return None
         self._last_ranges = reading[0]
         pf.predict(last, odometry)
@@ -234,7 +235,7 @@ class Localiser(Skill):
         start the filter again from the best poses found."""
         rings = self._lost_rings
         rings.append((odometry, ranges, self._angles))
-        turned = sum(abs(_wrap(b[0][2] - a[0][2])) for a, b in zip(rings, rings[1:]))
+        turned = sum(abs(wrap(b[0][2] - a[0][2])) for a, b in zip(rings, rings[1:]))
         travelled = sum(math.hypot(b[0][0] - a[0][0], b[0][1] - a[0][1]) for a, b in zip(rings, rings[1:]))
         if turned < SEARCH_TURN and travelled < SEARCH_DISTANCE:
             return
@@ -261,8 +262,3 @@ class Localiser(Skill):
             self.context.assert_fact(Compound("localised" if localised else "lost", ()))
             self.localised = localised
         return localised
-
-
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2 * math.pi) - math.pi
-

@@ -16,6 +16,7 @@ from typing import Sequence
 
 import numpy as np
 
+from atlas_rap.maps.localisation import wrap
 from atlas_rap.skills.beliefs import POSE_TRACK
 
 __all__ = ["PoseErrors", "covariance_ellipse", "pose_errors", "track_errors"]
@@ -49,7 +50,7 @@ def track_errors(track: Sequence[tuple[float, float, float, float]],
     y = np.interp(est[:, 0], true[:, 0], true[:, 2])
     heading = np.interp(est[:, 0], true[:, 0], np.unwrap(true[:, 3]))
     error = np.hypot(est[:, 1] - x, est[:, 2] - y)
-    turn = np.abs((est[:, 3] - heading + math.pi) % (2 * math.pi) - math.pi)
+    turn = np.abs(wrap(est[:, 3] - heading))
     return PoseErrors(float(np.sqrt(np.mean(error ** 2))), float(error.max()), float(error[-1]),
                       math.degrees(float(turn.max())), len(est))
 
