@@ -48,7 +48,7 @@ class StrategicLayer(Layer):
 
     name = "IV"
     plans = True
-    period = 2.0  # the slowest layer (seed Fig. 2): above Layer III's 1 s
+    period = 0.5  # the slowest layer (seed Fig. 2): above Layer III's 0.25 s
 
     def __init__(self, stack: LayerStack, grid=None, area: np.ndarray | None = None) -> None:
         from atlas_rap.maps.grid import OccupancyGrid
