@@ -201,18 +201,26 @@ def write_results(data: dict[str, Any], out: str | Path) -> list[Path]:
     write_text(written[0], json.dumps(data, indent=1) + "\n")
     with atomic_write(written[1], text=True, newline="") as handle:
         writer = csv.writer(handle)
-        writer.writerow(["run", "map_quality", "map_agreement", "pose_rmse_m", "duration_s", "optimal_s",
-                         "primary_I_s", "primary_II_s", "primary_III_s", "primary_IV_s", "ok"])
-        for run in data["runs"]:
-            p = run["primary_s"]
-            writer.writerow([run["run"], run["map_quality"], run["map_agreement"], run["pose_rmse_m"],
-                             run["duration_s"], run["optimal_s"], p["I"], p["II"], p["III"], p["IV"], run["ok"]])
+        writer.writerow(RUNS_CSV_COLUMNS)
+        writer.writerows(runs_csv_row(run) for run in data["runs"])
     written.append(plot_map_quality(data, out / FIGURE_FILES["map_quality"]))
     written.append(plot_durations(data, out / FIGURE_FILES["durations"]))
     written.append(plot_run_layers(data, out / FIGURE_FILES["run_layers"]))
     if "obstacles" in data:
         written.append(plot_obstacle_layers(data, out / FIGURE_FILES["obstacle_layers"]))
     return written
+
+
+RUNS_CSV_COLUMNS = ("run", "map_quality", "map_agreement", "pose_rmse_m", "duration_s", "optimal_s",
+                    "primary_I_s", "primary_II_s", "primary_III_s", "primary_IV_s", "ok")
+"""The columns of ``runs.csv``, one row a run (the multi-seed form puts a seed column first)."""
+
+
+def runs_csv_row(run: dict[str, Any]) -> list[Any]:
+    """One run's row of ``runs.csv``, in the order of :data:`RUNS_CSV_COLUMNS`."""
+    p = run["primary_s"]
+    return [run["run"], run["map_quality"], run["map_agreement"], run["pose_rmse_m"],
+            run["duration_s"], run["optimal_s"], p["I"], p["II"], p["III"], p["IV"], run["ok"]]
 
 
 def _check_worlds(settings: Settings) -> None:
