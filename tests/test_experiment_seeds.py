@@ -175,6 +175,16 @@ def test_crossed_in_says_for_each_seed_the_first_run_at_the_threshold_and_counts
     assert stats["crossed_in"]["histogram"] == {"1": 0, "2": 1, "3": 2, "4": 0, "never": 1}
 
 
+def test_a_run_in_which_layer_iv_handed_over_to_layer_ii_is_the_crossing_run_though_it_ends_under_it():
+    seed = four_seeds()[3]
+    seed["runs"][1]["timeline"] = [{"t": 0.0, "layer": "IV", "previous": None, "reason": "map-immature"},
+                                   {"t": 40.0, "layer": "II", "previous": "IV", "reason": "map-mature"}]
+    seed["runs"][1]["map_quality"] = 0.898  # measured at 0.90 while driving; a little less at the end
+    assert seed_outcome(seed)["crossed_in"] == 2
+    seed["runs"][1]["timeline"][1]["previous"] = "I"  # back to II after an obstacle: not the map found good
+    assert seed_outcome(seed)["crossed_in"] is None
+
+
 def test_after_crossing_the_median_duration_of_the_runs_after_the_crossing_run_against_optimal():
     stats = summary(four_seeds(), 4)
     # seed 0: runs 3 and 4 (60, 58); seeds 1 and 2: run 4 (61, 66); seed 3 never crossed

@@ -360,10 +360,19 @@ def summary(per_seed: Sequence[Mapping[str, Any]], runs_asked: int) -> dict[str,
 
 
 def crossing_run(one: Mapping[str, Any]) -> int | None:
-    """The first run of one seed whose map quality at its end is at least the seed's threshold (None: none)."""
+    """The first run of one seed in which the map was found good (None: none): its map quality at
+    the end is at least the seed's threshold, or Layer II took the drive over from Layer IV during
+    it. The rules switch when the quality passes the threshold as Layer IV measures it while
+    driving; the run may then end a little under it (within the hysteresis, so Layer II keeps
+    the drive), and that run is still the one in which the switch happened."""
     threshold = float(one["threshold"])
     return next((run["run"] for run in sorted(one["runs"], key=lambda run: run["run"])
-                 if float(run["map_quality"]) >= threshold), None)
+                 if float(run["map_quality"]) >= threshold or _handed_to_ii(run)), None)
+
+
+def _handed_to_ii(run: Mapping[str, Any]) -> bool:
+    """Whether Layer IV handed the drive to Layer II during the run."""
+    return any(entry["layer"] == "II" and entry.get("previous") == "IV" for entry in run.get("timeline", ()))
 
 
 def seed_outcome(one: Mapping[str, Any]) -> dict[str, Any]:
