@@ -29,7 +29,7 @@ from __future__ import annotations
 import csv
 import json
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -145,7 +145,7 @@ def skill_acquisition(out: str | Path, settings: Settings = Settings(),
     are returned with ``"complete": false`` and ``"incomplete"`` saying where it
     stopped (``"interrupted after run 3 of 7"``); the run it stopped is left out.
     """
-    _check_worlds(settings)
+    check_worlds(settings)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     mission = errand_file(out, settings)
@@ -191,18 +191,25 @@ def obstacle_scenario(mission: Path, settings: Settings, map_in: Path | None, ou
     return {**run, "optimal_s": optimal, "events": events}
 
 
-def write_results(data: dict[str, Any], out: str | Path) -> list[Path]:
-    """``figures.json``, ``runs.csv`` and the four figures (three without the obstacle scenario),
-    into ``out``, each written whole; the paths written. Results marked incomplete say so on
-    every figure."""
-    out = Path(out)
+def write_tables(data: Mapping[str, Any], out: Path, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> list[Path]:
+    """``figures.json`` (``data``) and ``runs.csv`` (``header``, then ``rows``) into ``out``, each
+    written whole; their paths."""
     out.mkdir(parents=True, exist_ok=True)
     written = [out / "figures.json", out / "runs.csv"]
     write_text(written[0], json.dumps(data, indent=1) + "\n")
     with atomic_write(written[1], text=True, newline="") as handle:
         writer = csv.writer(handle)
-        writer.writerow(RUNS_CSV_COLUMNS)
-        writer.writerows(runs_csv_row(run) for run in data["runs"])
+        writer.writerow(header)
+        writer.writerows(rows)
+    return written
+
+
+def write_results(data: dict[str, Any], out: str | Path) -> list[Path]:
+    """``figures.json``, ``runs.csv`` and the four figures (three without the obstacle scenario),
+    into ``out``, each written whole; the paths written. Results marked incomplete say so on
+    every figure."""
+    out = Path(out)
+    written = write_tables(data, out, RUNS_CSV_COLUMNS, (runs_csv_row(run) for run in data["runs"]))
     written.append(plot_map_quality(data, out / FIGURE_FILES["map_quality"]))
     written.append(plot_durations(data, out / FIGURE_FILES["durations"]))
     written.append(plot_run_layers(data, out / FIGURE_FILES["run_layers"]))
@@ -223,7 +230,7 @@ def runs_csv_row(run: dict[str, Any]) -> list[Any]:
             run["duration_s"], run["optimal_s"], p["I"], p["II"], p["III"], p["IV"], run["ok"]]
 
 
-def _check_worlds(settings: Settings) -> None:
+def check_worlds(settings: Settings) -> None:
     """Both worlds exist and have the errand's places (a RunError that says which is missing)."""
     from atlas_rap.errors import RunError
     from atlas_rap.sim.world import load_world

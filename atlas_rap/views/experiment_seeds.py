@@ -34,9 +34,7 @@ takes the first and ignores the rest).
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import json
 import multiprocessing
 import os
 import signal
@@ -50,10 +48,16 @@ from typing import Any
 import numpy as np
 
 from atlas_rap.layers.layer import timeline_spans
-from atlas_rap.outputs import atomic_write, write_text
 from atlas_rap.views.experiment import RESULT_FILES as SEED_RESULT_FILES
-from atlas_rap.views.experiment import RUNS_CSV_COLUMNS, Settings, runs_csv_row, skill_acquisition, write_results
-from atlas_rap.views.experiment import _check_worlds  # the single-seed form's check, once before any worker starts
+from atlas_rap.views.experiment import (
+    RUNS_CSV_COLUMNS,
+    Settings,
+    check_worlds,
+    runs_csv_row,
+    skill_acquisition,
+    write_results,
+    write_tables,
+)
 from atlas_rap.views.figures import (
     FIGURE_FILES,
     LAYERS,
@@ -105,7 +109,7 @@ def skill_acquisition_seeds(out: str | Path, settings: Settings = Settings(), se
     order = sorted(seeds)
     if not order or len(set(order)) != len(order):
         raise ValueError(f"the seeds must be distinct, and at least one: {order}")
-    _check_worlds(settings)
+    check_worlds(settings)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     workers = min(jobs or os.cpu_count() or 1, len(order))
@@ -408,13 +412,8 @@ def write_seeds_results(data: Mapping[str, Any], out: str | Path) -> list[Path]:
     all seeds, into ``out``, each written whole; the paths written. (The seeds' own folders are
     written by :func:`skill_acquisition_seeds` as each seed ends.)"""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    written = [out / "figures.json", out / "runs.csv"]
-    write_text(written[0], json.dumps(data, indent=1) + "\n")
-    with atomic_write(written[1], text=True, newline="") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(("seed", *RUNS_CSV_COLUMNS))
-        writer.writerows([one["seed"], *runs_csv_row(run)] for one in data["per_seed"] for run in one["runs"])
+    written = write_tables(data, out, ("seed", *RUNS_CSV_COLUMNS),
+                           ([one["seed"], *runs_csv_row(run)] for one in data["per_seed"] for run in one["runs"]))
     return written + write_seeds_figures(data, out)
 
 
