@@ -8,6 +8,12 @@ Prints one JSON object a line:
   PNGs): wall seconds, best of ``--runs`` (target: <= 60 s on a 2-core machine),
   with the simulated seconds it covers and the curves (quality and duration
   per run) beside the seed's.
+- ``layers-experiment-seeds``: the same experiment over seeds 0-9, two
+  seeds at a time in worker processes (``atlas experiment skill-acquisition
+  --jobs 2``: each seed's folder with its figures, then the figures over
+  all seeds), once: wall seconds (target: <= 120 s on a 2-core machine),
+  with how many seeds crossed the quality threshold on each run and the
+  median duration of the runs after the crossing against the optimal time.
 - ``layers-mapping``: the same errand (lab -> office -> lab) on the prior
   map without mapping, and the same run with Layer IV fusing every sonar
   ring into the grid as it drives (``atlas map build --mission``'s run, the
@@ -22,13 +28,15 @@ All interleaved, best of ``--runs``, in one process after a warm-up run;
 the mapping figures come first (after the experiment the same process runs
 the errands a few per cent slower).
 
-Run: ``python benchmarks/bench_layers.py`` (``--quick``: one run each).
+Run: ``python benchmarks/bench_layers.py`` (``--quick``: one run each; ``--only RECORD``: that record
+alone, e.g. ``--only layers-experiment-seeds``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import tempfile
 import time
@@ -66,6 +74,28 @@ def bench_experiment(runs: int) -> None:
           "seed": SEED, "obstacles_ok": data["obstacles"]["ok"]})
 
 
+def bench_experiment_seeds(jobs: int = 2) -> None:
+    from atlas_rap.views.experiment import Settings
+    from atlas_rap.views.experiment_seeds import DEFAULT_SEEDS, skill_acquisition_seeds, write_seeds_results
+    from atlas_rap.views.figures import obstacle_cases
+
+    with tempfile.TemporaryDirectory() as out:
+        started = time.perf_counter()
+        data = skill_acquisition_seeds(out, Settings(), DEFAULT_SEEDS, jobs=jobs)
+        write_seeds_results(data, out)
+        wall = time.perf_counter() - started
+    simulated = sum(run["duration_s"] for one in data["per_seed"] for run in one["runs"]) + sum(
+        case["end_s"] - case.get("start_s", 0.0) for one in data["per_seed"] for case in obstacle_cases(one))
+    after = data["summary"]["after_crossing"]
+    emit({"bench": "layers-experiment-seeds", "wall_s": round(wall, 2), "target_s": 120.0, "jobs": jobs,
+          "cpus": os.cpu_count(), "seeds": len(data["per_seed"]), "complete": data["complete"],
+          "simulated_s": round(simulated, 1), "threshold": data["threshold"],
+          "crossed_in": data["summary"]["crossed_in"]["histogram"],
+          "after_crossing": {key: after[key] for key in ("runs", "median_duration_s", "optimal_s",
+                                                         "ratio_to_optimal")},
+          "seed": SEED})
+
+
 def one_errand(mission: Path, **options) -> tuple[float, float]:
     from atlas_rap.layers import MissionEngine, RunOptions
 
@@ -99,14 +129,24 @@ def bench_mapping(runs: int) -> None:
               "ratio_per_simulated_s": round((wall / sim) / (plain_wall / plain_sim), 2)})
 
 
+RECORDS = ["layers-mapping", "layers-experiment", "layers-experiment-seeds"]
+"""What --only can name (layers-mapping also prints layers-exploring)."""
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--quick", action="store_true", help="one run of each")
+    parser.add_argument("--only", choices=RECORDS, help="this record alone")
     args = parser.parse_args()
     runs = 1 if args.quick else args.runs
-    bench_mapping(runs)  # first: the experiment leaves a process that runs the errands a few per cent slower
-    bench_experiment(runs)
+    wanted = [args.only] if args.only else RECORDS
+    if "layers-mapping" in wanted:
+        bench_mapping(runs)  # first: the experiment leaves a process that runs the errands a few per cent slower
+    if "layers-experiment" in wanted:
+        bench_experiment(runs)
+    if "layers-experiment-seeds" in wanted:
+        bench_experiment_seeds()  # once: a minute or two; its seeds run in processes of their own
 
 
 if __name__ == "__main__":

@@ -285,7 +285,7 @@ def test_bad_layer_options_are_refused_clearly(tmp_path):
 
 
 def test_the_experiment_command_writes_its_figures_json_csv_and_pngs(tmp_path):
-    done = atlas("experiment", "skill-acquisition", "--runs", "2", "--out", "out", cwd=tmp_path)
+    done = atlas("experiment", "skill-acquisition", "--runs", "2", "--seed", "0", "--out", "out", cwd=tmp_path)
     assert done.returncode == 0, done.stdout + done.stderr
     out = tmp_path / "out"
     data = json.loads((out / "figures.json").read_text())

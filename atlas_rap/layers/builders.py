@@ -28,7 +28,7 @@ from atlas_rap.layers.layer import LayerStack
 from atlas_rap.layers.monitoring import MonitoringLayer
 from atlas_rap.layers.operational import OperationalLayer
 from atlas_rap.layers.remote import build_remote
-from atlas_rap.layers.strategic import StrategicLayer
+from atlas_rap.layers.strategic import GRID_RESOLUTION, StrategicLayer
 from atlas_rap.layers.system import RunOptions, System, WorldChoice, located, planning_beside
 from atlas_rap.layers.tactical import TacticalLayer
 from atlas_rap.sequencer import Sequencer, Trace
@@ -38,6 +38,8 @@ from atlas_rap.skills.manager import SkillManager
 from atlas_rap.skills.virtual import VirtualSkills
 
 if TYPE_CHECKING:  # downward only: the sim and the maps are imported when a world is built
+    import numpy as np
+
     from atlas_rap.maps.grid import OccupancyGrid
     from atlas_rap.sim.physics import Simulation
     from atlas_rap.sim.world import World
@@ -106,7 +108,7 @@ def build_simulated(options: RunOptions, choice: WorldChoice, trace: Trace, virt
     skills = CombinedSkills(manager, virtual)
     sequencer = Sequencer(skills=skills, trace=trace)
     deliberation = planning_beside(sequencer, problem_for, options, worker)
-    stack = layer_stack(options, sequencer, manager, believed)
+    stack = layer_stack(options, sequencer, manager, believed, world)
     clock = (WallClock if options.realtime else Clock)(options.rates.physics)
     driver = Executive(simulation, manager, sequencer, options.rates, stack=stack, clock=clock)
     return System(options, trace, virtual, skills, sequencer, deliberation, driver, world=world, believed=believed,
@@ -123,8 +125,10 @@ def simulated_robot(world: World, believed: World, seed: int, rates: Rates) -> t
     return simulation, stock_manager(believed, simulation, simulation.rng)
 
 
-def layer_stack(options: RunOptions, sequencer: Sequencer, manager: SkillManager, believed: World) -> LayerStack:
-    """The four layers over the robot's beliefs; Layer IV only when there is a map to build."""
+def layer_stack(options: RunOptions, sequencer: Sequencer, manager: SkillManager, believed: World,
+                world: World) -> LayerStack:
+    """The four layers over the robot's beliefs; Layer IV only when there is a map to build. ``world``
+    (the true one) only draws the area of ``options.errand`` Layer IV measures the map over."""
     stack = LayerStack(sequencer, manager.context.beliefs, believed, enabled=options.layers,
                        prior_map=options.prior_map)
     stack.rules_source = str(options.rules_file)
@@ -132,11 +136,26 @@ def layer_stack(options: RunOptions, sequencer: Sequencer, manager: SkillManager
     stack.add(OperationalLayer(stack))
     stack.add(TacticalLayer(stack))
     if options.maps_while_driving:
-        stack.add(StrategicLayer(stack, map_in(options.map_in, believed) if options.map_in is not None else None))
+        grid = map_in(options.map_in, believed) if options.map_in is not None else None
+        stack.add(StrategicLayer(stack, grid, area=errand_area_of(options, world, grid)))
     if not stack.active():
         raise RunError(f"--layers {','.join(options.layers)}: Layer IV maps, so it runs only when the "
                        f"robot maps (--no-prior-map or --map-in); enable I, II or III as well")
     return stack
+
+
+def errand_area_of(options: RunOptions, world: World, grid: OccupancyGrid | None) -> np.ndarray | None:
+    """The mask of the area ``options.errand`` needs, on the grid's frame (None: no errand given)."""
+    if not options.errand:
+        return None
+    from atlas_rap.maps.errand_area import errand_area
+    from atlas_rap.maps.grid import OccupancyGrid
+
+    frame = grid.frame if grid is not None else OccupancyGrid.covering(world.bounds, GRID_RESOLUTION).frame
+    try:
+        return errand_area(world, frame, options.errand)
+    except ValueError as exc:
+        raise RunError(f"the errand's area: {exc}") from None
 
 
 def map_in(path: str | Path, world: World) -> OccupancyGrid:

@@ -12,7 +12,8 @@ due:
   same rate;
 - the sequencer (10 Hz), in **Layer II**'s slot: RAPs run at the
   operational rate, then Layer II's own tick;
-- **Layer III** (tactical, 1 Hz) and **Layer IV** (strategic, 2 Hz).
+- **Layer III** (tactical, 4 Hz) and **Layer IV** (strategic, 2 Hz): as in the seed
+  (Fig. 2), each layer above is slower than the one below.
 
 The layers, and which of them is primary, are :mod:`atlas_rap.layers.layer`'s.
 

@@ -10,11 +10,13 @@ The slowest layer. At its period it
   the motion skills keep to ``mapping-speed`` (a layer setting, a fraction
   of top speed) so that the sonar sees each cell often;
 - **measures the map** every ``quality-every`` seconds in a run without a
-  prior map: ``(map-quality Q)``, one minus the mean entropy of the
-  region of interest: the explored region and the surroundings of the
-  places the robot has been sent to
-  (:func:`~atlas_rap.maps.inference.explored_quality`), which the rules
-  compare with their threshold;
+  prior map: ``(map-quality Q)``, one minus the mean entropy of a region
+  of interest, which the rules compare with their threshold. The region is
+  the ``area`` the layer is given when the run has an errand (``RunOptions.errand``,
+  the experiment's: :func:`~atlas_rap.maps.errand_area.errand_area`, fixed
+  before the first run, so the quality rises only as the map of that area
+  firms up); else the explored region and the surroundings of the places the
+  robot has been sent to (:func:`~atlas_rap.maps.inference.explored_quality`);
 - **plans** when it drives: the cheapest path on the grid with
   ``skimage.graph.MCP`` (:class:`~atlas_rap.maps.gridpath.GridPlanner`),
   unknown cells passable at a cost (optimistic planning), re-planned as
@@ -41,18 +43,22 @@ from atlas_rap.skills.beliefs import GOAL, GRID, POSE, POSES, SONAR, SPEED_LIMIT
 
 
 class StrategicLayer(Layer):
-    """Layer IV; see the module docstring. ``grid`` is a map to start from (``--map-in``)."""
+    """Layer IV; see the module docstring. ``grid`` is a map to start from (``--map-in``); ``area``
+    a fixed region (a mask on the grid) to measure the map's quality over."""
 
     name = "IV"
     plans = True
-    period = 0.5
+    period = 0.5  # the slowest layer (seed Fig. 2): above Layer III's 0.25 s
 
-    def __init__(self, stack: LayerStack, grid=None) -> None:
+    def __init__(self, stack: LayerStack, grid=None, area: np.ndarray | None = None) -> None:
         from atlas_rap.maps.grid import OccupancyGrid
 
         super().__init__(stack)
         world = stack.world
-        stack.beliefs[GRID] = grid if grid is not None else OccupancyGrid.covering(world.bounds, 0.05)
+        stack.beliefs[GRID] = grid if grid is not None else OccupancyGrid.covering(world.bounds, GRID_RESOLUTION)
+        self.area = area
+        if area is not None and area.shape != stack.beliefs[GRID].frame.shape:
+            raise ValueError(f"the area is {area.shape} cells, the grid {stack.beliefs[GRID].frame.shape}")
         stack.beliefs.setdefault(POSES, [])
 
     def start(self) -> None:
@@ -114,10 +120,12 @@ class StrategicLayer(Layer):
         return [(pose, *reading)]
 
     def quality(self) -> float:
-        """The map quality as the rules see it (three decimals): 1 - mean entropy of the
-        explored region and round the places the robot has been sent to."""
+        """The map quality as the rules see it (three decimals): 1 - mean entropy of the area
+        given, else of the explored region and round the places the robot has been sent to."""
         from atlas_rap.maps.inference import explored_quality
 
+        if self.area is not None:
+            return round(self.stack.beliefs[GRID].quality(self.area), 3)
         goal = self.stack.beliefs.get(GOAL)
         if goal is not None and goal.point not in self.goals:
             self.goals.append(goal.point)
@@ -163,6 +171,9 @@ class StrategicLayer(Layer):
                     f"every way is blocked")
         return PlannedRoute(self.path.waypoints, {}, self.name)
 
+
+GRID_RESOLUTION = 0.05
+"""Metres per cell of the grid Layer IV builds when it starts from none."""
 
 OCCUPIED_LOG_ODDS = math.log(0.6 / 0.4)
 """An echo's cell above P(occ) = 0.6 (the planner's obstacle level) blocks the path it is near."""

@@ -64,6 +64,9 @@ class RunOptions:
     - ``layers``: the layers enabled; ``layer_rules``: the file of switching
       rules (None: the shipped ``rap_library/layers.rap``).
     - ``realtime``: pace simulated time to the wall clock.
+    - ``errand``: the places an errand visits in turn (the experiment's ``("office", "lab")``):
+      Layer IV then measures the map's quality over the fixed area that errand needs
+      (:func:`~atlas_rap.maps.errand_area.errand_area`) instead of the explored region.
     - ``localisation``: how the robot knows where it is (``--localisation``): ``mcl``, Monte
       Carlo localisation on its prior map (without one, the odometry corrected against the map
       being built), or ``odometry``, dead reckoning alone (:mod:`atlas_rap.skills.localising`).
@@ -85,9 +88,11 @@ class RunOptions:
     realtime: bool = False
     bus: BusSettings | None = None
     localisation: str = "mcl"
+    errand: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "layers", tuple(self.layers))  # any iterable of layer names
+        object.__setattr__(self, "errand", tuple(self.errand))
 
     @property
     def rules_file(self) -> Path:

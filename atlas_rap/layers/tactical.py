@@ -58,7 +58,7 @@ class TacticalLayer(Layer):
 
     name = "III"
     plans = True
-    period = 1.0
+    period = 0.25  # between Layer II's 0.1 s and Layer IV's 0.5 s (seed Fig. 2: slower layers above)
 
     def start(self) -> None:
         self.built_version = -1

@@ -15,7 +15,9 @@ records it; nothing below imports it (cli → views → layers → ...).
 - ``recording``: the observer that records a run for Foxglove (MCAP, live
   WebSocket; ``foxglove_messages`` makes the messages); ``mcap_reader`` and
   ``mcap_picture`` read a recording back and draw it;
-- ``experiment``: the seed's skill-acquisition experiment; ``figures``: its plots.
+- ``experiment``: the seed's skill-acquisition experiment; ``experiment_seeds``: the same over
+  many seeds in parallel processes, with its statistics (``seed_spec``: sets of seeds as
+  ``0-9``); ``figures``: its plots, for one seed and over many.
 
 The names below are imported from their modules at first use (``atlas_rap.exports``),
 so importing the package costs nothing until a picture is drawn.

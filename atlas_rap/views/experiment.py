@@ -3,7 +3,9 @@
 A robot with no prior map drives from its lab to the office and back,
 run after run, the occupancy grid carried from each run to the next
 (exactly ``atlas run errand.rap --no-prior-map --map-in/--map-out``). Per
-run it records the map quality at the end, the map's agreement with the
+run it records the map quality at the end (1 - mean entropy over the area
+the errand needs, fixed before the first run: :mod:`atlas_rap.maps.errand_area`,
+so the quality rises only as the map of that area firms up), the map's agreement with the
 true walls on the cells it labels (:mod:`atlas_rap.maps.agreement`), the
 pose error of the robot's belief, the run's duration in simulated
 seconds and how long each layer was primary. Layer IV maps and drives
@@ -106,12 +108,14 @@ def optimal_seconds(world_name: str, home: str, goal: str) -> float:
 
 
 def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: Path,
-            layer_rules: str | None, localisation: str = "mcl") -> tuple[dict[str, Any], LayerStack]:
+            layer_rules: str | None, localisation: str = "mcl",
+            errand: tuple[str, ...] = ()) -> tuple[dict[str, Any], LayerStack]:
     """One errand with no prior map, from ``map_in``: its figures (the grid written to
-    ``map_out``), and the layer stack it ran with (for its settings). Ctrl-C: the grid
-    it has is written, then KeyboardInterrupt goes on up (the whole experiment stops)."""
+    ``map_out``), and the layer stack it ran with (for its settings). ``errand``: the places
+    it visits, whose area Layer IV measures the map over. Ctrl-C: the grid it has is
+    written, then KeyboardInterrupt goes on up (the whole experiment stops)."""
     engine = MissionEngine(RunOptions(world=world, seed=seed, prior_map=False, map_in=map_in,
-                                       layer_rules=layer_rules, localisation=localisation))
+                                       layer_rules=layer_rules, localisation=localisation, errand=errand))
     engine.load_file(mission, require_post=True)
     try:
         result = engine.run_mission(RUN_LIMIT)
@@ -122,12 +126,13 @@ def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: 
     stack = engine.stack
     timeline = stack.timeline_records()
     errors = pose_errors(engine.system)
+    path = _path_length(engine)
     return {"ok": result.ok, "ended_by": result.ended_by, "map_quality": stack.layers["IV"].quality(),
             "map_agreement": round(map_agreement(engine.grid, engine.world.walls).share, 4),
             "pose_rmse_m": round(errors.rmse, 3) if errors is not None else 0.0,
             "duration_s": round(result.time, 2), "timeline": timeline, "start_s": 0.0, "end_s": round(result.time, 2),
             "primary_s": {k: round(v, 2) for k, v in stack.primary_seconds(result.time).items()},
-            "path_m": round(_path_length(engine), 2)}, stack
+            "path_m": round(path, 2), "path_at_top_speed_s": round(path / engine.world.robot.max_speed, 2)}, stack
 
 
 def skill_acquisition(out: str | Path, settings: Settings = Settings(),
@@ -156,7 +161,7 @@ def skill_acquisition(out: str | Path, settings: Settings = Settings(),
                 progress(f"run {number} of {settings.runs}")
             map_out = out / f"map-run{number}.npz"
             run, stack = one_run(mission, settings.world, settings.seed, map_in, map_out, settings.layer_rules,
-                                 settings.localisation)
+                                 settings.localisation, (settings.goal, settings.home))
             runs.append({"run": number, **run, "optimal_s": optimal})
             data["threshold"] = stack.setting("map-quality-threshold", 0.9)  # the rules file's, as the runs used it
             map_in = map_out
@@ -179,7 +184,7 @@ def obstacle_scenario(mission: Path, settings: Settings, map_in: Path | None, ou
     from atlas_rap.sim.world import load_world
 
     run, _ = one_run(mission, settings.obstacles, settings.seed, map_in, out / "map-obstacles.npz",
-                     settings.layer_rules, settings.localisation)
+                     settings.layer_rules, settings.localisation, (settings.goal, settings.home))
     world = load_world(settings.obstacles)
     events = [{"t": d.start, "what": f"{'a person starts to cross' if d.kind == 'person' else 'a box is put down'}"
                                     f" ({d.name})"} for d in world.disturbances]
@@ -196,18 +201,26 @@ def write_results(data: dict[str, Any], out: str | Path) -> list[Path]:
     write_text(written[0], json.dumps(data, indent=1) + "\n")
     with atomic_write(written[1], text=True, newline="") as handle:
         writer = csv.writer(handle)
-        writer.writerow(["run", "map_quality", "map_agreement", "pose_rmse_m", "duration_s", "optimal_s",
-                         "primary_I_s", "primary_II_s", "primary_III_s", "primary_IV_s", "ok"])
-        for run in data["runs"]:
-            p = run["primary_s"]
-            writer.writerow([run["run"], run["map_quality"], run["map_agreement"], run["pose_rmse_m"],
-                             run["duration_s"], run["optimal_s"], p["I"], p["II"], p["III"], p["IV"], run["ok"]])
+        writer.writerow(RUNS_CSV_COLUMNS)
+        writer.writerows(runs_csv_row(run) for run in data["runs"])
     written.append(plot_map_quality(data, out / FIGURE_FILES["map_quality"]))
     written.append(plot_durations(data, out / FIGURE_FILES["durations"]))
     written.append(plot_run_layers(data, out / FIGURE_FILES["run_layers"]))
     if "obstacles" in data:
         written.append(plot_obstacle_layers(data, out / FIGURE_FILES["obstacle_layers"]))
     return written
+
+
+RUNS_CSV_COLUMNS = ("run", "map_quality", "map_agreement", "pose_rmse_m", "duration_s", "optimal_s",
+                    "primary_I_s", "primary_II_s", "primary_III_s", "primary_IV_s", "ok")
+"""The columns of ``runs.csv``, one row a run (the multi-seed form puts a seed column first)."""
+
+
+def runs_csv_row(run: dict[str, Any]) -> list[Any]:
+    """One run's row of ``runs.csv``, in the order of :data:`RUNS_CSV_COLUMNS`."""
+    p = run["primary_s"]
+    return [run["run"], run["map_quality"], run["map_agreement"], run["pose_rmse_m"],
+            run["duration_s"], run["optimal_s"], p["I"], p["II"], p["III"], p["IV"], run["ok"]]
 
 
 def _check_worlds(settings: Settings) -> None:

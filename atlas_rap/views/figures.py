@@ -13,6 +13,15 @@ plain dict and draw each figure as a PNG:
   obstacle scenario's simulated time, with its events;
 * :func:`write_figures` -- all four into one folder.
 
+Over many seeds (``atlas_rap.views.experiment_seeds``: its ``figures.json``
+holds each seed's results in ``per_seed`` and the statistics per run in
+``summary``), the same figures show the spread: :func:`plot_map_quality_seeds`
+and :func:`plot_durations_seeds` the median per run, its inter-quartile range
+and its least and greatest; :func:`plot_run_layers_seeds` each layer's share
+of a run's time; :func:`plot_obstacle_seeds` one row per seed for each
+obstacle case (:func:`obstacle_cases`: a seed's ``obstacles`` is one case or
+a list of them); :func:`write_seeds_figures` all of them into one folder.
+
 A ``timeline`` is the list of moments the primary layer switched
 (``{"t": seconds from the start, "layer": "I".."IV", ...}``, the first
 entry the layer at t = 0); :func:`timeline_spans` turns it into
@@ -36,16 +45,20 @@ written into the file.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from atlas_rap.layers.layer import LAYER_NAMES, primary_seconds, timeline_spans
 from atlas_rap.views.page import plain_text
+from atlas_rap.views.seed_spec import seeds_text
 
 __all__ = [
-    "FIGURE_FILES", "LAYERS", "LAYER_COLOURS", "plot_durations", "plot_map_quality", "plot_obstacle_layers",
-    "plot_run_layers", "primary_seconds", "timeline_spans", "write_figures",
+    "FIGURE_FILES", "LAYERS", "LAYER_COLOURS", "obstacle_case", "obstacle_case_keys", "obstacle_cases",
+    "obstacle_figure_file", "plot_durations", "plot_durations_seeds", "plot_map_quality", "plot_map_quality_seeds",
+    "plot_obstacle_layers", "plot_obstacle_seeds", "plot_run_layers", "plot_run_layers_seeds", "primary_seconds",
+    "timeline_spans", "write_figures", "write_seeds_figures",
 ]
 
 LAYERS = LAYER_NAMES
@@ -179,6 +192,229 @@ def write_figures(data: Mapping[str, Any], out_dir: str | Path) -> list[Path]:
     ]
 
 
+# Figures over many seeds -----------------------------------------------------
+#
+# The multi-seed figures.json (atlas_rap.views.experiment_seeds) holds "seeds", "per_seed" (each seed's
+# own figures.json, as above) and "summary": the statistics per run are computed there and drawn here.
+
+
+def plot_map_quality_seeds(data: Mapping[str, Any], path: str | Path) -> Path:
+    """Fig. 12(a) over many seeds: per run the median map quality (line), its inter-quartile range
+    (box) and its least and greatest (whiskers), with the threshold dashed; the PNG's path. The
+    axis starts a tenth below the lowest value (on 0-1 the spread would not show)."""
+    fig, ax = _figure(_title("Fig. 12(a) map quality per run", data), data)
+    numbers = _spread(ax, data, "map_quality")
+    threshold = data.get("threshold")
+    if threshold is not None:
+        ax.axhline(float(threshold), color=_REFERENCE, linestyle="--", linewidth=1.2,
+                   label=f"threshold {float(threshold):g}", zorder=2)
+    lowest = min([float(entry["map_quality"]["min"]) for entry in _per_run(data)]
+                 + ([float(threshold)] if threshold is not None else []), default=0.0)
+    ax.set_ylim(max(0.0, math.floor(lowest * 10 - 0.5) / 10), 1.0)  # from a tenth below: 0-1 hides the spread
+    _run_axis(ax, numbers)
+    ax.set_ylabel("map quality (0\u20131)")
+    _spread_legend(ax, "lower right")
+    return _save(fig, path)
+
+
+def plot_durations_seeds(data: Mapping[str, Any], path: str | Path) -> Path:
+    """Fig. 12(b) over many seeds: per run the median duration (line), its inter-quartile range (box)
+    and its shortest and longest (whiskers), with the optimal time as a dashed step; the PNG's path."""
+    fig, ax = _figure(_title("Fig. 12(b) run duration per run", data), data)
+    numbers = _spread(ax, data, "duration_s")
+    step_x: list[float] = []
+    step_y: list[float] = []
+    for entry in _per_run(data):
+        if entry.get("optimal_s") is not None:
+            step_x += [int(entry["run"]) - 0.5, int(entry["run"]) + 0.5]
+            step_y += [float(entry["optimal_s"])] * 2
+    if step_x:
+        ax.plot(step_x, step_y, color=_REFERENCE, linestyle="--", linewidth=1.2, label="optimal time", zorder=2)
+    top = max([float(entry["duration_s"]["max"]) for entry in _per_run(data)] + step_y, default=1.0)
+    ax.set_ylim(0.0, top * 1.1 if top > 0 else 1.0)
+    _run_axis(ax, numbers)
+    ax.set_ylabel("duration (s)")
+    _spread_legend(ax, "upper right")
+    return _save(fig, path)
+
+
+def plot_run_layers_seeds(data: Mapping[str, Any], path: str | Path) -> Path:
+    """Fig. 13(a) over many seeds: for each run, the share of its time each layer was primary,
+    averaged over the seeds (each seed counts alike), as a stacked bar, layer I at the bottom; the PNG's path.
+
+    The share of the time rather than the layer primary at each run's end: once the map is good
+    nearly every run ends with Layer II, before that with Layer IV, so the end alone shows only
+    where the switch happened; the shares show that too, and also how much of the switching run
+    Layer IV still drove, and Layer I's short stops.
+    """
+    fig, ax = _figure(_title("Fig. 13(a) primary layer per run", data), data)
+    per_run = _per_run(data)
+    numbers = [int(entry["run"]) for entry in per_run]
+    bottom = [0.0] * len(per_run)
+    for layer in LAYERS:
+        shares = [float((entry.get("primary_share") or {}).get(layer, 0.0)) for entry in per_run]
+        ax.bar(numbers, shares, bottom=bottom, width=0.6, color=LAYER_COLOURS[layer], label=f"layer {layer}",
+               zorder=3)
+        bottom = [b + s for b, s in zip(bottom, shares)]
+    ax.set_ylim(0.0, 1.0)
+    _run_axis(ax, numbers)
+    ax.set_ylabel("share of the run's time primary")
+    handles, labels = ax.get_legend_handles_labels()  # layer IV on top, as in the bars
+    ax.legend(handles[::-1], labels[::-1], loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=9, frameon=False,
+              title=f"mean of {_seed_count(data)}", title_fontsize=9)
+    return _save(fig, path)
+
+
+def plot_obstacle_seeds(data: Mapping[str, Any], path: str | Path, case: str | None = None) -> Path:
+    """Fig. 13(b) over many seeds: the primary layer over the obstacle scenario, one row (a strip
+    coloured by the primary layer) per seed, the events dotted; ``case`` is which scenario
+    (:func:`obstacle_case_keys`; None: the one scenario of each seed). The PNG's path."""
+    from matplotlib.patches import Patch
+
+    rows = [(seed, obstacle_case(one, case)) for seed, one in _seeds_data(data)]
+    title = next((str(found["title"]) for _, found in rows if found is not None and found.get("title")), case)
+    fig, ax = _figure(_title("Fig. 13(b) primary layer with obstacles" + (f": {title}" if title else ""), data),
+                      data)
+    ends = [_case_length(found) for _, found in rows if found is not None]
+    duration = max(ends + [0.0])
+    for i, (seed, found) in enumerate(rows):  # the first seed at the top
+        y = len(rows) - i
+        if found is None:
+            ax.text(0.0, y, " no obstacle run", fontsize=8, color=_REFERENCE, va="center")
+            continue
+        for layer, start, stop in timeline_spans(found.get("timeline") or [], _case_length(found)):
+            ax.broken_barh([(start, stop - start)], (y - 0.35, 0.7), facecolors=LAYER_COLOURS[layer],
+                           edgecolor="none", zorder=3)
+    events = sorted({(float(event["t"]), plain_text(event["what"]))
+                     for _, found in rows if found is not None for event in found.get("events") or []})
+    label_top = len(rows) + 0.5 + (0.4 * min(len(events), 2) + 0.2 if events else 0.0)
+    for i, (t, what) in enumerate(events):
+        ax.axvline(t, color=_EVENT, linestyle=":", linewidth=1.2, zorder=4)
+        right_half = duration > 0 and t > 0.7 * duration
+        ax.text(t, label_top - 0.3 - 0.4 * (i % 2), f" {what} ", fontsize=8, color=_EVENT,
+                ha="right" if right_half else "left", va="center", zorder=5)
+    every = max(1, -(-len(rows) // 20))  # at most about 20 seed labels
+    ax.set_yticks([len(rows) - i for i in range(0, len(rows), every)],
+                  [f"seed {rows[i][0]}" for i in range(0, len(rows), every)])
+    ax.set_ylim(0.5, label_top)
+    ax.set_xlim(0.0, duration if duration > 0 else 1.0)
+    ax.grid(False, axis="y")
+    ax.set_xlabel("simulated time (s)")
+    ax.legend(handles=[Patch(color=LAYER_COLOURS[layer], label=f"layer {layer}") for layer in reversed(LAYERS)],
+              loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=9, frameon=False, title="primary",
+              title_fontsize=9)
+    return _save(fig, path)
+
+
+def obstacle_cases(data: Mapping[str, Any]) -> list[Mapping[str, Any]]:
+    """One seed's obstacle scenario as a list of cases: ``data["obstacles"]`` is one case (a dict) or
+    a list of them, each with at least ``timeline``, ``end_s`` and ``events`` (``case``, a name, and
+    ``title`` if it has them); no scenario, no cases."""
+    scenario = data.get("obstacles")
+    if scenario is None:
+        return []
+    return [scenario] if isinstance(scenario, Mapping) else list(scenario)
+
+
+def obstacle_case(one: Mapping[str, Any], key: str | None) -> Mapping[str, Any] | None:
+    """The obstacle case ``key`` (:func:`obstacle_case_keys`) of one seed's results; None if it has none."""
+    cases = obstacle_cases(one)
+    if key is None:
+        return cases[0] if isinstance(one.get("obstacles"), Mapping) else None
+    return next((case for i, case in enumerate(cases) if _key(case, i) == key), None)
+
+
+def obstacle_case_keys(data: Mapping[str, Any]) -> list[str | None]:
+    """The obstacle cases over all seeds of multi-seed results, in the order first met: a case's
+    ``case`` name, else its place in the list ("1", "2", ...); None for the one scenario of a seed
+    whose ``obstacles`` is a single dict."""
+    keys: list[str | None] = []
+    for _, one in _seeds_data(data):
+        single = isinstance(one.get("obstacles"), Mapping)
+        for i, case in enumerate(obstacle_cases(one)):
+            key = None if single else _key(case, i)
+            if key not in keys:
+                keys.append(key)
+    return keys
+
+
+def obstacle_figure_file(case: str | None) -> str:
+    """The file name of Fig. 13(b) for ``case`` (:func:`obstacle_case_keys`): ``fig13b-obstacles.png``
+    for the one scenario, ``fig13b-obstacles-NAME.png`` for a named case."""
+    if case is None:
+        return FIGURE_FILES["obstacle_layers"]
+    slug = "".join(c if c.isalnum() else "-" for c in str(case).lower()).strip("-") or "case"
+    return FIGURE_FILES["obstacle_layers"].replace(".png", f"-{slug}.png")
+
+
+def write_seeds_figures(data: Mapping[str, Any], out_dir: str | Path) -> list[Path]:
+    """Draw the figures of multi-seed results into ``out_dir`` (created if needed): Fig. 12(a), 12(b),
+    13(a), then one Fig. 13(b) per obstacle case; their paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written = [
+        plot_map_quality_seeds(data, out / FIGURE_FILES["map_quality"]),
+        plot_durations_seeds(data, out / FIGURE_FILES["durations"]),
+        plot_run_layers_seeds(data, out / FIGURE_FILES["run_layers"]),
+    ]
+    for case in obstacle_case_keys(data):
+        written.append(plot_obstacle_seeds(data, out / obstacle_figure_file(case), case))
+    return written
+
+
+def _spread(ax: Any, data: Mapping[str, Any], what: str) -> list[int]:
+    """Per run the median of ``what`` over the seeds as a line, its inter-quartile range as a box,
+    its least and greatest as whiskers; the run numbers."""
+    per_run = _per_run(data)
+    numbers = [int(entry["run"]) for entry in per_run]
+    stats = [entry[what] for entry in per_run]
+    low, high = [float(s["min"]) for s in stats], [float(s["max"]) for s in stats]
+    q1, q3 = [float(s["q1"]) for s in stats], [float(s["q3"]) for s in stats]
+    ax.vlines(numbers, low, high, color=_MEASURED, linewidth=1.0, label="least to greatest", zorder=3)
+    for cap in (low, high):
+        ax.hlines(cap, [n - 0.08 for n in numbers], [n + 0.08 for n in numbers], color=_MEASURED, linewidth=1.0,
+                  zorder=3)
+    ax.bar(numbers, [b - a for a, b in zip(q1, q3)], bottom=q1, width=0.36, color=_MEASURED, alpha=0.3,
+           edgecolor=_MEASURED, linewidth=0.8, label="inter-quartile range", zorder=3)
+    ax.plot(numbers, [float(s["median"]) for s in stats], marker="o", color=_MEASURED, linewidth=1.6,
+            markersize=5, label=f"median of {_seed_count(data)}", clip_on=False, zorder=4)
+    return numbers
+
+
+def _spread_legend(ax: Any, where: str) -> None:
+    """The legend of a spread: the median, the inter-quartile range, least to greatest, then the rest."""
+    handles, labels = ax.get_legend_handles_labels()
+    first = ("median", "inter-quartile", "least")
+    order = sorted(range(len(labels)), key=lambda i: next((k for k, word in enumerate(first)
+                                                           if labels[i].startswith(word)), len(first)))
+    ax.legend([handles[i] for i in order], [labels[i] for i in order], loc=where, fontsize=9, frameon=False)
+
+
+def _per_run(data: Mapping[str, Any]) -> list[Mapping[str, Any]]:
+    """The summary's statistics per run, in order of the run number."""
+    return sorted((data.get("summary") or {}).get("per_run") or [], key=lambda entry: int(entry["run"]))
+
+
+def _seeds_data(data: Mapping[str, Any]) -> list[tuple[Any, Mapping[str, Any]]]:
+    """(seed, that seed's figures.json) for each seed of multi-seed results, in their order."""
+    return [(one.get("seed"), one) for one in data.get("per_seed") or []]
+
+
+def _seed_count(data: Mapping[str, Any]) -> str:
+    """``"10 seeds"``: how many seeds the results hold."""
+    count = len(data.get("per_seed") or [])
+    return f"{count} seed{'' if count == 1 else 's'}"
+
+
+def _key(case: Mapping[str, Any], index: int) -> str:
+    return str(case.get("case") or index + 1)
+
+
+def _case_length(case: Mapping[str, Any]) -> float:
+    """Seconds an obstacle case lasted: ``end_s`` from its ``start_s`` (0 if it has none)."""
+    return max(float(case["end_s"]) - float(case.get("start_s") or 0.0), 0.0)
+
+
 # Pieces --------------------------------------------------------------------
 
 
@@ -222,6 +458,8 @@ def _title(figure: str, data: Mapping[str, Any]) -> str:
     about = [str(data["world"])] if data.get("world") else []
     if data.get("seed") is not None:
         about.append(f"seed {data['seed']}")
+    elif data.get("seeds"):
+        about.append(seeds_text(data["seeds"]))
     return plain_text(f"{figure} \u2014 {', '.join(about)}" if about else figure)
 
 

@@ -1,0 +1,65 @@
+"""The skill-acquisition experiment as it ships: the default odometry noise, the pose corrected against
+the map being built, the shipped rules, several seeds at once (the README's figures are of seeds 0-9:
+``python benchmarks/bench_layers.py --only layers-experiment-seeds``).
+
+What is checked is what the README claims of every seed, not of a chosen one.
+"""
+
+from __future__ import annotations
+
+import statistics
+
+import pytest
+
+from atlas_rap.views.experiment import Settings
+from atlas_rap.views.experiment_seeds import crossing_run, skill_acquisition_seeds
+
+SEEDS = (0, 1, 2, 3)
+RUNS = 4
+
+
+@pytest.fixture(scope="module")
+def experiment(tmp_path_factory):
+    out = tmp_path_factory.mktemp("seeds")
+    return skill_acquisition_seeds(out, Settings(runs=RUNS, obstacles=None), SEEDS, jobs=2)
+
+
+def test_every_errand_gets_there_and_back_without_a_prior_map_while_layer_iv_maps_and_after(experiment):
+    for one in experiment["per_seed"]:
+        assert [run["ok"] for run in one["runs"]] == [True] * RUNS, one["seed"]
+        first = one["runs"][0]
+        assert first["timeline"][0]["layer"] == "IV" and first["primary_s"]["IV"] > 0.5 * first["duration_s"]
+
+
+def test_the_map_of_the_errands_area_does_not_get_worse_while_layer_iv_maps_and_stays_once_it_stops(experiment):
+    for one in experiment["per_seed"]:
+        qualities = [run["map_quality"] for run in one["runs"]]
+        for before, run in zip(qualities, one["runs"][1:]):
+            if run["primary_s"]["IV"] > 0:  # mapping: the same area seen again
+                assert run["map_quality"] >= before - 0.005, (one["seed"], qualities)
+            else:  # mapping is over: the map is carried as it is
+                assert run["map_quality"] == before, (one["seed"], qualities)
+        if all(run["primary_s"]["IV"] > 0 for run in one["runs"]):  # never good enough: still it rose
+            assert qualities[-1] > qualities[0], (one["seed"], qualities)
+
+
+def test_after_the_switch_layer_ii_drives_each_run_within_a_quarter_of_the_optimal_time(experiment):
+    after = []
+    for one in experiment["per_seed"]:
+        crossed = crossing_run(one)
+        for run in one["runs"]:
+            if crossed is not None and run["run"] > crossed:
+                assert run["primary_s"]["II"] > 0.95 * run["duration_s"], (one["seed"], run["primary_s"])
+                assert run["duration_s"] < min(r["duration_s"] for r in one["runs"][:crossed]), one["seed"]
+                after.append(run["duration_s"] / run["optimal_s"])
+    assert after, "no seed switched to Layer II"
+    assert statistics.median(after) <= 1.25, after
+    assert experiment["summary"]["after_crossing"]["ratio_to_optimal"] <= 1.25
+
+
+def test_the_runs_mapping_are_slower_for_the_speed_cap_and_the_figures_say_how_much(experiment):
+    for one in experiment["per_seed"]:
+        for run in one["runs"]:
+            assert run["path_at_top_speed_s"] == pytest.approx(run["path_m"] / 0.6, abs=0.01)
+            if run["primary_s"]["IV"] > 0.9 * run["duration_s"]:  # mapping at 0.6 of top speed
+                assert run["duration_s"] > 1.4 * run["path_at_top_speed_s"], (one["seed"], run)
