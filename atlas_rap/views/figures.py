@@ -37,6 +37,12 @@ Results marked incomplete (``"complete": false``: the experiment was
 stopped) say so above every figure's title, in red, with ``incomplete``'s
 text ("interrupted after run 3 of 7").
 
+Over 25 KB on purpose: the figures of one experiment, for one seed and
+over many seeds, drawn with the same rows of layers, colours, titles and
+marks for an incomplete run (the pieces at the end), so that a layer looks
+the same in every figure; the figures over many seeds could move to a
+module of their own beside those pieces.
+
 Every figure is 800 × 450 px (8 × 4.5 in at 100 dpi), laid out tight;
 Fig. 13(b) of several obstacle cases is 260 px taller for each case after
 the first.
