@@ -4,10 +4,11 @@ Prints one JSON object a line:
 
 - ``layers-experiment``: ``atlas experiment skill-acquisition`` in one
   process (seven errands with no prior map, the map carried from run to run,
-  then the obstacle scenario, then ``figures.json``, the CSV and the four
-  PNGs): wall seconds, best of ``--runs`` (target: <= 60 s on a 2-core machine),
-  with the simulated seconds it covers and the curves (quality and duration
-  per run) beside the seed's.
+  then the three cases of the obstacle scenario, then ``figures.json``, the
+  CSV and the four PNGs): wall seconds, best of ``--runs`` (target: <= 60 s
+  on a 2-core machine), with the simulated seconds it covers, the curves
+  (quality and duration per run) beside the seed's, and each obstacle case's
+  primary layers in turn.
 - ``layers-experiment-seeds``: the same experiment over seeds 0-9, two
   seeds at a time in worker processes (``atlas experiment skill-acquisition
   --jobs 2``: each seed's folder with its figures, then the figures over
@@ -64,14 +65,17 @@ def bench_experiment(runs: int) -> None:
             data = skill_acquisition(out, Settings())
             write_results(data, out)
             best = min(best, time.perf_counter() - started)
-    simulated = sum(run["duration_s"] for run in data["runs"]) + data["obstacles"]["duration_s"]
+    cases = data.get("obstacles") or []
+    simulated = sum(run["duration_s"] for run in data["runs"] + cases)
     crossed = next((run["run"] for run in data["runs"] if run["map_quality"] >= data["threshold"]), None)
     emit({"bench": "layers-experiment", "wall_s": round(best, 2), "target_s": 60.0, "runs": len(data["runs"]),
           "simulated_s": round(simulated, 1),
           "quality": [run["map_quality"] for run in data["runs"]],
           "duration_over_optimal": [round(run["duration_s"] / run["optimal_s"], 3) for run in data["runs"]],
           "ours": {"quality_crosses_after_run": crossed},
-          "seed": SEED, "obstacles_ok": data["obstacles"]["ok"]})
+          "seed": SEED, "obstacles_ok": all(case["ok"] for case in cases),
+          "obstacles": {case["case"]: case["seen"] for case in cases},
+          "obstacles_as_expected": all(case["as_expected"] for case in cases)})
 
 
 def bench_experiment_seeds(jobs: int = 2) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from matplotlib.colors import to_rgb
 from matplotlib.image import imread
@@ -20,6 +21,7 @@ from atlas_rap.views.figures import (
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 SIZE = (450, 800)  # rows, columns: 8 x 4.5 in at 100 dpi
+CASE_ROWS = 260  # Fig. 13(b): the rows each obstacle case after the first adds
 FILES = ["fig12a-map-quality.png", "fig12b-durations.png", "fig13a-layers-per-run.png", "fig13b-obstacles.png"]
 
 
@@ -47,12 +49,38 @@ def experiment() -> dict:
             run(2, 0.88, 80.0, 55.4, switches((0.0, "III"), (30.0, "II"), (70.0, "I"), (71.0, "II"))),
             run(3, 0.94, 57.0, 55.3, switches((0.0, "II"))),
         ],
-        "obstacles": {
-            "duration_s": 90.0, "optimal_s": 55.2,
-            "timeline": switches((0.0, "II"), (14.0, "I"), (16.0, "II"), (40.0, "III"), (46.0, "II")),
-            "events": [{"t": 14.0, "what": "person crosses"}, {"t": 40.0, "what": "box blocks the corridor"}],
-        },
+        "obstacles": [
+            case("person", "a person crosses", 62.0, switches((0.0, "II"), (12.8, "I"), (14.6, "II")),
+                 ["II", "I", "II"], [{"t": 8.5, "what": "a person starts to cross"}]),
+            case("corridor-box", "a box blocks one way", 68.4,
+                 switches((0.0, "II"), (19.6, "I"), (23.2, "III"), (23.5, "II")), ["II", "I", "III", "II"],
+                 [{"t": 0.0, "what": "a box is put down"}]),
+            case("full-block", "a block cuts every known way", 97.5,
+                 switches((0.0, "II"), (13.8, "I"), (17.5, "IV"), (69.2, "II")), ["II", "I", "IV", "II"],
+                 [{"t": 0.0, "what": "a box is put down"}]),
+        ],
     }
+
+
+def case(key: str, title: str, duration: float, timeline: list[dict], expected: list[str],
+         events: list[dict]) -> dict:
+    """One case of the obstacle scenario as the experiment writes it (the layers seen from its timeline)."""
+    seen = [layer for layer, _, _ in timeline_spans(timeline, duration)]
+    return {"case": key, "title": title, "world": f"lab-corridor-office-{key}", "expected": expected, "seen": seen,
+            "as_expected": seen == expected, "duration_s": duration, "start_s": 0.0, "end_s": duration,
+            "optimal_s": 51.8, "timeline": timeline, "events": events, "ok": True}
+
+
+def one_scenario() -> dict:
+    """The older form of ``obstacles``: one scenario, a dict, with a person and a box in one run."""
+    return {"duration_s": 90.0, "optimal_s": 55.2,
+            "timeline": switches((0.0, "II"), (14.0, "I"), (16.0, "II"), (40.0, "III"), (46.0, "II")),
+            "events": [{"t": 14.0, "what": "person crosses"}, {"t": 40.0, "what": "box blocks the corridor"}]}
+
+
+def size_of(name: str, cases: int = 3) -> tuple[int, int]:
+    """The size of a figure in pixels (rows, columns): Fig. 13(b) grows with its obstacle cases."""
+    return (SIZE[0] + CASE_ROWS * max(cases - 1, 0), SIZE[1]) if name.startswith("fig13b") else SIZE
 
 
 # Timelines -----------------------------------------------------------------
@@ -110,7 +138,7 @@ def test_write_figures_writes_the_four_pngs(tmp_path) -> None:
     assert [p.name for p in paths] == FILES
     assert all(p.parent == out for p in paths)
     for path in paths:
-        assert_png(path)
+        assert_png(path, size_of(path.name))
 
 
 def test_each_plot_writes_where_it_is_told(tmp_path) -> None:
@@ -118,7 +146,28 @@ def test_each_plot_writes_where_it_is_told(tmp_path) -> None:
     for plot, name in zip((plot_map_quality, plot_durations, plot_run_layers, plot_obstacle_layers), FILES):
         path = plot(data, tmp_path / "one" / name)
         assert path == tmp_path / "one" / name
-        assert_png(path)
+        assert_png(path, size_of(name))
+
+
+def test_the_obstacle_figure_has_a_panel_per_case_stacked_in_their_order(tmp_path) -> None:
+    cases = experiment()["obstacles"]
+    for count in (1, 2, 3):
+        path = plot_obstacle_layers({"obstacles": cases[:count]}, tmp_path / f"{count}.png")
+        assert_png(path, (SIZE[0] + CASE_ROWS * (count - 1), SIZE[1]))
+    # each case in its own panel, in order: Layer IV's bar (the full block's) only in the third
+    image = imread(tmp_path / "3.png")[..., :3]
+    bars = (abs(image - to_rgb(LAYER_COLOURS["IV"])) < 0.02).all(axis=2)[:, 150:]  # right of the row labels
+    panels = [band.sum() for band in np.array_split(bars, 3)]
+    assert panels[0] == panels[1] == 0 and panels[2] > 2000, panels
+
+
+def test_an_older_figures_json_with_one_obstacle_scenario_is_drawn_as_one_panel(tmp_path) -> None:
+    data = experiment()
+    data["obstacles"] = one_scenario()
+    assert_png(plot_obstacle_layers(data, tmp_path / "fig13b.png"))
+    data["obstacles"] = [one_scenario()]  # a list of one: the same figure
+    assert_png(plot_obstacle_layers(data, tmp_path / "fig13b-list.png"))
+    assert (tmp_path / "fig13b.png").read_bytes() == (tmp_path / "fig13b-list.png").read_bytes()
 
 
 def test_a_figure_is_not_blank(tmp_path) -> None:
@@ -136,10 +185,10 @@ def test_the_same_data_give_the_same_bytes(tmp_path) -> None:
 def test_a_run_with_an_empty_timeline_is_drawn_without_a_bar(tmp_path) -> None:
     data = experiment()
     data["runs"][1]["timeline"] = []
-    data["obstacles"]["timeline"] = []
+    data["obstacles"][1]["timeline"] = []
     empty = write_figures(data, tmp_path / "empty")
     for path in empty:
-        assert_png(path)
+        assert_png(path, size_of(path.name))
     full = write_figures(experiment(), tmp_path / "full")
     # the runs picture differs (run 2 has no bar now); the figures of Fig. 12 do not
     assert empty[2].read_bytes() != full[2].read_bytes()
@@ -148,18 +197,19 @@ def test_a_run_with_an_empty_timeline_is_drawn_without_a_bar(tmp_path) -> None:
 
 def test_runs_without_any_timeline_or_events(tmp_path) -> None:
     data = experiment()
-    for case in data["runs"]:
-        case["timeline"] = []
-    data["obstacles"]["events"] = []
+    for one in data["runs"] + data["obstacles"]:
+        one["timeline"] = []
+        one["events"] = []
     for path in write_figures(data, tmp_path):
-        assert_png(path)
+        assert_png(path, size_of(path.name))
 
 
 def test_layers_keep_their_colour_in_every_figure(tmp_path) -> None:
     """The row of layer II shows the same colour in Fig. 13(a) and Fig. 13(b)."""
     data = experiment()
     data["runs"] = [run(1, 0.9, 10.0, 9.0, switches((0.0, "II")))]
-    data["obstacles"]["timeline"] = switches((0.0, "II"))
+    for one in data["obstacles"]:
+        one["timeline"] = switches((0.0, "II"))
     paths = write_figures(data, tmp_path)
     green = to_rgb(LAYER_COLOURS["II"])
     for path in paths[2:]:

@@ -1,8 +1,10 @@
 """The ATLAS layers: a primary layer chosen by rules, mapping while driving, the seed's experiment.
 
-The experiment (seed 000 §5.2) runs once for the module, seed 0: five
-errands lab → office → lab with no prior map, the grid carried from run to
-run. The obstacle and blocked-world runs start from its last map.
+The experiment (seed 000 §5.2) runs once for the module, seed 0, with exact
+odometry: five errands lab → office → lab with no prior map, the grid
+carried from run to run; the blocked-world run starts from its last map.
+The obstacle scenario (Fig. 13b) runs as the experiment ships it, at the
+default odometry noise, on a few seeds (:data:`OBSTACLE_SEEDS`).
 """
 
 from __future__ import annotations
@@ -13,10 +15,23 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from atlas_rap.layers import MissionEngine, RunOptions
-from atlas_rap.views.experiment import Settings, errand_file, skill_acquisition
+from atlas_rap.layers.tactical import TacticalLayer
+from atlas_rap.maps.grid import OccupancyGrid
+from atlas_rap.views.experiment import (
+    CORRIDOR_BOX_WORLD,
+    FULL_BLOCK_WORLD,
+    OBSTACLE_CASES,
+    PERSON_WORLD,
+    STOREROOM_BOX_WORLD,
+    Settings,
+    errand_file,
+    skill_acquisition,
+)
+from atlas_rap.views.experiment_seeds import skill_acquisition_seeds
 from atlas_rap.sequencer import Trace
 from atlas_rap.shipped import shipped_root
 from atlas_rap.skills.beliefs import GRID, Belief, Beliefs
@@ -27,7 +42,6 @@ RULES = shipped_root("rap_library") / "layers.rap"
 # hang on how well the pose is corrected while mapping (README, "Where the robot is"); the experiment at
 # the default noise is tested on its own below and in test_mapping_correction.py.
 EXACT = str(REPO / "tests" / "worlds" / "lab-corridor-office-exact.yaml")
-EXACT_OBSTACLES = str(REPO / "tests" / "worlds" / "lab-corridor-office-obstacles-exact.yaml")
 
 
 @pytest.fixture(scope="module")
@@ -37,12 +51,12 @@ def experiment(tmp_path_factory):
     return out, data
 
 
-def traced_run(world: str, out: Path, map_in: Path | None, **options):
+def traced_run(world: str, out: Path, map_in: Path | None, seed: int = 0, **options):
     """The errand once in ``world`` with no prior map: (engine, result, trace records)."""
     records: list[dict] = []
     trace = Trace()
     trace.add_sink(lambda record: records.append(record))
-    engine = MissionEngine(RunOptions(world=world, seed=0, prior_map=False, map_in=map_in, **options), trace=trace)
+    engine = MissionEngine(RunOptions(world=world, seed=seed, prior_map=False, map_in=map_in, **options), trace=trace)
     engine.load_file(errand_file(out, Settings()), require_post=True)
     result = engine.run_mission(900)
     return engine, result, records
@@ -101,37 +115,120 @@ def test_the_optimal_time_is_the_shortest_route_there_and_back_at_top_speed(expe
 # -- obstacles (Fig. 13b) -------------------------------------------------------------------------
 
 
+# The seeds the obstacle scenario is checked on, as the experiment ships (the default odometry noise, the
+# pose corrected against the map being built). The scenario stands on a map good enough for Layer II to
+# drive the errand (seed §5.2, Fig. 13b starts in Layer II): seeds 0, 2 and 4 get there within the seven
+# runs, and seed 4's way goes through the storeroom (so its box stands in the storeroom's doorway).
+# Seeds 1 and 5 do not: the map's quality over the errand's area stays at 0.82-0.84, Layer IV drives
+# every case from the start, and no case can show the seed's order.
+OBSTACLE_SEEDS = (0, 2, 4)
+
+
 @pytest.fixture(scope="module")
-def obstacle_run(experiment):
-    out, data = experiment
-    return traced_run(EXACT_OBSTACLES, out, out / f"map-run{len(data['runs'])}.npz")
+def obstacle_experiment(tmp_path_factory):
+    """The experiment as it ships on :data:`OBSTACLE_SEEDS`: seven runs, then the three obstacle cases."""
+    out = tmp_path_factory.mktemp("obstacles")
+    return out, skill_acquisition_seeds(out, Settings(), OBSTACLE_SEEDS, jobs=2)
 
 
-def test_a_person_crossing_is_handled_by_layer_i_with_no_re_route(obstacle_run):
-    _, result, records = obstacle_run
+def case_table(data: dict) -> str:
+    """A line per seed and case: the layers seen against the seed's, for a failure's message."""
+    return "\n".join(f"seed {one['seed']} {case['case']:13} {case['world']:35} seen {' → '.join(case['seen']):22}"
+                     f" the seed {' → '.join(case['expected'])}, errand {'ok' if case['ok'] else 'failed'}"
+                     for one in data["per_seed"] for case in one.get("obstacles", []))
+
+
+def test_every_obstacle_case_shows_the_seeds_order_of_layers_and_the_errand_gets_there(obstacle_experiment):
+    _, data = obstacle_experiment
+    print(case_table(data))
+    assert [one["seed"] for one in data["per_seed"]] == list(OBSTACLE_SEEDS)
+    for one in data["per_seed"]:
+        last = one["runs"][-1]
+        assert last["primary_s"]["II"] > 0.95 * last["duration_s"], (one["seed"], "the map is not good yet")
+        cases = one["obstacles"]
+        assert [case["case"] for case in cases] == [case.key for case in OBSTACLE_CASES]
+        for case in cases:
+            assert case["seen"] == case["expected"] and case["as_expected"], (one["seed"], case["case"])
+            assert case["ok"] and case["ended_by"] == "done", (one["seed"], case["case"])
+    by_case = {case.key: list(case.expected) for case in OBSTACLE_CASES}
+    assert by_case == {"person": ["II", "I", "II"], "corridor-box": ["II", "I", "III", "II"],
+                       "full-block": ["II", "I", "IV", "II"]}
+
+
+def test_the_box_of_one_way_stands_on_the_way_the_robot_takes(obstacle_experiment):
+    _, data = obstacle_experiment
+    for one in data["per_seed"]:
+        places = one["runs"][-1]["places"]
+        outward = places[:places.index("office")]
+        box = next(case for case in one["obstacles"] if case["case"] == "corridor-box")
+        assert box["world"] == (STOREROOM_BOX_WORLD if "storeroom" in outward else CORRIDOR_BOX_WORLD), places
+        assert [case["world"] for case in one["obstacles"] if case["case"] != "corridor-box"] == \
+            [PERSON_WORLD, FULL_BLOCK_WORLD]
+
+
+@pytest.fixture(scope="module")
+def traced_cases(obstacle_experiment):
+    """Each case again on seed 0's last map, traced: {case: (engine, result, records)}."""
+    out, data = obstacle_experiment
+    seed = data["per_seed"][0]
+    last = out / "seed-0" / f"map-run{len(seed['runs'])}.npz"
+    return {case["case"]: traced_run(case["world"], out, last, errand=("office", "lab")) for case in seed["obstacles"]}
+
+
+def test_a_person_crossing_is_handled_by_layer_i_with_no_re_route(traced_cases):
+    _, result, records = traced_cases["person"]
     steps = switches(records)
-    first_hold = next(i for i, s in enumerate(steps) if s["layer"] == "I")
-    assert "something-in-the-way" in steps[first_hold]["reason"]
-    after = steps[first_hold + 1]
-    assert after["layer"] == "II" and "(obstacle none)" in after["reason"]  # back to II: the person went
-    held_until = after["t"]
-    assert not [r for r in asserted(records, "(route-blocked") if r["t"] <= held_until]
-    assert not [r for r in asserted(records, "(rerouted") if r["t"] <= held_until]
+    assert [s["layer"] for s in steps] == ["II", "I", "II"], steps
+    assert "something-in-the-way" in steps[1]["reason"]
+    assert "way-clear-map-done" in steps[2]["reason"] and "(obstacle none)" in steps[2]["reason"]  # it went
+    assert steps[2]["t"] - steps[1]["t"] < 4.0  # back before it could count as long-lived
+    assert not asserted(records, "(route-blocked") and not asserted(records, "(rerouted")
+    assert result.ok, result
 
 
-def test_a_box_blocking_the_way_makes_layer_iii_re_route_and_the_robot_still_arrives(obstacle_run):
-    engine, result, records = obstacle_run
+def test_a_box_blocking_one_way_makes_layer_iii_re_route_for_one_tick_and_the_robot_still_arrives(traced_cases):
+    engine, result, records = traced_cases["corridor-box"]
     steps = switches(records)
-    tactical = [s for s in steps if s["layer"] == "III"]
-    assert tactical and "blocked-for-long" in tactical[0]["reason"]
-    assert asserted(records, "(route-blocked")
-    rerouted = asserted(records, "(rerouted")
-    assert rerouted
-    handed_back = [s for s in steps if s["t"] >= rerouted[0]["t"] and s["previous"] == "III"]
-    assert handed_back and handed_back[0]["layer"] == "II"
+    assert [s["layer"] for s in steps] == ["II", "I", "III", "II"], steps
+    assert "something-in-the-way" in steps[1]["reason"]
+    assert "blocked-with-a-way-round" in steps[2]["reason"] and "(way-round " in steps[2]["reason"]
+    assert "found-a-way-round" in steps[3]["reason"] and "(rerouted " in steps[3]["reason"]
+    assert steps[3]["t"] - steps[2]["t"] == pytest.approx(TacticalLayer.period)  # selected at its next tick
+    blocked = asserted(records, "(route-blocked")
+    assert blocked and blocked[0]["t"] == steps[2]["t"]
+    assert not asserted(records, "(no-route)")
     assert result.ok, result
     x, y, _ = engine.simulation.pose
     assert math.dist((x, y), engine.world.places["lab"].point) < 0.5
+
+
+def test_a_block_on_every_known_way_makes_layer_iv_remap_a_way_it_had_never_mapped(traced_cases, obstacle_experiment):
+    engine, result, records = traced_cases["full-block"]
+    steps = switches(records)
+    assert [s["layer"] for s in steps] == ["II", "I", "IV", "II"], steps
+    assert "every-route-cut" in steps[2]["reason"] and "(no-route)" in steps[2]["reason"]
+    assert "remapped-a-way-round" in steps[3]["reason"]
+    assert not asserted(records, "(way-round ")  # Layer III found no way round: it never took over
+    # the way round goes through the workshop (x 8-12.5, y 1-4), which the runs' map had not mapped
+    workshop = [(t, x, y) for t, x, y, _ in engine.simulation.path if 8.3 < x < 12.2 and 1.3 < y < 3.7]
+    assert workshop
+    out, _ = obstacle_experiment
+    before = OccupancyGrid.load_npz(out / "seed-0" / "map-run7.npz")
+    inside = workshop_cells(before)
+    assert before.updated[inside].mean() < 0.5 < engine.grid.updated[inside].mean()
+    # Layer II took over once the robot, at the office, was sent back and the rebuilt map had a way there
+    arrived = [r for r in records if r["event"] == "task-succeeded" and r.get("task") == "(go-to office)"]
+    assert arrived and arrived[0]["t"] <= steps[3]["t"]
+    assert result.ok, result
+    x, y, _ = engine.simulation.pose
+    assert math.dist((x, y), engine.world.places["lab"].point) < 0.5
+
+
+def workshop_cells(grid: OccupancyGrid):
+    """The grid's cells in the full-block world's workshop, away from its walls."""
+    rows, cols = np.indices(grid.frame.shape)
+    x, y = grid.frame.cell_to_world(rows, cols)
+    return (x > 8.5) & (x < 12.0) & (y > 1.5) & (y < 3.5)
 
 
 def test_a_world_with_every_way_cut_ends_with_layer_iv_primary_and_says_so(experiment):
@@ -199,15 +296,15 @@ def test_a_rules_file_with_a_threshold_of_0_5_stops_mapping_in_the_first_run(tmp
     assert result.ok  # where Layer II has no route on so young a map, Layer IV takes the drive back
 
 
-def test_each_switch_is_traced_with_the_layer_the_previous_one_and_the_rule_that_chose_it(obstacle_run):
-    _, _, records = obstacle_run
-    steps = switches(records)
-    assert steps[0]["previous"] is None
-    for before, step in zip(steps, steps[1:]):
-        assert step["previous"] == before["layer"] != step["layer"]
+def test_each_switch_is_traced_with_the_layer_the_previous_one_and_the_rule_that_chose_it(traced_cases):
     rule_names = {line.split()[1] for line in RULES.read_text().splitlines() if line.startswith("(define-memory-rule")}
-    for step in steps:
-        assert step["reason"].startswith("rule ") and step["reason"].split()[1] in rule_names, step
+    for _, _, records in traced_cases.values():
+        steps = switches(records)
+        assert steps[0]["previous"] is None
+        for before, step in zip(steps, steps[1:]):
+            assert step["previous"] == before["layer"] != step["layer"]
+        for step in steps:
+            assert step["reason"].startswith("rule ") and step["reason"].split()[1] in rule_names, step
 
 
 def test_layer_iii_says_what_the_built_map_connects(experiment):
@@ -294,8 +391,11 @@ def test_the_experiment_command_writes_its_figures_json_csv_and_pngs(tmp_path):
         assert set(run) >= {"run", "map_quality", "duration_s", "optimal_s", "primary_s"}
         assert set(run["primary_s"]) == {"I", "II", "III", "IV"}
         assert math.isclose(sum(run["primary_s"].values()), run["duration_s"], abs_tol=0.1)
-    timeline = data["obstacles"]["timeline"]
-    assert timeline and set(timeline[0]) >= {"t", "layer", "reason"}
+    assert [case["case"] for case in data["obstacles"]] == ["person", "corridor-box", "full-block"]
+    for case in data["obstacles"]:
+        assert set(case) >= {"case", "title", "world", "expected", "seen", "as_expected", "timeline", "events", "ok"}
+        assert case["timeline"] and set(case["timeline"][0]) >= {"t", "layer", "reason"}
+        assert f"obstacles, {case['case']}: {' → '.join(case['seen'])}" in done.stdout
     rows = (out / "runs.csv").read_text().splitlines()
     assert rows[0].startswith("run,map_quality,map_agreement,pose_rmse_m,duration_s,optimal_s") and len(rows) == 3
     # at the default odometry noise, the pose corrected against the map: every run gets there, and the map

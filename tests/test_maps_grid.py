@@ -235,6 +235,30 @@ def test_observable_stops_at_walls_and_sensor_range_and_counts_every_pose() -> N
     assert (both.region_of_interest == (both.reachable | both.observable)).all()
 
 
+def test_doubting_walls_makes_them_unknown_to_a_planner_with_a_weak_memory_of_them() -> None:
+    grid = two_rooms(None)
+    grid.updated[...] = True
+    doubted = grid.doubt_walls(*grid.frame.cell_to_world(30, 60), 0.5)
+    assert doubted == 21  # the wall's cells within 0.5 m (10 cells either side of its middle)
+    assert not grid.updated[20:41, 60].any() and grid.updated[19, 60] and grid.updated[30, 59]
+    assert (grid.probabilities()[20:41, 60] == pytest.approx(0.55, abs=1e-3)) and grid.log_odds[30, 59] == -5.0
+    assert grid.doubt_walls(*grid.frame.cell_to_world(30, 60), 0.5) == 0  # doubted already: no wall there now
+
+
+def test_the_walls_a_robot_cannot_see_are_doubted_and_those_it_sees_are_kept() -> None:
+    from atlas_rap.maps.inference import doubt_unseen_walls
+
+    grid = two_rooms(None)
+    grid.updated[...] = True
+    here = grid.frame.cell_to_world(30, 45)  # in the left room, 0.75 m from the wall between the rooms
+    assert doubt_unseen_walls(grid, here, RADIUS, 5.0) > 0
+    assert grid.updated[20:41, 60].all()  # the face of the wall between the rooms, in sight: kept
+    assert grid.updated[0, 30:60].all() and grid.updated[59, 30:60].all()  # the left room's own walls: kept
+    assert not grid.updated[20:41, 119].any()  # the right room's far wall, behind the one between: doubted
+    assert grid.probabilities()[30, 119] == pytest.approx(0.55, abs=1e-3)
+    assert grid.updated[30, 90]  # free cells are not doubted
+
+
 # -- building a map by driving round the default world ---------------------------------------
 
 WORLD = "lab-corridor-office"

@@ -78,7 +78,11 @@ def test_an_openable_closed_door_is_opened_by_the_open_the_door_method(tmp_path)
 
 
 NO_WAY = {"lab-corridor-office-blocked"}  # blocked on purpose (tests/test_layers.py checks it says so)
-PLACES = [(world, place) for world in shipped_worlds() if world not in NO_WAY for place in load_world(world).places]
+MAPPED_ONLY = {("lab-corridor-office-full-block", "storeroom"), ("lab-corridor-office-full-block", "office")}
+"""Places whose only way from the start is one the prior map does not hold: the full block's workshop is
+no place and has no doors, so only a robot that maps finds the way (tests/test_layers.py checks it does)."""
+PLACES = [(world, place) for world in shipped_worlds() if world not in NO_WAY for place in load_world(world).places
+          if (world, place) not in MAPPED_ONLY]
 
 
 @pytest.mark.parametrize("world, place", PLACES, ids=[f"{w}:{p}" for w, p in PLACES])

@@ -644,3 +644,30 @@ def test_shipped_worlds_start_the_robot_on_a_free_cell_of_their_maps() -> None:
     world = load_world("small-office-map")
     rosmap = load_ros_map(SMALL_OFFICE.parent / "maps" / "small-office-map.yaml")
     assert rosmap.label_at(*world.robot.start[:2]) == FREE
+
+
+# -- variants that cut openings and add walls ------------------------------------------------------
+
+
+def test_a_variant_cuts_openings_in_its_base_walls_and_adds_walls_of_its_own(tmp_path: Path) -> None:
+    (tmp_path / "rooms.yaml").write_text(ROOMS.lstrip("\n"))
+    (tmp_path / "variant.yaml").write_text(
+        "base: rooms.yaml\nname: rooms-opened\n"
+        "openings: [[6, 1, 6, 2], [0.5, 0, 1.5, 0]]\n"   # two gaps: the east wall and the south wall
+        "walls: [[[6, 1], [8, 1], [8, 2], [6, 2]]]\n")   # a closet beyond the east gap
+    base, world = load_world(tmp_path / "rooms.yaml"), load_world(tmp_path / "variant.yaml")
+    segments = {(s.a, s.b) for s in world.walls}
+    assert ((6.0, 0.0), (6.0, 1.0)) in segments and ((6.0, 2.0), (6.0, 4.0)) in segments
+    assert ((0.0, 0.0), (0.5, 0.0)) in segments and ((1.5, 0.0), (6.0, 0.0)) in segments
+    assert ((8.0, 1.0), (8.0, 2.0)) in segments
+    assert len(world.walls) == len(base.walls) + 2 + 3  # two walls cut in two, three walls added
+    assert world.bounds[2] == 8 + 1.0  # the added walls widen the box round the world
+    assert world.places == base.places and world.doors == base.doors
+
+
+def test_an_opening_along_no_wall_and_an_added_wall_through_a_place_are_refused(tmp_path: Path) -> None:
+    (tmp_path / "rooms.yaml").write_text(ROOMS.lstrip("\n"))
+    problems = problems_of(tmp_path, "base: rooms.yaml\nopenings: [[2, 2, 2.5, 2]]\nwalls: [[1.3, 1.9, 1.3, 2.1]]\n")
+    messages = [p.message for p in problems]
+    assert "the opening [2, 2, 2.5, 2] lies along no wall of rooms" in messages[0] and at(problems[0]) == (2, 12)
+    assert messages[1].startswith("this wall passes 0.20 m from the point of place 'office'") and at(problems[1]) == (3, 9)

@@ -25,6 +25,28 @@ class SeedSpec(click.ParamType):
             self.fail(str(exc), param, ctx)
 
 
+class ObstacleCases(click.ParamType):
+    """Cases of the obstacle scenario: ``all``, ``none`` or names, comma-separated; a tuple of them
+    in the order they run (empty for none)."""
+
+    name = "cases"
+
+    def convert(self, value, param, ctx):
+        from atlas_rap.views.experiment import OBSTACLE_CASE_KEYS
+
+        if isinstance(value, tuple):
+            return value
+        words = [word.strip().lower() for word in str(value).split(",") if word.strip()]
+        if words == ["all"]:
+            return OBSTACLE_CASE_KEYS
+        if words == ["none"]:
+            return ()
+        unknown = [word for word in words if word not in OBSTACLE_CASE_KEYS]
+        if unknown or not words:
+            self.fail(f"{value!r}: the cases are {', '.join(OBSTACLE_CASE_KEYS)} (or all, or none)", param, ctx)
+        return tuple(key for key in OBSTACLE_CASE_KEYS if key in words)
+
+
 @click.group("experiment")
 def experiment_group() -> None:
     """Reproduce the experiments of the seed papers."""
@@ -43,8 +65,9 @@ def experiment_group() -> None:
 @click.option("--world", "world", default="lab-corridor-office", show_default=True, metavar="W",
               help="The world of the runs: a shipped world's name or a world file, with places named lab and "
                    "office.")
-@click.option("--obstacles", "obstacles", default="lab-corridor-office-obstacles", show_default=True, metavar="W",
-              help="The world of the obstacle scenario, run on the last run's map ('none': skip it).")
+@click.option("--obstacles", "obstacles", type=ObstacleCases(), default="all", show_default=True, metavar="CASES",
+              help="The cases of the obstacle scenario (Fig. 13b) run on the last run's map, each from it: "
+                   "person, corridor-box and full-block ('all'), some of them comma-separated, or 'none'.")
 @click.option("--layer-rules", "layer_rules", type=click.Path(dir_okay=False, exists=True), metavar="RULES.rap",
               help="Memory rules that choose the primary layer (default: the shipped rap_library/layers.rap).")
 @click.option("--localisation", "localisation", type=click.Choice(["mcl", "odometry"]), default="mcl",
@@ -54,14 +77,17 @@ def experiment_group() -> None:
 @click.option("--out", "out_dir", required=True, type=OutputFolder(writes=lambda: _result_files()),
               help="Folder for the results and figures.")
 def skill_acquisition_command(runs: int, seeds: tuple[int, ...] | None, seed: int | None, jobs: int | None,
-                              world: str, obstacles: str, layer_rules: str | None, localisation: str,
+                              world: str, obstacles: tuple[str, ...], layer_rules: str | None, localisation: str,
                               out_dir: str) -> None:
     """The ATLAS paper's skill-acquisition experiment (seed 000 §5.2, Figs. 12 and 13), over seeds 0-9.
 
     A robot with no prior map drives from the lab to the office and back,
     RUNS times, carrying its occupancy grid from run to run: Layer IV maps
     while the map is poor, Layer II follows the route once it is good. Then
-    a person crosses its way and a box blocks it.
+    the obstacle scenario (Fig. 13b, --obstacles), each case an errand of
+    its own on the last run's map: a person crosses its way (Layer I, then
+    II), a box blocks one way (Layer III re-routes, then II), a block cuts
+    every way it knows (Layer IV remaps, then II).
 
     Each seed (--seeds, default 0-9) runs in a process of its own (--jobs at
     a time) into seed-N/ of the --out folder: figures.json, runs.csv, the
@@ -92,7 +118,7 @@ def skill_acquisition_command(runs: int, seeds: tuple[int, ...] | None, seed: in
         raise click.UsageError("--jobs: with --seed there is one seed to run; to run seeds side by side, give "
                                "them with --seeds")
     settings = Settings(world=world, runs=runs, seed=0 if seed is None else seed,
-                        obstacles=None if obstacles == "none" else obstacles, layer_rules=layer_rules,
+                        obstacles=obstacles or None, layer_rules=layer_rules,
                         localisation=localisation)
     if seed is not None:
         _one_seed(settings, out_dir)
@@ -113,7 +139,7 @@ def _one_seed(settings, out_dir: str) -> None:
     from atlas_rap.outputs import naming, write_all
 
     started = time.perf_counter()
-    steps = settings.runs + (settings.obstacles is not None)
+    steps = settings.runs + len(settings.obstacles or ())
     with Progress(transient=True, console=console(err=True)) as progress:
         bar = progress.add_task("skill acquisition", total=steps)
 
@@ -125,9 +151,8 @@ def _one_seed(settings, out_dir: str) -> None:
         with naming("--out"):
             data = skill_acquisition(out_dir, settings, progress=advance, finished=_say_run)
         progress.update(bar, completed=steps)
-    if "obstacles" in data:
-        switches = " → ".join(f"{entry['layer']} at {entry['t']:.1f} s" for entry in data["obstacles"]["timeline"])
-        click.echo(f"obstacles: {switches}")
+    for case in data.get("obstacles") or []:
+        _say_case(case)
     written: list = []
     failed = write_all({"--out": lambda: written.extend(write_results(data, out_dir))})
     for path in written:
@@ -195,6 +220,17 @@ def _say_run(run: dict) -> None:
                f"(optimal {run['optimal_s']:.1f} s); primary {layers}"
                + ("" if run["ok"] else f"; the errand failed ({run['ended_by']})"))
     sys.stdout.flush()  # each run as it ends, also through a pipe
+
+
+def _say_case(case: dict) -> None:
+    """The lines for a case of the obstacle scenario: the layers primary in turn against the seed's
+    order, then each switch."""
+    seen, expected = " → ".join(case["seen"]) or "no layer primary", " → ".join(case["expected"])
+    verdict = "as the seed orders" if case["as_expected"] else f"the seed orders {expected}"
+    failed = "" if case["ok"] else f"; the errand failed ({case['ended_by']})"
+    click.echo(f"obstacles, {case['case']}: {seen} ({verdict}){failed}")
+    switches = " → ".join(f"{entry['layer']} at {entry['t']:.1f} s" for entry in case["timeline"])
+    click.echo(f"  {case['world']}: {switches}")
 
 
 def _say_seed(one: dict) -> None:

@@ -95,7 +95,7 @@ class OutputFolder(click.ParamType):
         return str(output_folder(value, _option(param)))
 
 
-INPUT_NAMES = ("world", "obstacles")
+INPUT_NAMES = ("world",)
 """Options that take a shipped world's name or a file: an input when they name a file."""
 
 

@@ -24,7 +24,10 @@ The slowest layer. At its period it
   unknown: ``(no-route)`` and a reason that says so. (When Layer II or III
   has no route on the known map, the stack asserts ``(no-route)`` too, and
   the rules hand the drive to Layer IV, which explores; it holds until the
-  robot is sent somewhere else.)
+  robot is sent somewhere else.) When a block Layer III assessed cut every
+  known way, Layer IV first remaps: it doubts the walls it remembers within
+  sonar range but cannot see from where the robot is
+  (:meth:`StrategicLayer._remap`), plans through them and maps what it finds.
 
 The grid can be carried from run to run (``atlas run --map-in/--map-out``).
 """
@@ -37,7 +40,7 @@ import numpy as np
 
 from atlas_rap.layers.layer import Layer, LayerStack
 from atlas_rap.layers.route_geometry import distance_to_polyline, echo_points
-from atlas_rap.logic import Compound
+from atlas_rap.logic import Compound, Var
 from atlas_rap.model import Point
 from atlas_rap.skills.beliefs import GOAL, GRID, POSE, POSES, SONAR, SPEED_LIMIT, PlannedRoute
 
@@ -160,6 +163,7 @@ class StrategicLayer(Layer):
             current = stack.beliefs.get(GOAL)
             if self.no_route_goal is None:
                 self.no_route_goal = current.place if current is not None else goal
+                self._remap()
             elif goal != self.no_route_goal:  # sent somewhere else: the way there is not known to be cut
                 stack.post(self, [("retract", Compound("no-route", ()))])
                 self.no_route_goal = None
@@ -170,6 +174,22 @@ class StrategicLayer(Layer):
             return (f"no way to {goal} on the occupancy grid, not even through its unknown part: "
                     f"every way is blocked")
         return PlannedRoute(self.path.waypoints, {}, self.name)
+
+    def _remap(self) -> None:
+        """Every known way cut by a block Layer III assessed (``(route-blocked A B)``): the map is out
+        of date round here (seed §5.2: Layer IV "rebuild[s] a new OG map"). The walls it remembers
+        within sonar range that the robot cannot see from where it is become doubtful
+        (:func:`~atlas_rap.maps.inference.doubt_unseen_walls`): the planner tries the ways they may
+        leave, and the sonar decides as the robot goes (Layer IV maps)."""
+        from atlas_rap.maps.inference import doubt_unseen_walls
+
+        stack = self.stack
+        pose = stack.beliefs.get(POSE)
+        blocked = Compound("route-blocked", (Var("a"), Var("b")))
+        if stack.prior_map or pose is None or next(stack.sequencer.memory.facts(blocked), None) is None:
+            return
+        doubt_unseen_walls(stack.beliefs[GRID], pose[:2], stack.robot_radius, self.sonar.max_range)
+        stack.grid_version += 1
 
 
 GRID_RESOLUTION = 0.05

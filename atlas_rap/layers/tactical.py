@@ -11,20 +11,31 @@ Two jobs (seed Table 1 and §5.2):
   :data:`~atlas_rap.skills.beliefs.TOPOLOGY` belief, and what it connects
   is RAP memory: ``(connected lab corridor)`` (both ways), retracted when a
   newer map no longer joins them.
-- **Assessment when primary.** The rules make Layer III primary when
-  something has stood in the robot's way for long (``(obstacle
-  long-lived)``. It fuses the last few sonar rings into the grid (so the
+- **Assessment of a block.** When something has stood in the robot's way
+  for long (Layer I's ``(obstacle long-lived)`` and the
+  :data:`~atlas_rap.skills.beliefs.OBSTACLE` belief), Layer III assesses it
+  at its next tick, whichever layer is primary (situation assessment is its
+  job, seed Table 1). It fuses the last few sonar rings into the grid (so the
   obstacle is on the map even when mapping is off), forgets what an older
   map said lies just behind the obstacle's face (unknown, so no route goes
-  through its unseen side), rebuilds the topology,
-  finds the stretch of the route the obstacle blocks (from the place the
-  robot is in to the next place the route was to reach), asserts
-  ``(route-blocked A B)`` and re-routes round it. With a prior map (places
-  and doors, no grid) it leaves the route's next door out when the obstacle
-  is near it and another way exists; else the route stands and the motion
-  skills steer round the obstacle. If a route remains, it asserts ``(rerouted A B)`` (the
-  rules hand back to Layer II, which follows the new route); if none does,
+  through its unseen side), rebuilds the topology, finds the stretch of the
+  route the obstacle blocks (from the place the robot is in to the next
+  place the route was to reach) and asserts ``(route-blocked A B)``. With a
+  prior map (places and doors, no grid) it leaves the route's next door out
+  when the obstacle is near it or on the way to it and another way exists;
+  else the route stands and the motion skills steer round the obstacle. Then the seed's
+  two cases (§5.2): a way round on what it knows, ``(way-round A B)`` (the
+  rules make Layer III primary: it drives the new route), or none,
   ``(no-route)`` (the rules hand over to Layer IV, which remaps).
+- **Re-routing.** Primary for a way round, it selects the new route at its
+  next tick (one tactical period after it took over: ``navigate-to`` asks
+  again) and asserts ``(rerouted A B)``; the rules hand back to Layer II.
+  After a block cut every known way, Layer IV remaps and drives the robot
+  to the goal it was cut from, mapping the way it finds; meanwhile Layer III
+  rebuilds the topology at each of its ticks when the grid changed once the
+  robot is sent on, and as soon as the rebuilt map has a route there it
+  asserts ``(remapped A B)`` and retracts ``(no-route)``: the new way is on
+  the map, and Layer II follows it.
 
 A block stays for the rest of the run.
 """
@@ -37,7 +48,7 @@ import numpy as np
 
 from atlas_rap.layers.layer import Layer
 from atlas_rap.layers.operational import route_on_maps
-from atlas_rap.layers.route_geometry import echo_points
+from atlas_rap.layers.route_geometry import distance_to_polyline, echo_points
 from atlas_rap.logic import Compound
 from atlas_rap.model import Point
 from atlas_rap.skills.beliefs import CLOSED_DOORS, GOAL, GRID, OBSTACLE, POSE, ROUTE, TOPOLOGY, PlannedRoute
@@ -52,6 +63,9 @@ NEAR_OBSTACLE = 1.0
 DOOR_BLOCK = 2.0
 """Metres from the next door of a route within which an obstacle blocks that door (prior map)."""
 
+ON_THE_WAY = 0.5
+"""Metres from the route to its next door within which an obstacle blocks the way to that door (prior map)."""
+
 
 class TacticalLayer(Layer):
     """Layer III; see the module docstring."""
@@ -65,19 +79,31 @@ class TacticalLayer(Layer):
         self.built_at = -math.inf
         self.connected: set[tuple[str, str]] = set()
         self.assessed: Point | None = None
+        self.blocked: tuple[str, str] | None = None  # the stretch of the last block assessed
+        self.rerouting = False  # a way round was found: select it once primary
+        self.awaiting_way: str | None = None  # no way round to this goal: Layer IV remaps and drives there
         if not self.stack.prior_map and self.stack.beliefs.get(GRID) is not None:
             self.rebuild(0.0)  # a map carried from an earlier run (--map-in): its topology from the start
 
     def tick(self, now: float) -> None:
         stack = self.stack
+        goal = stack.beliefs.get(GOAL)
+        looking = self.awaiting_way is not None and goal is not None and goal.place != self.awaiting_way
         if not stack.prior_map and stack.beliefs.get(GRID) is not None and stack.grid_version != self.built_version:
-            if now - self.built_at >= stack.setting("topology-every", 10.0) or stack.primary in ("II", "III"):
+            if now - self.built_at >= stack.setting("topology-every", 10.0) or stack.primary in ("II", "III") \
+                    or looking:
                 self.rebuild(now)
-        if stack.primary == "III":
-            obstacle = stack.beliefs.get(OBSTACLE)
-            if obstacle is not None and obstacle != self.assessed:
-                self.assessed = obstacle
-                self.assess(obstacle)
+                if looking:
+                    self._look_for_a_way()
+        if self.rerouting and stack.primary == "III":
+            self.rerouting = False
+            stack.replanned()
+            stack.post(self, [("assert", _fact("rerouted", *self.blocked))])
+            return
+        obstacle = stack.beliefs.get(OBSTACLE)
+        if obstacle is not None and obstacle != self.assessed and stack.holds("obstacle", "long-lived"):
+            self.assessed = obstacle
+            self.assess(obstacle)
 
     def rebuild(self, now: float) -> None:
         """The topology of the grid as it is now, its places named; ``connected`` facts follow it."""
@@ -111,8 +137,9 @@ class TacticalLayer(Layer):
             stack.replanned()
 
     def assess(self, obstacle: Point) -> None:
-        """The obstacle blocks an edge: update the map with what the sonar sees now, say which
-        edge is blocked, and re-route round it (or say there is no way)."""
+        """The obstacle blocks a stretch of the route: update the map with what the sonar sees
+        now, say which stretch is blocked, and whether there is a way round it on what the
+        robot knows (``(way-round A B)``) or none (``(no-route)``)."""
         stack = self.stack
         grid = stack.beliefs.get(GRID)
         monitor = stack.layers.get("I")
@@ -123,7 +150,7 @@ class TacticalLayer(Layer):
             self._forget_behind(grid, obstacle, monitor.recent)
             stack.grid_version += 1
             self.rebuild(stack.sequencer.now())
-        a, b = self._edge_at(obstacle)
+        a, b = self.blocked = self._edge_at(obstacle)
         if grid is None or stack.prior_map:  # on a grid built from sonar the obstacle is on the map now
             stack.blocks.append(obstacle)
         stack.post(self, [("assert", _fact("route-blocked", a, b))])
@@ -140,20 +167,44 @@ class TacticalLayer(Layer):
             stack.blocked_doors.discard(door)  # the only way is past it: keep the route, steer round the obstacle
             answer = self.route(goal.place, pose[:2], closed)
         if isinstance(answer, PlannedRoute):
-            stack.replanned()
-            stack.post(self, [("assert", _fact("rerouted", a, b))])
+            self.rerouting = True
+            stack.post(self, [("assert", _fact("way-round", a, b))])
         else:
+            self.awaiting_way = None if stack.prior_map else goal.place
             stack.post(self, [("assert", _fact("no-route"))])
 
+    def _look_for_a_way(self) -> None:
+        """After Layer IV has remapped its way round a block to the goal it was cut from: a
+        route on the rebuilt map to where the robot is sent next hands the drive back
+        (``(remapped A B)`` for the block's stretch; ``(no-route)`` no longer holds). Until
+        the robot is there, the way it is driving is being mapped: Layer IV keeps it."""
+        stack = self.stack
+        goal, pose = stack.beliefs.get(GOAL), stack.beliefs.get(POSE)
+        if goal is None or pose is None or stack.primary != "IV":
+            return
+        closed = stack.beliefs.get(CLOSED_DOORS) or set()
+        if not isinstance(self.route(goal.place, pose[:2], closed), PlannedRoute):
+            return
+        self.awaiting_way = None
+        changes = [("retract", _fact("no-route"))] if stack.holds("no-route") else []
+        stack.post(self, changes + [("assert", _fact("remapped", *self.blocked))])
+
     def _door_ahead(self, obstacle: Point) -> str | None:
-        """On the prior map: the next door of the route, if the obstacle is near it (it blocks the way in)."""
+        """On the prior map: the next door of the route, if the obstacle is near it (it blocks the way
+        in) or on the stretch of the route that leads to it (it blocks the way there)."""
         route = self.stack.beliefs.get(ROUTE)
         if route is None:
             return None
         ahead = [(index, door) for door, index in route.doors.items() if index >= route.index - 1]
         doors = self.stack.world.doors
-        for _, door in sorted(ahead):
-            return door if math.dist(doors[door].center, obstacle) < DOOR_BLOCK else None
+        for index, door in sorted(ahead):
+            if math.dist(doors[door].center, obstacle) < DOOR_BLOCK:
+                return door
+            pose = self.stack.beliefs.get(POSE)
+            leg = ([pose[:2]] if pose is not None else []) + list(route.waypoints[max(route.index, 0):index + 1])
+            if len(leg) >= 2 and distance_to_polyline(np.asarray([obstacle]), np.asarray(leg))[0] < ON_THE_WAY:
+                return door
+            return None
         return None
 
     def _forget_behind(self, grid, obstacle: Point, rings) -> None:

@@ -511,6 +511,27 @@ class OccupancyGrid:
         cells[disc] = np.minimum(cells[disc], cap)
         self._updated[window] |= disc
 
+    def doubt_walls(self, x: float, y: float, radius: float, p: float = 0.55,
+                    keep: np.ndarray | None = None) -> int:
+        """The cells within ``radius`` of (x, y) that the grid believes occupied, but for those
+        ``keep`` marks (a mask over the grid: the walls the robot sees from where it is), become
+        doubtful: not counted as seen (:attr:`updated` False: unknown to a planner until the sonar
+        sees them again), with at most P(occ) = ``p``, a weak memory (an echo from there is still
+        explained; a few readings decide). For a robot whose known way has been cut: a wall it
+        remembers there, and cannot see from where it is, may have gone. The cells doubted."""
+        found = self.frame.disc(x, y, radius)
+        if found is None:
+            return 0
+        window, disc = found
+        cap = np.float32(math.log(p / (1 - p)))
+        cells = self._log_odds[window]
+        walls = disc & (cells > cap)
+        if keep is not None:
+            walls &= ~keep[window]
+        cells[walls] = cap
+        self._updated[window] &= ~walls
+        return int(walls.sum())
+
     def _gather(self, tpl: _Templates, angle_bin: np.ndarray, start: np.ndarray, stop: np.ndarray,
                 base: np.ndarray, key_base: np.ndarray, row: np.ndarray, col: np.ndarray,
                 inside: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

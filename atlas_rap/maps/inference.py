@@ -34,7 +34,7 @@ from scipy import ndimage
 
 from atlas_rap.maps.grid import OccupancyGrid
 
-__all__ = ["InferenceGrid", "explored_quality", "explored_region"]
+__all__ = ["InferenceGrid", "doubt_unseen_walls", "explored_quality", "explored_region"]
 
 
 def _disk(radius_cells: int) -> np.ndarray:
@@ -195,3 +195,20 @@ def explored_region(grid: OccupancyGrid, frontier: float = 0.5, goals: Iterable[
 def explored_quality(grid: OccupancyGrid, frontier: float = 0.5, goals: Iterable[Sequence[float]] = ()) -> float:
     """1 - mean entropy over :func:`explored_region`: the map quality the ATLAS layers switch on."""
     return grid.quality(explored_region(grid, frontier, goals))
+
+
+def doubt_unseen_walls(grid: OccupancyGrid, robot_xy: Sequence[float], robot_radius: float,
+                       sensor_range: float) -> int:
+    """Doubt the walls the robot remembers round it but cannot see from where it is.
+
+    The cells within sensor reach (``robot_radius + sensor_range``) of ``robot_xy``
+    that ``grid`` believes occupied and that are not
+    :attr:`InferenceGrid.observable` from there (behind other walls, or behind an
+    obstacle) become doubtful (:meth:`~atlas_rap.maps.grid.OccupancyGrid.doubt_walls`):
+    unknown to a planner until the sonar sees them again. The walls the robot
+    sees keep what the grid knows of them. For a robot whose every known way
+    has been cut (seed §5.2, Layer IV remaps): a way may have opened where it
+    cannot look. The cells doubted.
+    """
+    seen = InferenceGrid(grid, robot_xy, robot_radius, sensor_range).observable
+    return grid.doubt_walls(float(robot_xy[0]), float(robot_xy[1]), robot_radius + sensor_range, keep=seen)

@@ -58,7 +58,8 @@ MODES = ("trinary", "scale", "raw")
 FREE, OCCUPIED, UNKNOWN = 0, 100, -1
 # The top-level keys of a world file (atlas_rap.sim.world) that no map YAML has: a YAML with
 # one of them and no image is a world given where a map was wanted.
-WORLD_KEYS = ("walls", "polygons", "map", "places", "doors", "disturbances", "robot", "sonar", "base", "objects")
+WORLD_KEYS = ("walls", "polygons", "map", "places", "doors", "disturbances", "robot", "sonar", "base", "objects",
+              "openings")
 MAP_NEEDS = ("image: the PGM or PNG beside it, resolution: metres per pixel, origin: [x, y, yaw], "
              "occupied_thresh: and free_thresh: (usually 0.65 and 0.196)")
 

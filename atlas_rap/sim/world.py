@@ -62,13 +62,23 @@ a person or a closed door leaf is where the robot would land.
 
 A *variant* of a world changes only its doors, its disturbances, its
 objects and its robot's odometry noise and teleports (a ``disturbances``,
-``objects`` or ``robot.teleports`` list replaces the base's)::
+``objects`` or ``robot.teleports`` list replaces the base's), and may cut
+openings in the base's walls and add walls of its own::
 
     base: lab-corridor-office          # a shipped world, or a path relative to this file
     name: lab-corridor-office-door-closed
     doors:
       office-door: {open: false}       # open, openable, schedule may be changed
     robot: {odometry_noise: off}       # odometry_noise, odometry_drift, teleports may be changed
+    openings:                          # gaps cut in the base's walls: [x1, y1, x2, y2] along a wall
+      - [8, 1.5, 8, 2.5]
+    walls:                             # walls added to the base's (as ``walls`` above)
+      - [[8, 0], [13, 0], [13, 4]]
+
+An opening must lie along at least one of the base's walls (within
+:data:`OPENING_TOLERANCE`); every wall it lies along loses the stretch it
+covers. The added walls must keep clear of the place points, the robot's
+start and its teleport targets, as the base's walls must.
 
 What is checked, with every problem reported at its key's file:line:column:
 unknown keys (with the nearest known key as a hint), wrong types and
@@ -131,7 +141,7 @@ from atlas_rap.model import (
 
 TOP_KEYS = ("name", "description", "walls", "polygons", "map", "places", "doors", "disturbances", "objects",
             "robot", "sonar")
-VARIANT_KEYS = ("name", "description", "base", "doors", "disturbances", "objects", "robot")
+VARIANT_KEYS = ("name", "description", "base", "doors", "disturbances", "objects", "robot", "openings", "walls")
 VARIANT_DOOR_KEYS = ("open", "openable", "schedule")
 VARIANT_ROBOT_KEYS = ("odometry_noise", "odometry_drift", "teleports")
 PLACE_KEYS = ("point", "region", "radius")
@@ -155,6 +165,8 @@ WALL_CLEARANCE_MARGIN = 0.15  # a place point must be this much more than the ro
 FREE_POINT_SEARCH = 5.0  # metres around a bad start searched for a free point to suggest (worlds without a map)
 FREE_POINT_STEP = 0.05
 BOUNDS_MARGIN = 1.0
+OPENING_TOLERANCE = 1e-6
+"""Metres from a wall's line within which an opening's ends lie along the wall."""
 NAME_PATTERN = re.compile(r"[a-z][a-z0-9_-]*\Z")
 
 
@@ -253,7 +265,8 @@ class _WorldReader:
         schedule) and, if given, other disturbances (the list replaces the base's)."""
         src = self.src
         top = src.keys(src.root, "", VARIANT_KEYS,
-                       what=" (a world variant: base, name, description, doors, disturbances, objects)")
+                       what=" (a world variant: base, name, description, doors, disturbances, objects, robot, "
+                                 "openings, walls)")
         src.check()
         assert top is not None
         base_node = top["base"][1]
@@ -289,13 +302,53 @@ class _WorldReader:
                 continue
             if all(v is not None for v in changes.values()):
                 doors[name] = replace(door, **changes)
+        walls = world.walls
+        if "openings" in top or "walls" in top:
+            walls = self.variant_walls(top, world)
         disturbances = self.disturbances(top["disturbances"][1]) if "disturbances" in top else world.disturbances
-        objects = self.objects(top["objects"][1], world.places, doors, world.walls) \
+        objects = self.objects(top["objects"][1], world.places, doors, walls) \
             if "objects" in top else world.objects
         name = src.string(top["name"][1], "name") if "name" in top else self.path.stem
         src.check()
-        return replace(world, name=name or self.path.stem, doors=doors, disturbances=disturbances, objects=objects,
-                       robot=robot, bounds=_bounds(world.walls, world.places, robot), source=src.file)
+        return replace(world, name=name or self.path.stem, walls=walls, doors=doors, disturbances=disturbances,
+                       objects=objects, robot=robot, bounds=_bounds(walls, world.places, robot), source=src.file)
+
+    def variant_walls(self, top: dict[str, tuple[Node, Node]], world: World) -> tuple[Segment, ...]:
+        """The base's walls with the variant's ``openings`` cut out and its ``walls`` added; the
+        added walls checked against the places, the start and the teleports (problems reported
+        at this file's keys)."""
+        src = self.src
+        walls = list(world.walls)
+        node = top["openings"][1] if "openings" in top else None
+        for i, item in enumerate(src.items(node, "openings", "each opening is [x1, y1, x2, y2] along a wall") or []
+                                 if _given(node) else []):
+            values = src.numbers(item, f"openings[{i}]", (4,), "[x1, y1, x2, y2]")
+            if values is None:
+                continue
+            opening = Segment((values[0], values[1]), (values[2], values[3]))
+            if opening.length == 0:
+                src.error(item, "this opening has no length (its ends are the same point)")
+                continue
+            cut = [piece for wall in walls for piece in _cut(wall, opening)]
+            if len(cut) == len(walls) and all(a == b for a, b in zip(cut, walls)):
+                src.error(item, f"the opening {_segment_text(opening)} lies along no wall of {world.name}",
+                          "give the two ends of the gap on a wall's line")
+                continue
+            walls = cut
+        self.wall_nodes = []
+        added = self.walls(top["walls"][1], None) if "walls" in top else []
+        walls = tuple(walls) + tuple(added)
+        robot = world.robot
+        need = robot.radius + WALL_CLEARANCE_MARGIN
+        points = [(f"the point of place '{name}'", place.point, need) for name, place in world.places.items()]
+        points += [("the robot's start", robot.start[:2], robot.radius)]
+        points += [(f"robot.teleports[{i}].to", t.to[:2], robot.radius) for i, t in enumerate(robot.teleports)]
+        for segment, wall_node in self.wall_nodes:  # an opening only makes room: the added walls are checked
+            for what, point, room in points:
+                gap = nearest_wall([segment], point)[0]
+                if gap < room:
+                    src.error(wall_node, f"this wall passes {gap:.2f} m from {what}; the robot needs {room:.2f} m")
+        return walls
 
     def _base_world(self, node: Node, name: str, target: str) -> World:
         """The world a variant is based on, read and checked as any world; its problems are raised located."""
@@ -958,6 +1011,33 @@ def _ring_points(center: Point, reach: float, step: float) -> list[Point]:
         angles = (2 * math.pi * i / count for i in range(count))
         found += [(center[0] + r * math.cos(a), center[1] + r * math.sin(a)) for a in angles]
     return found
+
+
+def _cut(wall: Segment, opening: Segment) -> list[Segment]:
+    """``wall`` without the stretch ``opening`` covers: the wall itself when the opening does not lie
+    along it (both ends on its line, within :data:`OPENING_TOLERANCE`), else the pieces left (0-2)."""
+    (ax, ay), (bx, by) = wall.a, wall.b
+    length = wall.length
+    if length == 0:
+        return [wall]
+    ux, uy = (bx - ax) / length, (by - ay) / length
+
+    def along(point: Point) -> float | None:
+        dx, dy = point[0] - ax, point[1] - ay
+        return dx * ux + dy * uy if abs(dx * uy - dy * ux) <= OPENING_TOLERANCE else None
+
+    s, t = along(opening.a), along(opening.b)
+    if s is None or t is None:
+        return [wall]
+    s, t = sorted((s, t))
+    if t <= 0 or s >= length:
+        return [wall]
+    pieces = []
+    if s > 0:
+        pieces.append(Segment(wall.a, (ax + ux * s, ay + uy * s)))
+    if t < length:
+        pieces.append(Segment((ax + ux * t, ay + uy * t), wall.b))
+    return pieces
 
 
 def _looks_like_path(text: str) -> bool:

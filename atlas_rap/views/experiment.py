@@ -13,9 +13,15 @@ while the map is poor; once the rules find it good enough, mapping stops and
 Layer II follows the route, and the runs get close to the optimal time: the
 shortest collision-free route on the true map at the robot's top speed.
 
-Then the obstacle scenario, on the map of the last run: a person crosses
-the corridor (short-lived: Layer I stops the robot, Layer II goes on), then
-a box blocks the way (long-lived: Layer III re-routes and hands back to II).
+Then the obstacle scenario (Fig. 13b), three cases, each its own errand
+on the map of the last run (:data:`OBSTACLE_CASES`), each with its
+obstacles on the way the robot takes: a person crosses the corridor
+(short-lived: Layer I stops the robot, Layer II goes on); a box blocks one
+way (long-lived: Layer III re-routes on its topology and hands back to II);
+a block cuts every way the robot knows (Layer IV remaps and finds a way
+through a workshop it has never mapped, then II follows it). Each case
+says the layers that were primary in turn (``"seen"``) beside the order
+the seed's §5.2 describes (``"expected"``).
 
 :func:`skill_acquisition` returns the ``figures.json`` structure
 (:mod:`atlas_rap.views.figures` draws it); :func:`write_results` writes it
@@ -36,7 +42,7 @@ from typing import Any
 
 from atlas_rap.layers.engine import MissionEngine
 from atlas_rap.layers.system import RunOptions
-from atlas_rap.layers.layer import LayerStack
+from atlas_rap.layers.layer import LayerStack, timeline_spans
 from atlas_rap.views.figures import (
     FIGURE_FILES,
     plot_durations,
@@ -60,14 +66,62 @@ ERRAND = """;;; The seed's errand: from the lab to the office, and back (atlas e
 (post (errand))
 """
 
-OBSTACLE_WORLD = "lab-corridor-office-obstacles"
-"""The world of the obstacle scenario: the lab, corridor and office with a person and a box."""
+PERSON_WORLD = "lab-corridor-office-person"
+"""Fig. 13(b), short-lived: a person crosses the corridor just past the lab door as the robot comes."""
+
+CORRIDOR_BOX_WORLD = "lab-corridor-office-corridor-box"
+"""Fig. 13(b), one way blocked: a box fills the corridor on the way by the office door; the way
+through the storeroom is open."""
+
+STOREROOM_BOX_WORLD = "lab-corridor-office-storeroom-box"
+"""Fig. 13(b), one way blocked, for a robot whose way goes through the storeroom: a box in the
+storeroom's doorway; the way by the office door is open."""
+
+FULL_BLOCK_WORLD = "lab-corridor-office-full-block"
+"""Fig. 13(b), every known way cut: a block across the corridor past the lab door, and a way round
+through a workshop the robot has never mapped."""
+
+
+@dataclass(frozen=True)
+class ObstacleCase:
+    """One case of the obstacle scenario (Fig. 13b): an errand in ``world`` on the last run's map.
+
+    ``expected`` is the order of primary layers the seed (000 §5.2) describes for it, with the
+    stop of Layer I, which acts first on anything in the robot's way, before the layer that deals
+    with what stays (whether it stays is known only after ``long-lived-after`` seconds).
+    ``detours`` puts the obstacles on the way the robot takes: ``(place, world)`` pairs, the
+    world of the first place the last run passed through on its way to the goal, else ``world``.
+    """
+
+    key: str
+    title: str
+    expected: tuple[str, ...]
+    world: str
+    detours: tuple[tuple[str, str], ...] = ()
+
+    def world_for(self, places: list[str], goal: str) -> str:
+        """The world of this case for a robot whose last run passed ``places`` in turn."""
+        outward = places[:places.index(goal)] if goal in places else places
+        return next((world for place, world in self.detours if place in outward), self.world)
+
+
+OBSTACLE_CASES = (
+    ObstacleCase("person", "a person crosses: Layer I stops the robot, Layer II resumes",
+                 ("II", "I", "II"), PERSON_WORLD),
+    ObstacleCase("corridor-box", "a box blocks one way: Layer III re-routes, Layer II resumes",
+                 ("II", "I", "III", "II"), CORRIDOR_BOX_WORLD, (("storeroom", STOREROOM_BOX_WORLD),)),
+    ObstacleCase("full-block", "a block cuts every known way: Layer IV remaps, Layer II resumes",
+                 ("II", "I", "IV", "II"), FULL_BLOCK_WORLD),
+)
+"""The cases of the obstacle scenario, in the order they run."""
+
+OBSTACLE_CASE_KEYS = tuple(case.key for case in OBSTACLE_CASES)
 
 RUN_LIMIT = 900.0
 """Simulated seconds one run may take."""
 
-RESULT_FILES = ("errand.rap", "figures.json", "runs.csv", "map-run*.npz", "map-obstacles.npz",
-                *FIGURE_FILES.values())
+RESULT_FILES = ("errand.rap", "figures.json", "runs.csv", "map-run*.npz",
+                *(f"map-{key}.npz" for key in OBSTACLE_CASE_KEYS), *FIGURE_FILES.values())
 """The files the experiment writes in its folder (glob patterns)."""
 
 
@@ -76,14 +130,15 @@ class Settings:
     """What the experiment runs: ``runs`` errands in ``world`` from ``home`` to ``goal`` and back.
     ``localisation`` is how the robot knows where it is (:class:`~atlas_rap.layers.system.RunOptions`):
     ``mcl``, its odometry corrected against the map it builds and carries, or ``odometry``, dead
-    reckoning alone, to compare."""
+    reckoning alone, to compare. ``obstacles``: the keys of the :data:`OBSTACLE_CASES` to run
+    after the runs (None: none)."""
 
     world: str = "lab-corridor-office"
     runs: int = 7
     seed: int = 0
     home: str = "lab"
     goal: str = "office"
-    obstacles: str | None = OBSTACLE_WORLD
+    obstacles: tuple[str, ...] | None = OBSTACLE_CASE_KEYS
     layer_rules: str | None = None
     localisation: str = "mcl"
 
@@ -132,6 +187,7 @@ def one_run(mission: Path, world: str, seed: int, map_in: Path | None, map_out: 
             "pose_rmse_m": round(errors.rmse, 3) if errors is not None else 0.0,
             "duration_s": round(result.time, 2), "timeline": timeline, "start_s": 0.0, "end_s": round(result.time, 2),
             "primary_s": {k: round(v, 2) for k, v in stack.primary_seconds(result.time).items()},
+            "places": _places_passed(engine),
             "path_m": round(path, 2), "path_at_top_speed_s": round(path / engine.world.robot.max_speed, 2)}, stack
 
 
@@ -167,28 +223,43 @@ def skill_acquisition(out: str | Path, settings: Settings = Settings(),
             map_in = map_out
             if finished is not None:
                 finished(runs[-1])
-        if settings.obstacles is not None:
-            during = " in the obstacle scenario"
+        places = runs[-1]["places"] if runs else []
+        for case in _cases(settings.obstacles):
+            during = f" in the obstacle scenario ({case.key})"
             if progress is not None:
-                progress("obstacle scenario")
-            data["obstacles"] = obstacle_scenario(mission, settings, map_in, out, optimal)
+                progress(f"obstacles: {case.key}")
+            cases = data.setdefault("obstacles", [])
+            cases.append(obstacle_case(mission, settings, case, places, map_in, out, optimal))
     except KeyboardInterrupt:
         data["complete"] = False
         data["incomplete"] = f"interrupted{during} after run {len(runs)} of {settings.runs}"
     return data
 
 
-def obstacle_scenario(mission: Path, settings: Settings, map_in: Path | None, out: Path,
-                      optimal: float) -> dict[str, Any]:
-    """The errand once more in the obstacle world, on the map the runs built."""
+def obstacle_case(mission: Path, settings: Settings, case: ObstacleCase, places: list[str],
+                  map_in: Path | None, out: Path, optimal: float) -> dict[str, Any]:
+    """One case of the obstacle scenario: the errand once more, on the map the runs built, in the
+    case's world for a robot that went by ``places`` (:meth:`ObstacleCase.world_for`); its figures
+    as :func:`one_run`'s, with the case, its title, the world, the events, the layers the seed
+    orders (``expected``) and those seen (``seen``), and whether they are the same."""
     from atlas_rap.sim.world import load_world
 
-    run, _ = one_run(mission, settings.obstacles, settings.seed, map_in, out / "map-obstacles.npz",
+    name = case.world_for(places, settings.goal)
+    run, _ = one_run(mission, name, settings.seed, map_in, out / f"map-{case.key}.npz",
                      settings.layer_rules, settings.localisation, (settings.goal, settings.home))
-    world = load_world(settings.obstacles)
+    world = load_world(name)
     events = [{"t": d.start, "what": f"{'a person starts to cross' if d.kind == 'person' else 'a box is put down'}"
                                     f" ({d.name})"} for d in world.disturbances]
-    return {**run, "optimal_s": optimal, "events": events}
+    seen = layer_order(run)
+    return {"case": case.key, "title": case.title, "world": name, "expected": list(case.expected), "seen": seen,
+            "as_expected": seen == list(case.expected), **run, "optimal_s": optimal, "events": events}
+
+
+def layer_order(run: dict[str, Any]) -> list[str]:
+    """The layers primary in turn over a run (``["II", "I", "II"]``): its timeline's spans, a layer
+    primary for no time left out and one primary twice in a row named once."""
+    length = float(run["end_s"]) - float(run.get("start_s") or 0.0)
+    return [layer for layer, _, _ in timeline_spans(run.get("timeline") or [], length)]
 
 
 def write_tables(data: Mapping[str, Any], out: Path, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> list[Path]:
@@ -213,7 +284,7 @@ def write_results(data: dict[str, Any], out: str | Path) -> list[Path]:
     written.append(plot_map_quality(data, out / FIGURE_FILES["map_quality"]))
     written.append(plot_durations(data, out / FIGURE_FILES["durations"]))
     written.append(plot_run_layers(data, out / FIGURE_FILES["run_layers"]))
-    if "obstacles" in data:
+    if data.get("obstacles"):
         written.append(plot_obstacle_layers(data, out / FIGURE_FILES["obstacle_layers"]))
     return written
 
@@ -230,12 +301,28 @@ def runs_csv_row(run: dict[str, Any]) -> list[Any]:
             run["duration_s"], run["optimal_s"], p["I"], p["II"], p["III"], p["IV"], run["ok"]]
 
 
+def _cases(keys: tuple[str, ...] | None) -> list[ObstacleCase]:
+    """The obstacle cases of ``keys``, in the order of :data:`OBSTACLE_CASES` (a RunError names an
+    unknown one)."""
+    from atlas_rap.errors import RunError
+
+    keys = tuple(keys or ())
+    unknown = [key for key in keys if key not in OBSTACLE_CASE_KEYS]
+    if unknown:
+        raise RunError(f"no obstacle case {', '.join(unknown)}: the cases are {', '.join(OBSTACLE_CASE_KEYS)}")
+    return [case for case in OBSTACLE_CASES if case.key in keys]
+
+
 def check_worlds(settings: Settings) -> None:
-    """Both worlds exist and have the errand's places (a RunError that says which is missing)."""
+    """The worlds of the runs and of the obstacle cases exist and have the errand's places (a RunError
+    that says which is missing); the obstacle cases are known."""
     from atlas_rap.errors import RunError
     from atlas_rap.sim.world import load_world
 
-    for name in (settings.world, settings.obstacles):
+    worlds = [settings.world]
+    for case in _cases(settings.obstacles):
+        worlds += [case.world, *(world for _, world in case.detours)]
+    for name in worlds:
         if name is None:
             continue
         if name == "none":
@@ -246,6 +333,17 @@ def check_worlds(settings: Settings) -> None:
             raise RunError(f"world {world.name} has no place named {' or '.join(missing)}: the errand goes "
                              f"from {settings.home} to {settings.goal} and back "
                              f"(its places: {', '.join(world.places) or 'none'})")
+
+
+def _places_passed(engine: MissionEngine) -> list[str]:
+    """The world's places the robot's true path went through, in turn (``["lab", "corridor",
+    "office", ...]``), each named once for each time the robot was in it."""
+    world, places = engine.world, []
+    for _, x, y, _ in engine.simulation.path:
+        place = world.place_at(x, y)
+        if place is not None and (not places or places[-1] != place):
+            places.append(place)
+    return places
 
 
 def _path_length(engine: MissionEngine) -> float:

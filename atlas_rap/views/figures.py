@@ -10,7 +10,8 @@ plain dict and draw each figure as a PNG:
 * :func:`plot_run_layers` -- Fig. 13(a), the primary layer across the runs,
   each run scaled into its own unit of the x axis;
 * :func:`plot_obstacle_layers` -- Fig. 13(b), the primary layer over the
-  obstacle scenario's simulated time, with its events;
+  obstacle scenario's simulated time, with its events: a panel per case
+  (person, corridor box, full block), stacked;
 * :func:`write_figures` -- all four into one folder.
 
 Over many seeds (``atlas_rap.views.experiment_seeds``: its ``figures.json``
@@ -36,7 +37,15 @@ Results marked incomplete (``"complete": false``: the experiment was
 stopped) say so above every figure's title, in red, with ``incomplete``'s
 text ("interrupted after run 3 of 7").
 
-Every figure is 800 × 450 px (8 × 4.5 in at 100 dpi), laid out tight.
+Over 25 KB on purpose: the figures of one experiment, for one seed and
+over many seeds, drawn with the same rows of layers, colours, titles and
+marks for an incomplete run (the pieces at the end), so that a layer looks
+the same in every figure; the figures over many seeds could move to a
+module of their own beside those pieces.
+
+Every figure is 800 × 450 px (8 × 4.5 in at 100 dpi), laid out tight;
+Fig. 13(b) of several obstacle cases is 260 px taller for each case after
+the first.
 matplotlib is imported inside the functions (``Figure`` + Agg canvas, no
 pyplot and no global state), so importing this module stays cheap. The
 same data give the same PNG bytes: no software version or date is
@@ -161,12 +170,47 @@ def plot_run_layers(data: Mapping[str, Any], path: str | Path) -> Path:
 
 
 def plot_obstacle_layers(data: Mapping[str, Any], path: str | Path) -> Path:
-    """Fig. 13(b): which layer was primary over the obstacle scenario, its events dotted; the PNG's path."""
-    scenario = data["obstacles"]
-    fig, ax = _figure(_title("Fig. 13(b) primary layer with obstacles", data), data)
-    duration = max(float(scenario["duration_s"]), 0.0)
-    _layer_rows(ax, timeline_spans(scenario.get("timeline") or [], duration), 0.0, duration)
-    events = sorted(scenario.get("events") or [], key=lambda event: float(event["t"]))
+    """Fig. 13(b): which layer was primary over each case of the obstacle scenario, its events
+    dotted; the PNG's path.
+
+    ``data["obstacles"]`` is one case (a dict) or a list of them (:func:`obstacle_cases`); each
+    case is a panel of its own, stacked in the order given, with its own time axis. A case's
+    panel is titled with its ``case`` and ``title`` when it has them, and says the layers seen
+    in turn (``seen``) and, when they differ, the seed's order (``expected``). One case is drawn
+    as every other figure (800 × 450 px); each further case adds :data:`_OBSTACLE_PANEL_INCHES`.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    cases = obstacle_cases(data)
+    if len(cases) <= 1:
+        fig, ax = _figure(_title("Fig. 13(b) primary layer with obstacles", data), data)
+        if cases:
+            _obstacle_panel(ax, cases[0])
+        return _save(fig, path)
+    height = SIZE_INCHES[1] + _OBSTACLE_PANEL_INCHES * (len(cases) - 1)
+    fig = Figure(figsize=(SIZE_INCHES[0], height), dpi=DPI, facecolor="white")
+    FigureCanvasAgg(fig)
+    fig.suptitle(_title("Fig. 13(b) primary layer with obstacles", data), fontsize=11, x=0.01, ha="left")
+    if data.get("complete") is False:
+        note = plain_text(f"incomplete: {data.get('incomplete') or 'the experiment stopped early'}")
+        fig.text(0.99, 1.0 - 0.1 / height, note, fontsize=10, color=_INCOMPLETE, ha="right", va="top")
+    for ax, case in zip(fig.subplots(len(cases), 1), cases):
+        _style_axes(ax)
+        _obstacle_panel(ax, case, _case_heading(case))
+    return _save(fig, path)
+
+
+_OBSTACLE_PANEL_INCHES = 2.6
+"""Inches of height each obstacle case after the first adds to Fig. 13(b)."""
+
+
+def _obstacle_panel(ax: Any, case: Mapping[str, Any], heading: str | None = None) -> None:
+    """One case of Fig. 13(b) on ``ax``: the layer rows over its simulated time, its events dotted
+    and labelled in a band above the rows; ``heading`` over the panel."""
+    duration = _case_length(case) if case.get("end_s") is not None else max(float(case["duration_s"]), 0.0)
+    _layer_rows(ax, timeline_spans(case.get("timeline") or [], duration), 0.0, duration)
+    events = sorted(case.get("events") or [], key=lambda event: float(event["t"]))
     label_top = len(LAYERS) + 0.5 + (0.75 if events else 0.0)  # a band above the rows for event labels
     for i, event in enumerate(events):
         t = float(event["t"])
@@ -177,7 +221,32 @@ def plot_obstacle_layers(data: Mapping[str, Any], path: str | Path) -> Path:
     ax.set_ylim(0.5, label_top)
     ax.set_xlim(0.0, duration if duration > 0 else 1.0)
     ax.set_xlabel("simulated time (s)")
-    return _save(fig, path)
+    if heading:
+        ax.set_title(heading, fontsize=9, loc="left")
+
+
+def _case_heading(case: Mapping[str, Any]) -> str:
+    """A case's panel heading: its name and title, then the layers seen in turn (and the seed's order
+    when they differ)."""
+    name = ": ".join(str(case[key]) for key in ("case", "title") if case.get(key))
+    seen, expected = case.get("seen"), case.get("expected")
+    order = ""
+    if seen is not None:
+        order = "seen " + (" \u2192 ".join(seen) or "none")
+        if expected is not None and list(expected) != list(seen):
+            order += "; the seed: " + " \u2192 ".join(expected)
+        elif expected is not None:
+            order += ", as the seed"
+    return plain_text("\n".join(part for part in (name, order) if part))
+
+
+def _style_axes(ax: Any) -> None:
+    """The grid, tick labels and spines every figure's axes have (as :func:`_figure` gives them)."""
+    ax.grid(True, color=_GRID, linewidth=0.6, zorder=0)
+    ax.set_axisbelow(True)
+    ax.tick_params(labelsize=9)
+    for spine in ax.spines.values():
+        spine.set_color("#999999")
 
 
 def write_figures(data: Mapping[str, Any], out_dir: str | Path) -> list[Path]:
