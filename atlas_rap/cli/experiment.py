@@ -83,7 +83,10 @@ def skill_acquisition_command(runs: int, seeds: tuple[int, ...] | None, seed: in
 
     A robot with no prior map drives from the lab to the office and back,
     RUNS times, carrying its occupancy grid from run to run: Layer IV maps
-    while the map is poor, Layer II follows the route once it is good. Then
+    while the map is poor, Layer II follows the route once it is good (the
+    map quality: 1 - mean entropy over the area the errand needs, fixed
+    before the first run: the free space near its shortest routes, the
+    rooms they pass and their walls). Then
     the obstacle scenario (Fig. 13b, --obstacles), each case an errand of
     its own on the last run's map: a person crosses its way (Layer I, then
     II), a box blocks one way (Layer III re-routes, then II), a block cuts
