@@ -342,8 +342,8 @@ def plot_obstacle_seeds(data: Mapping[str, Any], path: str | Path, case: str | N
 
     rows = [(seed, obstacle_case(one, case)) for seed, one in _seeds_data(data)]
     title = next((str(found["title"]) for _, found in rows if found is not None and found.get("title")), case)
-    fig, ax = _figure(_title("Fig. 13(b) primary layer with obstacles" + (f": {title}" if title else ""), data),
-                      data)
+    heading = _title("Fig. 13(b) primary layer with obstacles", data)
+    fig, ax = _figure(heading + (f"\n{plain_text(title)}" if title else ""), data)  # the case on a line of its own
     ends = [_case_length(found) for _, found in rows if found is not None]
     duration = max(ends + [0.0])
     for i, (seed, found) in enumerate(rows):  # the first seed at the top
