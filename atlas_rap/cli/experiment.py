@@ -167,7 +167,6 @@ def _one_seed(settings, out_dir: str) -> None:
 def _many_seeds(settings, seeds: tuple[int, ...], jobs: int | None, out_dir: str) -> None:
     """``--seeds`` (and the default): each seed in its own process into ``seed-N/``, then the results
     over all seeds in ``out_dir``."""
-    import os
     import time
     from pathlib import Path
 
@@ -175,11 +174,16 @@ def _many_seeds(settings, seeds: tuple[int, ...], jobs: int | None, out_dir: str
 
     from atlas_rap.cli.console import console
     from atlas_rap.outputs import naming, write_all
-    from atlas_rap.views.experiment_seeds import SEED_FOLDER, skill_acquisition_seeds, write_seeds_results
+    from atlas_rap.views.experiment_seeds import (
+        SEED_FOLDER,
+        skill_acquisition_seeds,
+        worker_count,
+        write_seeds_results,
+    )
     from atlas_rap.views.seed_spec import seeds_text
 
     started = time.perf_counter()
-    workers = min(jobs or os.cpu_count() or 1, len(seeds))
+    workers = worker_count(jobs, seeds)
     with Progress(transient=True, console=console(err=True)) as progress:
         bar = progress.add_task(f"skill acquisition, {seeds_text(seeds)}", total=len(seeds))
 

@@ -149,9 +149,9 @@ def errand_area_of(options: RunOptions, world: World, grid: OccupancyGrid | None
     if not options.errand:
         return None
     from atlas_rap.maps.errand_area import errand_area
-    from atlas_rap.maps.grid import OccupancyGrid
+    from atlas_rap.maps.frame import GridFrame
 
-    frame = grid.frame if grid is not None else OccupancyGrid.covering(world.bounds, GRID_RESOLUTION).frame
+    frame = grid.frame if grid is not None else GridFrame.covering(world.bounds, GRID_RESOLUTION)  # Layer IV's new grid's
     try:
         return errand_area(world, frame, options.errand)
     except ValueError as exc:

@@ -196,16 +196,15 @@ class TacticalLayer(Layer):
         if route is None:
             return None
         ahead = [(index, door) for door, index in route.doors.items() if index >= route.index - 1]
-        doors = self.stack.world.doors
-        for index, door in sorted(ahead):
-            if math.dist(doors[door].center, obstacle) < DOOR_BLOCK:
-                return door
-            pose = self.stack.beliefs.get(POSE)
-            leg = ([pose[:2]] if pose is not None else []) + list(route.waypoints[max(route.index, 0):index + 1])
-            if len(leg) >= 2 and distance_to_polyline(np.asarray([obstacle]), np.asarray(leg))[0] < ON_THE_WAY:
-                return door
+        if not ahead:
             return None
-        return None
+        index, door = min(ahead)
+        if math.dist(self.stack.world.doors[door].center, obstacle) < DOOR_BLOCK:
+            return door
+        pose = self.stack.beliefs.get(POSE)
+        leg = ([pose[:2]] if pose is not None else []) + list(route.waypoints[max(route.index, 0):index + 1])
+        on_the_way = len(leg) >= 2 and distance_to_polyline(np.asarray([obstacle]), np.asarray(leg))[0] < ON_THE_WAY
+        return door if on_the_way else None
 
     def _forget_behind(self, grid, obstacle: Point, rings) -> None:
         """What lies behind an obstacle's face is not known any more: the cells up to

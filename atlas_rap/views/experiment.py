@@ -258,9 +258,9 @@ def obstacle_case(mission: Path, settings: Settings, case: ObstacleCase, places:
             "as_expected": seen == list(case.expected), **run, "optimal_s": optimal, "events": events}
 
 
-def layer_order(run: dict[str, Any]) -> list[str]:
-    """The layers primary in turn over a run (``["II", "I", "II"]``): its timeline's spans, a layer
-    primary for no time left out and one primary twice in a row named once."""
+def layer_order(run: Mapping[str, Any]) -> list[str]:
+    """The layers primary in turn over a run or an obstacle case (``["II", "I", "II"]``): its
+    timeline's spans, a layer primary for no time left out and one primary twice in a row named once."""
     length = float(run["end_s"]) - float(run.get("start_s") or 0.0)
     return [layer for layer, _, _ in timeline_spans(run.get("timeline") or [], length)]
 
@@ -326,8 +326,6 @@ def check_worlds(settings: Settings) -> None:
     for case in _cases(settings.obstacles):
         worlds += [case.world, *(world for _, world in case.detours)]
     for name in worlds:
-        if name is None:
-            continue
         if name == "none":
             raise RunError("the experiment needs a world to drive in, not 'none'")
         world = load_world(name)

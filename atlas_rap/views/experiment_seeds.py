@@ -47,12 +47,12 @@ from typing import Any
 
 import numpy as np
 
-from atlas_rap.layers.layer import timeline_spans
 from atlas_rap.views.experiment import RESULT_FILES as SEED_RESULT_FILES
 from atlas_rap.views.experiment import (
     RUNS_CSV_COLUMNS,
     Settings,
     check_worlds,
+    layer_order,
     runs_csv_row,
     skill_acquisition,
     write_results,
@@ -67,9 +67,9 @@ from atlas_rap.views.figures import (
 )
 
 __all__ = [
-    "DEFAULT_SEEDS", "RESULT_FILES", "SEED_FOLDER", "after_crossing", "case_layers", "combine", "crossing_run",
+    "DEFAULT_SEEDS", "RESULT_FILES", "SEED_FOLDER", "after_crossing", "combine", "crossing_run", "runs_after_crossing",
     "seed_outcome",
-    "skill_acquisition_seeds", "summary", "write_seeds_results",
+    "skill_acquisition_seeds", "summary", "worker_count", "write_seeds_results",
 ]
 
 DEFAULT_SEEDS = tuple(range(10))
@@ -112,11 +112,16 @@ def skill_acquisition_seeds(out: str | Path, settings: Settings = Settings(), se
     check_worlds(settings)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    workers = min(jobs or os.cpu_count() or 1, len(order))
+    workers = worker_count(jobs, order)
     results: dict[int, dict[str, Any]] = {}
     run = _in_this_process if workers == 1 else _in_processes
     interrupted = run(out, settings, order, workers, results, progress or _quiet, finished or _quiet)
     return combine(settings, order, [results[seed] for seed in order if seed in results], interrupted)
+
+
+def worker_count(jobs: int | None, seeds: Sequence[int]) -> int:
+    """How many seeds run at a time: ``jobs`` (default: one per CPU), no more than there are seeds."""
+    return min(jobs or os.cpu_count() or 1, len(seeds))
 
 
 def _in_this_process(out: Path, settings: Settings, seeds: Sequence[int], workers: int,
@@ -374,6 +379,12 @@ def crossing_run(one: Mapping[str, Any]) -> int | None:
                  if float(run["map_quality"]) >= threshold or _handed_to_ii(run)), None)
 
 
+def runs_after_crossing(one: Mapping[str, Any]) -> list[Mapping[str, Any]]:
+    """The runs of one seed after its crossing run (:func:`crossing_run`): the runs Layer II drives."""
+    crossed = crossing_run(one)
+    return [run for run in one["runs"] if crossed is not None and run["run"] > crossed]
+
+
 def _handed_to_ii(run: Mapping[str, Any]) -> bool:
     """Whether Layer IV handed the drive to Layer II during the run."""
     return any(entry["layer"] == "II" and entry.get("previous") == "IV" for entry in run.get("timeline", ()))
@@ -383,24 +394,21 @@ def seed_outcome(one: Mapping[str, Any]) -> dict[str, Any]:
     """What one seed came to: ``{"seed", "crossed_in"`` (:func:`crossing_run`), ``"runs_after"`` (the
     runs after it), ``"median_after_s"`` (their median duration; None without any), ``"optimal_s"``,
     ``"complete"``, ``"failed"`` (errands that did not get there), ``"obstacles"`` (per case, the
-    primary layers in turn: :func:`case_layers`)``}``."""
+    primary layers in turn: :func:`~atlas_rap.views.experiment.layer_order`)``}``."""
     crossed = crossing_run(one)
-    after = [run for run in one["runs"] if crossed is not None and run["run"] > crossed]
+    after = runs_after_crossing(one)
     return {"seed": one["seed"], "crossed_in": crossed, "runs_after": len(after),
             "median_after_s": _median([run["duration_s"] for run in after], 3),
             "optimal_s": _median([run["optimal_s"] for run in one["runs"]], 3), "complete": one["complete"],
             "failed": sum(1 for run in one["runs"] if not run["ok"]),
-            "obstacles": [{"case": key, "layers": case_layers(obstacle_case(one, key))}
+            "obstacles": [{"case": key, "layers": layer_order(obstacle_case(one, key))}
                           for key in obstacle_case_keys({"per_seed": [one]})]}
 
 
 def after_crossing(per_seed: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """The runs after each seed's crossing run, all seeds together: ``{"runs": how many,
     "median_duration_s", "optimal_s"`` (their median optimal time), ``"ratio_to_optimal"}``."""
-    after = []
-    for one in per_seed:
-        crossed = crossing_run(one)
-        after += [run for run in one["runs"] if crossed is not None and run["run"] > crossed]
+    after = [run for one in per_seed for run in runs_after_crossing(one)]
     median = _median([run["duration_s"] for run in after], 3)
     optimal = _median([run["optimal_s"] for run in after], 3)
     ratio = round(median / optimal, 3) if median is not None and optimal else None
@@ -451,12 +459,7 @@ def _obstacles(per_seed: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
             if case is None:
                 continue
             title = title or case.get("title")
-            by_seed[str(one["seed"])] = {"end_s": case["end_s"], "layers": case_layers(case)}
+            by_seed[str(one["seed"])] = {"end_s": case["end_s"], "layers": layer_order(case)}
         cases.append({"case": key, "title": title, "by_seed": by_seed})
     return cases
 
-
-def case_layers(case: Mapping[str, Any]) -> list[str]:
-    """The layers primary in turn over one obstacle case (``["II", "I", "II"]``)."""
-    length = float(case["end_s"]) - float(case.get("start_s") or 0.0)
-    return [layer for layer, _, _ in timeline_spans(case.get("timeline") or [], length)]
