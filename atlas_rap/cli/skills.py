@@ -61,14 +61,13 @@ def serve(world: str, listen: tuple[str, ...], connect: tuple[str, ...], robot: 
     from atlas_rap.layers.skill_host import SkillHostServer
     from atlas_rap.skillbus.auth import host_secret
     from atlas_rap.skillbus.keys import check_robot
-    from atlas_rap.skillbus.zenoh_bus import exposure_warning
+    from atlas_rap.skillbus.zenoh_bus import exposure_warning, host_endpoints
 
     try:
         check_robot(robot)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--robot") from None
-    has_listen = bool(listen) or bool(zenoh_config and _configured_listen(zenoh_config))
-    endpoints = listen or (() if connect or has_listen else ("tcp/127.0.0.1:7447",))
+    endpoints = host_endpoints(listen, connect, zenoh_config)
     warning = exposure_warning(endpoints, zenoh_config)  # (the endpoints and the configuration checked)
     secret = host_secret(robot, token_file)
     if warning:
@@ -112,13 +111,6 @@ def serve(world: str, listen: tuple[str, ...], connect: tuple[str, ...], robot: 
     finally:
         signal.signal(signal.SIGTERM, previous)
     server.close()
-
-
-def _configured_listen(zenoh_config: str) -> bool:
-    """Whether Zenoh's configuration file names endpoints to listen on."""
-    from atlas_rap.skillbus.zenoh_bus import configured_endpoints
-
-    return bool(configured_endpoints(zenoh_config, "listen"))
 
 
 class _Terminated(BaseException):

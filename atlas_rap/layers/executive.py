@@ -6,7 +6,8 @@ on one :class:`~atlas_rap.layers.clock.Clock`, counted in physics steps
 deterministic. At each step :class:`Executive` runs, in this order, what is
 due:
 
-- the physics of the world;
+- the physics of the world (the :class:`Body`'s step: the simulation's, or
+  the ``step`` of a robot served by :class:`atlas_rap.host.SkillHost`);
 - the skill manager (20 Hz; the reactive skills: sensors, the safety
   reflex, motion, event monitors), then **Layer I** (monitoring) at the
   same rate;
@@ -38,11 +39,19 @@ from atlas_rap.layers.clock import Clock
 if TYPE_CHECKING:  # same tier and below
     from atlas_rap.layers.layer import Layer, LayerStack
     from atlas_rap.sequencer import Task
-    from atlas_rap.sim.physics import Simulation
     from atlas_rap.skills.manager import SkillManager
 
 Pace = Callable[[float], None]
 Stop = Callable[[], bool]
+
+
+class Body(Protocol):
+    """What moves with the clock, one physics step at a time: the simulation
+    (:class:`atlas_rap.sim.physics.Simulation`), or the body of a robot a
+    :class:`atlas_rap.host.SkillHost` serves."""
+
+    def step(self) -> None:
+        """One physics period (``1 / Rates.physics`` seconds) of the world."""
 
 
 class Driver(Protocol):
@@ -85,9 +94,9 @@ class SequencerSide(Protocol):
 
 
 class Executive:
-    """Runs a simulation, a skill manager, a sequencer and the layers together on one clock."""
+    """Runs a body (the simulation), a skill manager, a sequencer and the layers together on one clock."""
 
-    def __init__(self, simulation: Simulation, manager: SkillManager, sequencer: SequencerSide,
+    def __init__(self, simulation: Body, manager: SkillManager, sequencer: SequencerSide,
                  rates: Rates = Rates(), *, stack: LayerStack | None = None, clock: Clock | None = None) -> None:
         self.simulation = simulation
         self.manager = manager

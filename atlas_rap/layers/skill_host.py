@@ -43,7 +43,7 @@ from typing import TYPE_CHECKING, Protocol
 
 from atlas_rap.layers.builders import simulated_robot
 from atlas_rap.layers.clock import Clock
-from atlas_rap.layers.executive import Executive, Rates
+from atlas_rap.layers.executive import Body, Executive, Rates
 from atlas_rap.layers.layer import LayerStack
 from atlas_rap.layers.monitoring import MonitoringLayer
 from atlas_rap.layers.operational import OperationalLayer
@@ -95,31 +95,40 @@ class SessionWorld:
         return self.clock.now
 
 
-class SkillHostServer:
-    """Serves one robot's skills on the bus, to one sequencer at a time (see the module docstring).
+@dataclass
+class HostedRobot:
+    """What one session serves: the ``body`` that steps with the clock, the skill ``manager``, the
+    layers that run beside the skills (``stack``, or None), the ``world``'s name the sequencer is
+    told, the ``facts`` its memory starts from (in the host's words: ``robot`` for the robot), and
+    ``pace``, called at each sequencer tick (a recording), or None."""
 
-    ``world``: a shipped world's name or a world file; ``listen`` / ``connect``:
-    Zenoh endpoints; ``robot``: the robot's name on the bus; ``secret``: the bus's
-    secret (``skillbus.auth.host_secret``), which every sequencer must hold (None: no
-    authentication, for measuring what it costs); ``zenoh_config``: Zenoh's own
-    configuration file; ``lease``: seconds a silent sequencer keeps the host;
-    ``max_message``: the largest message taken, in bytes; ``recorder``: a
-    :class:`~atlas_rap.views.recording.HostRecorder` that records each session's
-    world (or None); it is told of each session's start and end, and closed by :meth:`close`.
+    body: Body
+    manager: SkillManager
+    stack: LayerStack | None
+    world: str
+    facts: tuple[Compound, ...] = ()
+    pace: Callable[[float], None] | None = None
+
+
+class BusHost:
+    """Serves one robot's skills on the bus, to one sequencer at a time (see the module docstring):
+    the door, the sessions one after another, and each session's ticks. What a session serves is
+    :meth:`hosted`'s: :class:`SkillHostServer` simulates a world; :class:`atlas_rap.host.SkillHost`
+    serves a user's own skills on their own robot.
+
+    ``listen`` / ``connect``: Zenoh endpoints; ``robot``: the robot's name on the bus; ``secret``:
+    the bus's secret (``skillbus.auth.host_secret``), which every sequencer must hold (None: no
+    authentication, for measuring what it costs); ``zenoh_config``: Zenoh's own configuration
+    file; ``lease``: seconds a silent sequencer keeps the host; ``max_message``: the largest
+    message taken, in bytes.
     """
 
-    def __init__(self, world: str, *, robot: str = keys.DEFAULT_ROBOT, secret: Secret | None, seed: int = 0,
+    def __init__(self, *, robot: str = keys.DEFAULT_ROBOT, secret: Secret | None,
                  listen: Sequence[str] = (), connect: Sequence[str] = (), zenoh_config: str | None = None,
-                 lease: float = LEASE, max_message: int = MAX_MESSAGE, rates: Rates = Rates(),
-                 recorder: SessionRecorder | None = None) -> None:
-        from atlas_rap.sim.world import load_world
-
+                 lease: float = LEASE, max_message: int = MAX_MESSAGE, rates: Rates = Rates()) -> None:
         self.robot = keys.check_robot(robot)
-        self.world = load_world(world)
-        self.seed = seed
         self.rates = rates
         self.lease = lease
-        self.recorder = recorder
         self.session = open_session(listen=listen, connect=connect, config_file=zenoh_config,
                                     max_message=max_message)
         self.conversation = Conversation(self.session, keys.to_host(robot), keys.sequencer_token(robot),
@@ -128,6 +137,14 @@ class SkillHostServer:
         self.conversation.declare_token(keys.host_token(robot))  # after the subscriptions: seen only when ready
         self.sessions = 0
         self.current: HostSession | None = None
+
+    def hosted(self, session: HostSession, clock: Clock) -> HostedRobot:
+        """What a new session serves, built at the sequencer's time (``clock``)."""
+        raise NotImplementedError
+
+    def session_ended(self) -> Path | None:
+        """A session has ended, however it ended: the file of its recording, if one was written."""
+        return None
 
     def serve(self, stop: Callable[[], bool] = lambda: False,
               on_session: Callable[[str], None] | None = None) -> None:
@@ -150,7 +167,7 @@ class SkillHostServer:
                 reason = str(exc)
             finally:  # also when the host is stopped mid-session (Ctrl-C, SIGTERM): a whole file
                 self.current = None
-                written = self.recorder.end() if self.recorder is not None else None
+                written = self.session_ended()
                 if on_session is not None:
                     on_session(f"session {self.sessions} {reason}")
                     if written is not None:
@@ -158,29 +175,17 @@ class SkillHostServer:
             hello = taken_by
 
     def _run(self, hello: tuple[Frame, bytes]) -> None:
-        """One sequencer's session: a fresh world at its time, then its ticks until it goes."""
-        from atlas_rap.sim.prior import prior_facts
-
+        """One sequencer's session: a fresh robot at its time, then its ticks until it goes."""
         tick = hello[0].last.tick  # type: ignore[union-attr]
         clock = Clock(self.rates.physics)
         clock.ticks = tick
         session = self.current = HostSession(self.door, hello, tick, lambda: clock.ticks, lease=self.lease)
         session.timers.now = clock.now
-        simulation, manager = simulated_robot(self.world, self.world, self.seed, self.rates)
-        session.manager = manager
-        manager.connect(session)
-        stack = LayerStack(session, manager.context.beliefs, self.world)  # type: ignore[arg-type]
-        stack.add(MonitoringLayer(stack))
-        stack.add(OperationalLayer(stack))
-        stack.add(TacticalLayer(stack))
-        executive = Executive(simulation, manager, session, self.rates, stack=stack, clock=clock)
-        pace = None
-        if self.recorder is not None:
-            pace = self.recorder.begin(SessionWorld(simulation, manager, self.world, stack, clock),
-                                       self.sessions, clock.now).pace
-        prior = [session._out(fact) for fact in prior_facts(self.world)] + [Compound("map", ("prior",))]
-        welcome = Welcome(self.robot, self.world.name, {name: tuple(sorted(a)) for name, a in manager.skills().items()},
-                          tuple(sorted(manager.produces())), tuple(prior),
+        robot = self.hosted(session, clock)
+        executive = Executive(robot.body, robot.manager, session, self.rates, stack=robot.stack, clock=clock)
+        manager = robot.manager
+        welcome = Welcome(self.robot, robot.world, {name: tuple(sorted(a)) for name, a in manager.skills().items()},
+                          tuple(sorted(manager.produces())), tuple(session._out(fact) for fact in robot.facts),
                           (self.rates.physics, self.rates.skills, self.rates.sequencer))
         session.welcome(welcome)
         session.first_tick()
@@ -191,17 +196,63 @@ class SkillHostServer:
             elif session.position >= target:
                 session.reach(session.position[1])
             else:
-                executive.step(pace)
+                executive.step(robot.pace)
                 session.reach(END)
 
     def close(self) -> None:
-        """Finish the recording (if any), and leave the bus (the token goes: a sequencer using this
-        host sees it lost)."""
-        if self.recorder is not None:
-            self.recorder.close()
+        """Leave the bus (the token goes: a sequencer using this host sees it lost)."""
         self.conversation.declare_token(None)
         self.conversation.close()
         close_session(self.session)
 
 
-__all__ = ["SessionWorld", "SkillHostServer", "log"]
+class SkillHostServer(BusHost):
+    """Serves a simulated robot's stock skills and Layers I-III (``atlas skills serve``).
+
+    ``world``: a shipped world's name or a world file, simulated afresh for each session;
+    ``seed``: the simulation's; ``recorder``: a :class:`~atlas_rap.views.recording.HostRecorder`
+    that records each session's world (or None); it is told of each session's start and end, and
+    closed by :meth:`close`. The other arguments are :class:`BusHost`'s.
+    """
+
+    def __init__(self, world: str, *, robot: str = keys.DEFAULT_ROBOT, secret: Secret | None, seed: int = 0,
+                 listen: Sequence[str] = (), connect: Sequence[str] = (), zenoh_config: str | None = None,
+                 lease: float = LEASE, max_message: int = MAX_MESSAGE, rates: Rates = Rates(),
+                 recorder: SessionRecorder | None = None) -> None:
+        from atlas_rap.sim.world import load_world
+
+        self.world = load_world(world)
+        self.seed = seed
+        self.recorder = recorder
+        super().__init__(robot=robot, secret=secret, listen=listen, connect=connect, zenoh_config=zenoh_config,
+                         lease=lease, max_message=max_message, rates=rates)
+
+    def hosted(self, session: HostSession, clock: Clock) -> HostedRobot:
+        """The world simulated afresh, the stock skills on it and Layers I-III; recorded if asked."""
+        from atlas_rap.sim.prior import prior_facts
+
+        simulation, manager = simulated_robot(self.world, self.world, self.seed, self.rates)
+        session.manager = manager
+        manager.connect(session)
+        stack = LayerStack(session, manager.context.beliefs, self.world)  # type: ignore[arg-type]
+        stack.add(MonitoringLayer(stack))
+        stack.add(OperationalLayer(stack))
+        stack.add(TacticalLayer(stack))
+        pace = None
+        if self.recorder is not None:
+            pace = self.recorder.begin(SessionWorld(simulation, manager, self.world, stack, clock),
+                                       self.sessions, clock.now).pace
+        facts = (*prior_facts(self.world), Compound("map", ("prior",)))
+        return HostedRobot(simulation, manager, stack, self.world.name, facts, pace)
+
+    def session_ended(self) -> Path | None:
+        return self.recorder.end() if self.recorder is not None else None
+
+    def close(self) -> None:
+        """Finish the recording (if any), and leave the bus."""
+        if self.recorder is not None:
+            self.recorder.close()
+        super().close()
+
+
+__all__ = ["BusHost", "HostedRobot", "SessionWorld", "SkillHostServer", "log"]

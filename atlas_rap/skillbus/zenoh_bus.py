@@ -145,6 +145,20 @@ def configured_endpoints(config_file: str | Path | None, which: str) -> list[str
     return _endpoints(load_config(config_file), which, ())
 
 
+DEFAULT_HOST_ENDPOINT = "tcp/127.0.0.1:7447"
+"""Where a skill host listens when told nothing: this machine only."""
+
+
+def host_endpoints(listen: Sequence[str], connect: Sequence[str], config_file: str | Path | None) -> tuple[str, ...]:
+    """The endpoints a skill host listens on: ``listen``, else none when it connects somewhere or its
+    configuration file names some to listen on, else :data:`DEFAULT_HOST_ENDPOINT`."""
+    if listen:
+        return tuple(listen)
+    if connect or (config_file is not None and configured_endpoints(config_file, "listen")):
+        return ()
+    return (DEFAULT_HOST_ENDPOINT,)
+
+
 def _check_tls(config: Any, listen: Sequence[str], connect: Sequence[str], config_file: str | Path | None) -> None:
     """A ``tls/`` or ``quic/`` endpoint needs certificates in the configuration: say so plainly."""
     def tls(name: str) -> Any:
