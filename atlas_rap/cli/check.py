@@ -42,7 +42,7 @@ def check(files: tuple[str, ...], tree: bool, format_: bool, robots: tuple[str, 
                 _echo_problem(problem.render())
             secho(f"{path}: {_plural(len(exc.problems), 'problem')}", fg="red", err=True)
             continue
-        problems = _sequencer_problems(program, robot_first=len(set(robots)) > 1) + _planner_problems(program, path)
+        problems = program_problems(program, path, robots)
         for problem in problems:
             _echo_problem(problem.render())
         if any(problem.severity == "error" for problem in problems):
@@ -63,6 +63,14 @@ def check(files: tuple[str, ...], tree: bool, format_: bool, robots: tuple[str, 
             click.echo(format_file(root))
     if failed:
         sys.exit(1)
+
+
+def program_problems(program, path: str, robots: tuple[str, ...] = ()) -> list:
+    """Every load-time problem ``atlas check`` finds in a loaded program (parsing and validation
+    problems are raised by the loader): the RAPs against the skills they can use, and a planning
+    problem's operators against its goals and agents. ``robots``: as ``--robot``. The language
+    server (``atlas lsp``) reports exactly these."""
+    return _sequencer_problems(program, robot_first=len(set(robots)) > 1) + _planner_problems(program, path)
 
 
 def _sequencer_problems(program, robot_first: bool = False) -> list:

@@ -16,6 +16,7 @@ import click
 from atlas_rap import __version__
 from atlas_rap.cli.check import check
 from atlas_rap.cli.experiment import experiment_group
+from atlas_rap.cli.lsp import lsp
 from atlas_rap.cli.map import map_group
 from atlas_rap.cli.options import outputs_checked
 from atlas_rap.cli.plan import plan
@@ -50,6 +51,7 @@ cli.add_command(repl)
 cli.add_command(experiment_group)
 cli.add_command(record_group)
 cli.add_command(skills_group)
+cli.add_command(lsp)
 outputs_checked(cli)  # no command writes over its own input files
 
 
