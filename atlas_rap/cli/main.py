@@ -39,7 +39,8 @@ def cli() -> None:
     with `atlas map`; reproduce the seed papers' experiments with
     `atlas experiment`; look at a run recorded for Foxglove with
     `atlas record show`; serve a robot's skills to a sequencer on
-    another host with `atlas skills serve` (and `atlas run --connect`).
+    another host with `atlas skills serve` (and `atlas run --connect`);
+    give your editor diagnostics, hover and completion with `atlas lsp`.
     """
 
 
