@@ -42,6 +42,13 @@ async def open_file(client: LanguageClient, path: Path, text: str | None = None)
     return uri
 
 
+def with_navigation(path: Path, *lines: str) -> str:
+    """Write a mission at ``path`` that includes the shipped navigation RAPs, then ``lines``; its text."""
+    text = "".join([f'(include "{NAVIGATION.as_posix()}")\n', *(line + "\n" for line in lines)])
+    path.write_text(text)
+    return text
+
+
 def position_of(text: str, needle: str, offset: int = 0) -> types.Position:
     """Where ``needle`` first occurs in ``text`` (plus ``offset`` characters)."""
     before = text[:text.index(needle) + offset]
@@ -57,11 +64,8 @@ async def test_a_shipped_mission_has_no_diagnostics(client: LanguageClient):
 @pytest.mark.asyncio
 async def test_diagnostics_are_atlas_checks_messages_at_its_positions_and_follow_each_edit(client, tmp_path):
     bad = tmp_path / "bad.rap"
-    text = ('(include "' + NAVIGATION.as_posix() + '")\n'
-            "(define-rap (fetch ?thing)\n"
-            "  (method (task-net (t1 (go-too lab)))))\n"
-            "(post (fetch cup))\n")
-    bad.write_text(text)
+    text = with_navigation(bad, "(define-rap (fetch ?thing)", "  (method (task-net (t1 (go-too lab)))))",
+                           "(post (fetch cup))")
     checked = atlas("check", str(bad), cwd=tmp_path)
     assert checked.returncode == 1
     uri = await open_file(client, bad)
@@ -118,12 +122,8 @@ async def test_go_to_definition_finds_a_rap_in_an_included_file(client: Language
 @pytest.mark.asyncio
 async def test_completion_offers_rap_skill_and_form_names_at_a_head_and_places_in_an_argument(client, tmp_path):
     mission = tmp_path / "typing.rap"
-    text = ('(include "' + NAVIGATION.as_posix() + '")\n'
-            "(world lab-corridor-office)\n"
-            "(define-rap (tour)\n"
-            "  (method (task-net (t1 (go-to office)))))\n"
-            "(post (tour))\n")
-    mission.write_text(text)
+    text = with_navigation(mission, "(world lab-corridor-office)", "(define-rap (tour)",
+                           "  (method (task-net (t1 (go-to office)))))", "(post (tour))")
     uri = await open_file(client, mission)
     heads = await client.text_document_completion_async(types.CompletionParams(
         types.TextDocumentIdentifier(uri), position_of(text, "(go-to office)", 3)))
