@@ -104,7 +104,8 @@ Output: one JSON object a line (progress goes to stderr)
   ``solved`` (in time and valid), ``status`` (solved, unsolvable, timeout,
   memout, error, invalid-plan, unchecked), ``cpu_s`` and ``wall_s``
   (in-process) or ``cli_cpu_s`` and ``cli_wall_s`` (subprocess), ``length``,
-  ``valid``; as they apply: ``parallel_length``, ``makespan`` and ``risk``
+  ``valid``, ``cost`` (the validator's sum of the plan's action costs: its
+  length without :action-costs; null unless valid); as they apply: ``parallel_length``, ``makespan`` and ``risk``
   (ours), ``ground_s``/``search_s``, ``solve_cpu_s`` (FD), ``plan_digest``,
   ``validation`` (why invalid), ``unchecked_why``, ``skipped``, ``why``,
   and ``late_imports`` should a worker import a module while being timed.
@@ -684,30 +685,33 @@ def first_line(exc: Exception) -> str:
     return f"{type(exc).__name__}: {text[0] if text else ''}"
 
 
-def validate(validator, domain: Path, problem: Path, plan: Path, adversarial: bool = False) -> tuple[bool | None, str]:
-    """(valid, message) of a plan. ``valid`` is None when the plan cannot be checked: no validator, the
+def validate(validator, domain: Path, problem: Path, plan: Path,
+             adversarial: bool = False) -> tuple[bool | None, str, float | None]:
+    """(valid, message, cost) of a plan: ``cost`` is the validator's own sum of the plan's action costs
+    (its length without :action-costs), None unless it is valid. ``valid`` is None when the plan cannot
+    be checked: no validator, the
     validator cannot read the domain or problem (a PDDL feature it lacks: the peer's plan may well be
     right), or it crashed; False when the plan file is not IPC plan lines or the plan fails the check."""
     if validator is None:
-        return None, "no validator"
+        return None, "no validator", None
     with _validate_lock:  # the validator may keep caches; do not run it in two threads at once
         try:
             task = validator.read_task(str(domain), str(problem))
         except Exception as exc:  # noqa: BLE001 - whatever stops it reading the task: it cannot check
-            return None, f"the validator cannot read the domain or problem: {first_line(exc)}"
+            return None, f"the validator cannot read the domain or problem: {first_line(exc)}", None
         try:
             actions = validator.read_plan(str(plan))
         except Exception as exc:  # noqa: BLE001 - a plan that is not IPC plan lines fails the check
-            return False, f"the plan file does not read as plan lines: {first_line(exc)}"
+            return False, f"the plan file does not read as plan lines: {first_line(exc)}", None
         try:
             check = validator.check(task, actions, adversarial)
         except Exception as exc:  # noqa: BLE001 - a crash in the validator says nothing about the plan
-            return None, f"the validator raised {first_line(exc)}"
+            return None, f"the validator raised {first_line(exc)}", None
     message = getattr(check, "message", "")
     failed = getattr(check, "failed_step", None)
     if failed is not None and not message.startswith(f"step {failed}"):
         message = f"step {failed}: {message}"
-    return bool(check.ok), message
+    return bool(check.ok), message, (getattr(check, "cost", None) if check.ok else None)
 
 
 # -- one problem, one planner ----------------------------------------------------
@@ -794,8 +798,9 @@ def plan_record(job: Job, outcome: Outcome, domain: Path, problem: Path, scratch
     elif reported is not None and reported != len(actions):
         fields["length_reported"] = reported
     fields.update(length=len(actions), plan_digest=plan_digest(actions))
-    valid, message = validate(bench.validator, domain, problem, plan, adversarial)
+    valid, message, cost = validate(bench.validator, domain, problem, plan, adversarial)
     fields["valid"] = valid
+    fields["cost"] = cost
     if valid is False:
         fields.update(status="invalid-plan", validation=message)
     elif valid is None:  # a plan, but nothing could check it: neither solved nor invalid
@@ -900,6 +905,8 @@ def figures(by_planner: dict[str, dict], planners: list[str]) -> dict:
         "cli_wall_ratio_vs_fd": geometric_mean_ratio(paired(by_planner, OURS_CLI, "cli_wall_s", FD, "cli_wall_s")),
         "mean_length_ours_vs_fd": mean([ours[key]["length"] for key in both_fd]),
         "mean_length_fd": mean([fd[key]["length"] for key in both_fd]),
+        "mean_cost_ours_vs_fd": mean([ours[key].get("cost") for key in both_fd]),
+        "mean_cost_fd": mean([fd[key].get("cost") for key in both_fd]),
         # what start-up costs us: our CLI beside our in-process run
         "cli_over_in_process_ours": geometric_mean_ratio(paired(by_planner, OURS_CLI, "cli_cpu_s", OURS, "cpu_s")),
         "ours_cli_same_plan": (sum(ours[key].get("plan_digest") == by_planner[OURS_CLI][key].get("plan_digest")

@@ -226,9 +226,10 @@ def test_a_plan_the_validator_cannot_read_the_task_of_is_unchecked_not_invalid(t
     domain.write_text(GRIPPER)
     problem.write_text(PROBLEM)
     plan.write_text("(move b r1 r2)\n")
-    assert bench.validate(validator, domain, problem, plan)[0] is True
+    assert bench.validate(validator, domain, problem, plan)[::2] == (True, 1.0)  # valid, and its cost
     plan.write_text("(move b r2 r1)\n")
-    valid, message = bench.validate(validator, domain, problem, plan)
+    valid, message, cost = bench.validate(validator, domain, problem, plan)
+    assert cost is None
     assert valid is False and message.startswith("step 1:") and "step 1: step 1" not in message
     plan.write_text("move (b r1 r2\n")
     assert bench.validate(validator, domain, problem, plan)[0] is False
@@ -239,11 +240,11 @@ def test_a_plan_the_validator_cannot_read_the_task_of_is_unchecked_not_invalid(t
     # a domain the validator cannot read (what it lacks changes as the planner grows: stand-ins here)
     plan.write_text("(move b r1 r2)\n")
     unreadable = SimpleNamespace(read_task=cannot, read_plan=validator.read_plan, check=validator.check)
-    valid, message = bench.validate(unreadable, domain, problem, plan)
+    valid, message, _ = bench.validate(unreadable, domain, problem, plan)
     assert valid is None and "cannot read the domain or problem" in message
     crashing = SimpleNamespace(read_task=validator.read_task, read_plan=validator.read_plan, check=cannot)
     assert bench.validate(crashing, domain, problem, plan) == (None, "the validator raised ValueError: "
-                                                                     "a PDDL feature it lacks")
+                                                                     "a PDDL feature it lacks", None)
     assert bench.validate(None, domain, problem, plan)[0] is None
 
 

@@ -196,7 +196,7 @@ def test_unsupported_pddl_feature_is_named(tmp_path: Path) -> None:
   (:action a
     :parameters (?x)
     :precondition (p ?x)
-    :effect (and (q ?x) (increase (total-cost) 1))))
+    :effect (and (q ?x) (decrease (fuel ?x) 1))))
 """
     write_problem(tmp_path, domain, "(define (problem pr) (:domain d) (:objects o) (:init (p o)) (:goal (q o)))\n")
     done = atlas("plan", "--pddl", "domain.pddl", "problem.pddl", cwd=tmp_path)

@@ -147,7 +147,7 @@ def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_f
     if plan_file:
         from atlas_rap.planner.plan_file import write_plan_file
 
-        writers["--plan-file"] = lambda: write_plan_file(plan_file, result.sequence)
+        writers["--plan-file"] = lambda: write_plan_file(plan_file, result.sequence, result.cost)
     if render:
         from atlas_rap.views.plan_render import render_plan
 

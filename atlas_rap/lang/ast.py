@@ -393,6 +393,9 @@ class Operator:
     ``outcome_of`` names the controlled operator whose bad outcome this
     uncontrolled operator is (read from a FOND ``oneof``): it can happen only
     as that operator's step, with the same values of the parameters.
+    ``cost`` is a PDDL action's cost (``:action-costs``: ``(increase (total-cost)
+    COST)``): a number, or a term of a static function, e.g. ``(road-length ?from
+    ?to)``, whose values the problem's ``:init`` gives; None for 1.
     """
 
     name: str
@@ -408,6 +411,7 @@ class Operator:
     probability: float | None = None
     parameters: tuple[Var, ...] = ()
     outcome_of: str | None = None
+    cost: Term | None = None
     loc: SourceLocation = _loc()
 
 

@@ -117,7 +117,9 @@ class GroundAction:
 
     ``pre``/``neg``/``add``/``delete`` are fact numbers of the task. ``args``
     are the values of the operator's variables in order (declared
-    ``parameters``, else first appearance); ``agents`` the agents doing it.
+    ``parameters``, else first appearance); ``agents`` the agents doing it;
+    ``cost`` what it adds to a plan's cost (``PlanningProblem.action_cost``; 1
+    without action costs).
     """
 
     index: int
@@ -129,6 +131,7 @@ class GroundAction:
     add: tuple[int, ...]
     delete: tuple[int, ...]
     agents: tuple[str, ...] = ()
+    cost: float = 1.0
 
     @property
     def name(self) -> str:
@@ -505,11 +508,14 @@ class _ActionBuilder:
                 continue
             seen.add(key)
             out.append(GroundAction(index=0, operator=g.op, binding=s, args=base.args, pre=pre, neg=neg,
-                                    add=adds, delete=deletes, agents=base.agents))
+                                    add=adds, delete=deletes, agents=base.agents, cost=base.cost))
         return out
 
     def one(self, g: _OperatorGrounder, s: Subst, index: int) -> GroundAction | None:
         ids = self.fact_ids
+        cost = self.problem.action_cost(g.op, s) if self.problem is not None else 1.0
+        if cost is None:  # its cost is not given: PDDL cannot apply it
+            return None
         pre: list[int] = []
         for atom in g.fluent_atoms:
             pre.append(ids[substitute(atom, s)])  # type: ignore[index]
@@ -539,7 +545,7 @@ class _ActionBuilder:
                             pre=tuple(dict.fromkeys(pre)), neg=tuple(dict.fromkeys(neg)),
                             add=tuple(dict.fromkeys(add)),
                             delete=tuple(dict.fromkeys(d for d in delete if d not in add_set)),
-                            agents=agents)
+                            agents=agents, cost=cost)
 
 
 def _objects(problem: PlanningProblem) -> tuple[Term, ...]:

@@ -16,9 +16,18 @@ Supported: STRIPS with ``:typing`` (hierarchy and ``either``),
 ``:conditional-effects``): ``or``, ``imply``, ``exists``, ``forall`` and
 ``not`` over any formula in preconditions and goals, ``when`` and ``forall``
 in effects. ADL is only *read* here; :mod:`atlas_rap.planner.ground` compiles
-it away (see its docstring). Everything else (numeric fluents, object
-fluents, durative actions, derived predicates, constraints, preferences,
-timed initial literals) is an error at the form that uses it.
+it away (see its docstring). Action costs (``:action-costs``, the IPC's since
+2008): ``(:functions (total-cost) - number ...)``, one ``(increase (total-cost)
+COST)`` per action (COST a number >= 0 or a term of a function declared
+``- number`` over the action's parameters and constants), ``(= (F OBJECT ...)
+N)`` and ``(= (total-cost) 0)`` in ``:init``, ``(:metric minimize
+(total-cost))``; the action's cost is :attr:`ast.Operator.cost`, the values
+``PlanningProblem.cost_values``. Without the metric, plans are measured by
+their length (costs ignored, as Fast Downward does); an action whose cost has
+no value in ``:init`` cannot be applied (PDDL 2.1). Everything else (other
+numeric fluents and numeric effects, object fluents, durative actions,
+derived predicates, constraints, preferences, timed initial literals) is an
+error at the form that uses it.
 
 Choices where PDDL leaves room:
 
@@ -79,6 +88,7 @@ errors.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from atlas_rap.errors import PlanFileError, Problem, SourceLocation, did_you_mean, line_of, source_lines
@@ -90,7 +100,7 @@ from atlas_rap.planner.problem import PlanningProblem
 SUPPORTED_REQUIREMENTS = (":strips", ":typing", ":negative-preconditions", ":equality",
                           ":non-deterministic", ":adl", ":disjunctive-preconditions",
                           ":existential-preconditions", ":universal-preconditions",
-                          ":quantified-preconditions", ":conditional-effects")
+                          ":quantified-preconditions", ":conditional-effects", ":action-costs")
 TYPE_PREFIX = "type:"
 # The functors of ADL formulas (module docstring); ADL_TRUE is the empty conjunction.
 ADL_AND, ADL_OR, ADL_FORALL, ADL_EXISTS = "adl:and", "adl:or", "adl:forall", "adl:exists"
@@ -102,7 +112,10 @@ _CONDITION_HINT = ("a precondition or goal is an atom, (= A B), or, of formulas 
 _EFFECT_HINT = ("an effect is an atom, (not ATOM), an (and ...) of effects, (when FORMULA EFFECT), "
                 "(forall (?v - TYPE) EFFECT), or one (oneof OUTCOME ...) whose outcomes are such effects")
 _SUPPORTED = ("supported: STRIPS with typing, negative preconditions, equality, ADL (or, imply, exists, "
-              "forall, when) and FOND 'oneof' effects")
+              "forall, when), FOND 'oneof' effects and action costs ((increase (total-cost) COST) with "
+              "(:metric minimize (total-cost)))")
+_COST_HINT = ("an action's cost is (increase (total-cost) N), N a number >= 0 or a static function such as "
+              "(road-length ?from ?to) whose values the problem's :init gives as (= (road-length a b) 22)")
 
 # Heads of formulas and effects, and section keywords, that we know and refuse.
 _NUMERIC_HEADS = ("increase", "decrease", "assign", "scale-up", "scale-down", "<", ">", "<=", ">=")
@@ -113,14 +126,13 @@ _UNSUPPORTED_HEADS = {
     **{head: f"numeric fluents ('{head}')" for head in _NUMERIC_HEADS},
 }
 _UNSUPPORTED_SECTIONS = {
-    ":functions": "numeric fluents (':functions')",
     ":durative-action": "durative actions (':durative-action')",
     ":derived": "derived predicates (':derived')",
     ":constraints": "constraints (':constraints')",
-    ":metric": "plan metrics (':metric')",
 }
-_DOMAIN_SECTIONS = (":requirements", ":types", ":constants", ":predicates", ":action")
-_PROBLEM_SECTIONS = (":domain", ":requirements", ":objects", ":init", ":goal")
+_DOMAIN_SECTIONS = (":requirements", ":types", ":constants", ":predicates", ":functions", ":action")
+_PROBLEM_SECTIONS = (":domain", ":requirements", ":objects", ":init", ":goal", ":metric")
+TOTAL_COST = "total-cost"
 
 Where = tuple[int, int]  # (line, column)
 
@@ -252,6 +264,9 @@ class _Loader:
         self.predicates: dict[str, tuple[int, Where]] = {}
         self.constants: dict[str, set[str]] = {}
         self.objects: dict[str, set[str]] = {}
+        self.functions: dict[str, tuple[int, Where]] = {}  # :functions, by name: arity, where declared
+        self.cost: Term | None = None  # the cost of the action being read
+        self.cost_values: dict[Compound, float] = {}
 
     # ------------------------------------------------------------- files and sections
 
@@ -304,6 +319,8 @@ class _Loader:
             self._declare_objects(section, self.constants)
         for section in by_key.get(":predicates", ()):
             self._predicates(section)
+        for section in by_key.get(":functions", ()):
+            self._functions(section)
         operators: list[ast.Operator] = []
         names: set[str] = set()
         for section in by_key.get(":action", ()):
@@ -318,6 +335,7 @@ class _Loader:
         self._check_sections(sections, _PROBLEM_SECTIONS, "problem")
         init: list[SList] = []
         goal: SList | None = None
+        metric = False
         for section in sections:
             key = section.items[0]
             if key == ":domain":
@@ -328,6 +346,8 @@ class _Loader:
                 self._declare_objects(section, self.objects)
             elif key == ":init":
                 init.append(section)
+            elif key == ":metric":
+                metric = self._metric(section)
             else:
                 goal = section
         for name, types in self.constants.items():
@@ -352,6 +372,8 @@ class _Loader:
             name=problem_name,
             goal_locations=tuple(self.problem.loc(w) for _, w in goals),
             source_lines={self.domain.name: self.domain.lines, self.problem.name: self.problem.lines},
+            action_costs=metric,
+            cost_values=self.cost_values,
         )
 
     def _requirements(self, section: SList) -> None:
@@ -529,18 +551,124 @@ class _Loader:
         preconditions.extend(c for c, _ in conditions)
         common: list[ast.Effect] = []
         outcomes: list[list[ast.Effect]] = []
+        self.cost = None
         if ":effect" in parts:
             self._effect(self._list_at(section, parts[":effect"], _EFFECT_HINT), params, common, outcomes)
         loc = src.loc(_at(section))
         nominal = outcomes[0] if outcomes else []
         ops = [ast.Operator(name, preconditions=tuple(preconditions), effects=tuple(common + nominal),
-                            parameters=tuple(parameters), loc=loc)]
+                            parameters=tuple(parameters), cost=self.cost, loc=loc)]
         for k, outcome in enumerate(outcomes[1:], 2):
             ops.append(ast.Operator(f"{name}~{k}", preconditions=tuple(preconditions),
                                     effects=tuple(common + outcome), uncontrolled=True,
                                     probability=1 / len(outcomes), parameters=tuple(parameters),
-                                    outcome_of=name, loc=loc))
+                                    outcome_of=name, cost=self.cost, loc=loc))
         return ops
+
+    # ------------------------------------------------------------------ action costs
+
+    def _functions(self, section: SList) -> None:
+        """``(:functions (total-cost) - number (NAME ?arg - TYPE ...) - number ...)``: the cost
+        functions of ``:action-costs``; a function of any other type is an object fluent."""
+        items = section.items
+        i = 1
+        while i < len(items):
+            decl = items[i]
+            if type(decl) is not SList or type(_head(decl)) is not str:
+                raise self.src.error("expected a function declaration (NAME ?arg ...)", section.locs[i],
+                                     _COST_HINT)
+            i += 1
+            if i < len(items) and items[i] == "-":
+                if i + 1 >= len(items) or items[i + 1] != "number":
+                    where = section.locs[i + 1] if i + 1 < len(items) else section.locs[i]
+                    raise self.src.error("object fluents (functions that are not '- number') are not supported",
+                                         where, _SUPPORTED)
+                i += 2
+            args = self._typed_list(decl, 1, variables=True)
+            for _, spec, _, spec_at in args:
+                self._type_name(spec, spec_at)
+            name = decl.items[0]
+            if name in self.predicates:
+                raise self.src.error(f"'{name}' is a predicate and a function", _at(decl),
+                                     "give the function another name")
+            if name == TOTAL_COST and args:
+                raise self.src.error("(total-cost) takes no arguments", _at(decl), _COST_HINT)
+            self.functions[name] = (len(args), _at(decl))
+
+    def _increase(self, form: SList, params: frozenset) -> None:
+        """``(increase (total-cost) COST)``: the action's cost (:attr:`ast.Operator.cost`)."""
+        items = form.items
+        if len(items) != 3 or type(items[1]) is not SList or _head(items[1]) != TOTAL_COST:
+            raise self.src.error("numeric fluents are not supported: the only numeric effect is the action's "
+                                 "cost, (increase (total-cost) COST)", _at(form), _COST_HINT)
+        if TOTAL_COST not in self.functions:
+            raise self.src.error("(total-cost) is not declared", _at(items[1]),
+                                 "declare it in the domain: (:functions (total-cost) - number)")
+        if self.cost is not None:
+            raise self.src.error("the action increases (total-cost) twice", _at(form),
+                                 "give its cost in one (increase (total-cost) COST)")
+        cost = items[2]
+        if type(cost) in (int, float):
+            if not 0 <= cost < math.inf:
+                raise self.src.error(f"an action's cost must be a number >= 0, not {cost}", form.locs[2],
+                                     _COST_HINT)
+            self.cost = float(cost)
+        elif type(cost) is SList:
+            self.cost = self._function_term(cost, params)
+        else:
+            raise self.src.error("expected a number or a function term as the cost", form.locs[2], _COST_HINT)
+
+    def _function_term(self, form: SList, params: frozenset | None) -> Compound:
+        """``(NAME ARG ...)`` of a declared function other than total-cost: arguments are the
+        action's parameters and constants (``params``), or objects in :init (None)."""
+        name = _head(form)
+        declared = self.functions.get(name) if type(name) is str else None
+        if declared is None or name == TOTAL_COST:
+            raise self.src.error(f"unknown function '{name}'", _at(form),
+                                 _suggest(str(name), [f for f in self.functions if f != TOTAL_COST], "functions"))
+        if len(form.items) - 1 != declared[0]:
+            raise self.src.error(f"'{name}' takes {declared[0]} argument{'s' * (declared[0] != 1)}, not "
+                                 f"{len(form.items) - 1}", _at(form),
+                                 f"'{name}' is declared at {self.domain.loc(declared[1])}")
+        for i, arg in enumerate(form.items[1:], 1):
+            if type(arg) is Var and params is not None and arg in params:
+                continue
+            known = self.objects if params is None else self.constants
+            if type(arg) is not str or arg not in known:
+                what = "an object" if params is None else "a parameter of the action or a constant"
+                raise self.src.error(f"'{term_to_str(arg) if not isinstance(arg, SList) else '(...)'}' is not "
+                                     f"{what}", form.locs[i], _COST_HINT)
+        return Compound(name, tuple(form.items[1:]))
+
+    def _function_value(self, fact: SList) -> None:
+        """``(= (NAME OBJECT ...) N)`` in :init: a cost function's value; ``(= (total-cost) 0)``."""
+        items = fact.items
+        if len(items) != 3 or type(items[1]) is not SList or type(items[2]) not in (int, float):
+            raise self.src.error("expected (= (FUNCTION OBJECT ...) NUMBER) in :init", _at(fact), _COST_HINT)
+        term, value = items[1], items[2]
+        if _head(term) == TOTAL_COST:
+            if TOTAL_COST not in self.functions:
+                raise self.src.error("(total-cost) is not declared", _at(term),
+                                     "declare it in the domain: (:functions (total-cost) - number)")
+            if value != 0:
+                raise self.src.error("the plan's total cost starts at 0", fact.locs[2], "write (= (total-cost) 0)")
+            return
+        key = self._function_term(term, None)
+        if not 0 <= value < math.inf:
+            raise self.src.error(f"a cost must be a number >= 0, not {value}", fact.locs[2], _COST_HINT)
+        self.cost_values[key] = float(value)
+
+    def _metric(self, section: SList) -> bool:
+        """``(:metric minimize (total-cost))``, the one metric of ``:action-costs``."""
+        items = section.items
+        if (len(items) != 3 or items[1] != "minimize" or type(items[2]) is not SList
+                or len(items[2].items) != 1 or _head(items[2]) != TOTAL_COST):
+            raise self.src.error("plan metrics other than (:metric minimize (total-cost)) are not supported",
+                                 _at(section), _SUPPORTED)
+        if TOTAL_COST not in self.functions:
+            raise self.src.error("(total-cost) is not declared in the domain", section.locs[2],
+                                 "declare it there: (:functions (total-cost) - number)")
+        return True
 
     def _list_at(self, form: SList, i: int, hint: str) -> SList:
         item = form.items[i]
@@ -690,6 +818,8 @@ class _Loader:
                 raise self._unsupported(inner_form)
             fact = self._atom(inner_form, params, _EFFECT_HINT, effect=True, scope=scope)
             out.append(self._literal(fact, False, form, condition, variables))
+        elif head == "increase" and condition is None and outcomes is not None:
+            self._increase(form, params)
         elif head in _UNSUPPORTED_HEADS:
             raise self._unsupported(form)
         else:
@@ -767,7 +897,8 @@ class _Loader:
                 raise self.src.error("timed initial literals ('at' with a time) are not supported",
                                      _at(fact), _SUPPORTED)
             if head == "=":
-                raise self.src.error("numeric fluents ('=' in :init) are not supported", _at(fact), _SUPPORTED)
+                self._function_value(fact)
+                continue
             if head == "not":
                 raise self.src.error("(not ...) in :init: the initial state lists only true facts",
                                      _at(fact), "every fact not listed is false; delete this entry")

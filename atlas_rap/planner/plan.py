@@ -107,7 +107,9 @@ class Plan:
     what the plan is (the best by then), for the text output.
     ``deadline`` is the time (seconds from the plan's start) by which its goals
     must be achieved (``PlanningProblem.deadline_for``), or None; a solved plan
-    whose makespan is past it is still a plan, but :attr:`meets_deadline` is False."""
+    whose makespan is past it is still a plan, but :attr:`meets_deadline` is False.
+    ``cost`` is the plan's cost, the sum of its actions' (PDDL ``:action-costs``), or None
+    when the problem does not measure plans by cost (then it is the number of actions)."""
 
     status: str
     steps: list[PlanStep] = field(default_factory=list)
@@ -127,6 +129,7 @@ class Plan:
     deadline: float | None = None
     limits: dict[str, object] | None = None
     limited: str = ""
+    cost: float | None = None
 
     @property
     def meets_deadline(self) -> bool:
@@ -149,6 +152,7 @@ class Plan:
             "threats": [t.to_dict() for t in self.threats],
             "risk_before_counterplanning": self.risk_before_counterplanning,
             "makespan": _number(self.makespan),
+            "cost": _number(self.cost if self.cost is not None else len(self.sequence)),
             **({"deadline": _number(self.deadline), "meets_deadline": self.meets_deadline}
                if self.deadline is not None else {}),
             "stats": self.stats,
@@ -166,7 +170,8 @@ class Plan:
         if self.status != "solved":
             return f"{self.status}" + (f": {self.reason}" if self.reason else "")
         makespan = self.deadline_text() or f"makespan {_number(self.makespan)}"
-        lines = [f"solved: {len(self.steps)} steps, {makespan}, "
+        cost = f"cost {_number(self.cost)}, " if self.cost is not None else ""
+        lines = [f"solved: {len(self.steps)} steps, {cost}{makespan}, "
                  f"parallel length {self.stats.get('parallel_length', '?')}, risk {self.risk:g}"]
         if self.limited:
             lines.append(f"  note: {self.limited}")
@@ -236,7 +241,8 @@ def build_plan(task: GroundTask, order: PartialOrder, protected: Protected, stat
                 simultaneous=[g for g in groups if len(g) > 1], counterplan=counterplan,
                 risk=protected.assessment.risk, threats=threats, risk_before_counterplanning=protected.first_risk,
                 makespan=max((s.end for s in steps), default=0.0),
-                sequence=[a.term for a in order.steps], stats=stats)
+                sequence=[a.term for a in order.steps], stats=stats,
+                cost=sum(a.cost for a in order.steps) if task.problem.action_costs else None)
 
 
 def plan_of_error(error: AtlasError) -> Plan:

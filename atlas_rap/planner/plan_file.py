@@ -29,8 +29,10 @@ Choices:
   defeat it. Additions of bad outcomes are ignored: this is exact for
   domains whose preconditions and goals are positive (deleting a fact never
   helps them), and conservative otherwise.
-- A plan file's last line is ``; cost = N (unit cost)``; reading skips
-  every comment, so the cost line is informational.
+- A plan file's last line is ``; cost = N (unit cost)``, or ``; cost = N
+  (general cost)`` for a problem with action costs (as Fast Downward writes
+  it); reading skips every comment, so the cost line is informational.
+  :attr:`PlanCheck.cost` is the cost the validator works out itself.
 """
 
 from __future__ import annotations
@@ -57,11 +59,13 @@ _PLAN_HINT = "a plan line is one action such as (pick ball1 rooma left); ';' sta
 @dataclass(frozen=True)
 class PlanCheck:
     """The verdict on a plan: ``failed_step`` is the 1-based step whose action
-    is not applicable, or None (the plan is valid, or it runs but misses a goal)."""
+    is not applicable, or None (the plan is valid, or it runs but misses a goal);
+    ``cost`` the cost of the steps run, the number of steps without action costs."""
 
     ok: bool
     message: str
     failed_step: int | None = None
+    cost: float = 0.0
 
 
 def format_action(action: Compound) -> str:
@@ -69,10 +73,14 @@ def format_action(action: Compound) -> str:
     return "(" + " ".join([action.functor, *map(term_to_str, action.args)]).lower() + ")"
 
 
-def write_plan_file(path: str | Path, actions: Iterable[Compound]) -> None:
-    """Write a plan, one action a line, and a final ``; cost = N (unit cost)`` line (whole or not at all)."""
+def write_plan_file(path: str | Path, actions: Iterable[Compound], cost: float | None = None) -> None:
+    """Write a plan, one action a line, and a final ``; cost = N (unit cost)`` line, or ``(general
+    cost)`` with the ``cost`` of a problem with action costs (whole or not at all)."""
     lines = [format_action(action) for action in actions]
-    lines.append(f"; cost = {len(lines)} (unit cost)")
+    if cost is None:
+        lines.append(f"; cost = {len(lines)} (unit cost)")
+    else:
+        lines.append(f"; cost = {cost:g} (general cost)")
     write_text(path, "\n".join(lines) + "\n")
 
 
@@ -113,6 +121,7 @@ def validate_plan(problem: PlanningProblem, actions: Sequence[Compound],
     for op in problem.operators:
         if op.uncontrolled and op.outcome_of is not None:
             outcomes.setdefault(op.outcome_of, []).append(op)
+    cost = 0.0
     for step, action in enumerate(actions, 1):
         shown = format_action(action)
         op = by_name.get(action.functor)
@@ -130,7 +139,12 @@ def validate_plan(problem: PlanningProblem, actions: Sequence[Compound],
             ground = substitute(condition, binding)
             if not _holds(ground, state, objects):
                 return PlanCheck(False, f"step {step}: {shown}: precondition {_describe(ground)} "
-                                        f"does not hold", step)
+                                        f"does not hold", step, cost)
+        step_cost = problem.action_cost(op, binding)
+        if step_cost is None:
+            return PlanCheck(False, f"step {step}: {shown}: its cost {term_to_str(substitute(op.cost, binding))} "
+                                    f"is not given in :init", step, cost)
+        cost += step_cost
         before = frozenset(state)
         _apply(state, op.effects, binding, deletions_only=False, before=before, objects=objects)
         if adversarial:
@@ -139,9 +153,10 @@ def validate_plan(problem: PlanningProblem, actions: Sequence[Compound],
     unmet = [goal for goal in problem.goals if not _holds(goal, state, objects)]
     if unmet:
         return PlanCheck(False, f"goal {formula_text(unmet[0])} is not met after {len(actions)} steps"
-                                + (f" ({len(unmet)} goals unmet)" if len(unmet) > 1 else ""))
+                                + (f" ({len(unmet)} goals unmet)" if len(unmet) > 1 else ""), cost=cost)
     worst = " even when every bad outcome happens" if adversarial else ""
-    return PlanCheck(True, f"plan valid: {len(actions)} steps reach the goals{worst}")
+    costed = f", cost {cost:g}" if problem.action_costs else ""
+    return PlanCheck(True, f"plan valid: {len(actions)} steps reach the goals{worst}{costed}", cost=cost)
 
 
 def validate_plan_file(domain_path: str | Path, problem_path: str | Path, plan_path: str | Path,

@@ -12,11 +12,11 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 
-from typing import Iterable
+from typing import Iterable, Mapping
 
 from atlas_rap.errors import SourceLocation
 from atlas_rap.lang import ast
-from atlas_rap.logic import Compound, Relation, Term, unify
+from atlas_rap.logic import Compound, Relation, Term, Var, substitute, unify
 
 
 @dataclass(frozen=True)
@@ -42,6 +42,10 @@ class PlanningProblem:
     - ``avoid``: ground actions ``(OPERATOR-NAME VALUE ...)`` the plan may not use
       (a plan being repaired leaves out what already failed; see
       ``layers.deliberation``).
+    - ``action_costs``: the problem's plans are measured by their actions' costs (PDDL
+      ``:action-costs``, ``(:metric minimize (total-cost))``; each operator's ``cost``);
+      ``cost_values``: the values of the static functions costs are written with, e.g.
+      ``(road-length a b)`` -> 22, from ``(= (road-length a b) 22)`` in ``:init``.
     """
 
     operators: tuple[ast.Operator, ...]
@@ -59,6 +63,20 @@ class PlanningProblem:
     deadline_locations: tuple[SourceLocation | None, ...] = ()
     deadline: float | None = None
     avoid: frozenset[Term] = frozenset()
+    action_costs: bool = False
+    cost_values: dict[Compound, float] = field(default_factory=dict)
+
+    def action_cost(self, op: ast.Operator, binding: Mapping[Var, Term]) -> float | None:
+        """The cost of ``op`` with its variables bound: 1 when it has none (or the problem does not
+        measure plans by cost, as PDDL without a ``:metric``), its number, or the
+        value of its function term in ``cost_values``; None when that value is not given (PDDL:
+        an action whose cost is undefined cannot be applied)."""
+        cost = op.cost
+        if cost is None or not self.action_costs:
+            return 1.0
+        if type(cost) is Compound:
+            return self.cost_values.get(substitute(cost, binding))  # type: ignore[arg-type]
+        return float(cost)  # type: ignore[arg-type]
 
     def operator(self, name: str) -> ast.Operator:
         """The operator called ``name``."""

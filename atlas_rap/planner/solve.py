@@ -17,6 +17,10 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
    less than half the time (measured 2026-12-02: 4,100 steps in all against
    4,111, 23 s against 53 s of shortening, a second greedy search with other
    ties included in the latter, which now goes: it paid only on depot);
+   With PDDL action costs the searches still count actions, as Fast Downward's
+   lama-first does (``cost_type=one``, its heuristics ``adapt_costs(one)``):
+   a first plan found fast, its cost (``Plan.cost``, the sum of its actions')
+   reported beside its length; the shortening step shortens by length too;
 3. :func:`~atlas_rap.planner.counterplan.counterplan` against uncontrolled agents;
 4. :func:`~atlas_rap.planner.partial_order.deorder` into a partial order,
    checked valid in every linearisation;
