@@ -161,10 +161,18 @@ LIVE_PORT = click.option("--live-port", type=click.IntRange(0, 65535), default=8
 
 
 def _load_plugins(ctx: click.Context, param: click.Parameter, files: tuple[str, ...]) -> tuple[str, ...]:
-    from atlas_rap.plugins import load_file
+    """Import each plugin file, then check what every plugin gives (skills' declarations, worlds' and
+    layer rules' files), so that a wrong plugin named here is reported before the command starts."""
+    if not files:
+        return files
+    from atlas_rap.plugins import load_file, named_files
+    from atlas_rap.skills.catalog import plugin_specs
 
     for path in files:
         load_file(path)
+    plugin_specs()
+    named_files("worlds")
+    named_files("layer_rules")
     return files
 
 
