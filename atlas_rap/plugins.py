@@ -65,7 +65,8 @@ from types import ModuleType
 
 from atlas_rap.errors import AtlasError
 
-__all__ = ["GROUPS", "Contribution", "PluginError", "contributions", "load_file", "named_files", "plugin_path"]
+__all__ = ["GROUPS", "Contribution", "PluginError", "contributions", "failure", "load_file", "named_files",
+           "plugin_path"]
 
 GROUPS: dict[str, str] = {"skills": "atlas_rap.skills", "worlds": "atlas_rap.worlds",
                           "layer_rules": "atlas_rap.layer_rules"}
@@ -120,7 +121,7 @@ def load_file(path: str | os.PathLike[str]) -> None:
         del sys.modules[name]
         if isinstance(exc, KeyboardInterrupt):
             raise
-        raise PluginError(_failure(f"plugin {shown}", exc, resolved.parent)) from None
+        raise PluginError(failure(f"plugin {shown} failed to load", exc, resolved.parent)) from None
     if not any(hasattr(module, attribute) for attribute in FILE_ATTRIBUTES.values()):
         del sys.modules[name]
         raise PluginError(f"plugin {shown}: gives nothing: define {', '.join(FILE_ATTRIBUTES.values())} "
@@ -182,7 +183,7 @@ def _load_entry_point(kind: str, point: EntryPoint) -> Contribution:
             raise
         module = sys.modules.get(point.module.partition(".")[0])
         where = Path(module.__file__).parent if module is not None and module.__file__ else None
-        raise PluginError(_failure(plugin, exc, where)) from None
+        raise PluginError(failure(f"{plugin} failed to load", exc, where)) from None
     return Contribution(kind, point.name, value, origin, plugin)
 
 
@@ -210,21 +211,31 @@ def _distribution(point: EntryPoint) -> str:
     return dist.name if dist is not None else point.module.partition(".")[0]
 
 
-def _failure(plugin: str, exc: BaseException, folder: Path | None) -> str:
-    """What a user reads when a plugin fails to load: the plugin, the traceback's last line, and
+def failure(plugin: str, exc: BaseException, folder: Path | None) -> str:
+    """What a user reads when a plugin fails (to load, or a plugin's skill as it runs): the plugin, the
+    traceback's last line, and
     where in the plugin's own files it happened (the deepest frame under ``folder``)."""
     last = traceback.format_exception_only(type(exc), exc)[-1].strip()
     where = ""
     if isinstance(exc, SyntaxError) and exc.filename:
         last = f"{type(exc).__name__}: {exc.msg}"
-        where = f"{exc.filename}, line {exc.lineno}"
+        where = f"{_near(exc.filename)}, line {exc.lineno}"
         if exc.text:
             where += f": {exc.text.strip()}"
     elif folder is not None:
         frames = [frame for frame in traceback.extract_tb(exc.__traceback__)
                   if Path(frame.filename).resolve().is_relative_to(folder.resolve())]
         if frames:
-            where = f"{frames[-1].filename}, line {frames[-1].lineno}"
+            where = f"{_near(frames[-1].filename)}, line {frames[-1].lineno}"
             if frames[-1].line:
                 where += f": {frames[-1].line.strip()}"
-    return f"{plugin} failed to load: {last}" + (f"\n  at {where}" if where else "")
+    return f"{plugin}: {last}" + (f"\n  at {where}" if where else "")
+
+
+def _near(filename: str) -> str:
+    """A file as messages name it: relative to the working folder when it is under it."""
+    path = Path(filename)
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return filename

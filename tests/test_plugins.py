@@ -158,6 +158,12 @@ def test_a_plugin_file_gives_a_skill_a_world_and_layer_rules_to_a_run(beeper):
     assert unknown.returncode == 2 and "the plugins' layer rules: my-rules" in unknown.stderr
 
 
+def test_an_output_over_a_plugin_file_is_refused_and_the_file_kept(beeper):
+    done = atlas("run", "beep.rap", "--plugin", "beeper.py", "--trace", "beeper.py", cwd=beeper)
+    assert done.returncode == 2 and "--trace beeper.py: is a plugin file of this command" in done.stderr
+    assert (beeper / "beeper.py").read_text() == BEEPER
+
+
 def test_atlas_check_and_skills_list_take_the_plugin_file(beeper):
     assert atlas("check", "--plugin", "beeper.py", "beep.rap", cwd=beeper).returncode == 0
     without = atlas("check", "beep.rap", cwd=beeper)
@@ -181,12 +187,12 @@ SKILL_HEAD = "from atlas_rap.skills import Skill\n\n\n"
 
 BAD_PLUGINS = {
     "syntax-error": ("x = 1\n\ndef broken(:\n    pass\n",
-                     ["plugin bad.py failed to load: SyntaxError: ", "bad.py, line 3: def broken(:"]),
+                     ["plugin bad.py failed to load: SyntaxError: ", "\n  at bad.py, line 3: def broken(:"]),
     "import-error": ("import atlas_no_such_module\n",
                      ["plugin bad.py failed to load: ModuleNotFoundError: No module named 'atlas_no_such_module'",
-                      "bad.py, line 1: import atlas_no_such_module"]),
+                      "\n  at bad.py, line 1: import atlas_no_such_module"]),
     "raises": ("x = 1\nraise RuntimeError('no robot here')\n",
-               ["plugin bad.py failed to load: RuntimeError: no robot here", "bad.py, line 2"]),
+               ["plugin bad.py failed to load: RuntimeError: no robot here", "\n  at bad.py, line 2"]),
     "gives-nothing": ("x = 1\n", ["plugin bad.py: gives nothing: define ATLAS_SKILLS, ATLAS_WORLDS"]),
     "no-name": (SKILL_HEAD + "class Nameless(Skill):\n    pass\n\n\nATLAS_SKILLS = [Nameless]\n",
                 ["plugin bad.py: skill class Nameless declares no name"]),
@@ -222,6 +228,16 @@ def test_every_command_with_plugins_reports_a_broken_one_before_it_starts(tmp_pa
     assert done.returncode == 2, done.stdout + done.stderr
     assert_no_traceback(done)
     assert "plugin bad.py failed to load: SyntaxError" in done.stderr and "bad.py, line 1" in done.stderr
+
+
+def test_a_plugin_skill_that_raises_as_it_runs_stops_the_run_with_a_clear_error(beeper):
+    (beeper / "beeper.py").write_text(BEEPER.replace("self.context.finish(self)", "1 / 0"))
+    done = atlas("run", "beep.rap", "--plugin", "beeper.py", "--trace", "trace.jsonl", cwd=beeper)
+    assert done.returncode == 1
+    assert_no_traceback(done)
+    assert ("skill beep (plugin beeper.py) failed in transform: ZeroDivisionError: division by zero\n"
+            "  at beeper.py, line 14: 1 / 0") in done.stderr
+    assert '"skill":"(beep 3)"' in (beeper / "trace.jsonl").read_text()  # the trace up to then is written
 
 
 def test_a_plugin_file_that_is_not_there(tmp_path):

@@ -97,8 +97,12 @@ class OutputFolder(click.ParamType):
         return str(output_folder(value, _option(param)))
 
 
-INPUT_NAMES = ("world",)
-"""Options that take a shipped world's name or a file: an input when they name a file."""
+INPUT_NAMES = ("world", "layer_rules")
+"""Options that take a name (a shipped world, a plugin's world or layer rules) or a file: an input when
+they name a file."""
+
+PLUGIN_FILES = "atlas_rap.plugin_files"
+"""Where ``--plugin`` keeps its files in the click context's ``meta``: inputs of the command."""
 
 
 def check_outputs(ctx: click.Context, more: dict | None = None) -> None:
@@ -122,6 +126,8 @@ def check_outputs(ctx: click.Context, more: dict | None = None) -> None:
                 folders[label] = tuple(param.type.writes())
         elif isinstance(param.type, click.Path) or param.name in INPUT_NAMES:
             inputs[f"{named} of this command"] = value if isinstance(value, tuple) else (value,)
+    if ctx.meta.get(PLUGIN_FILES):
+        inputs["a plugin file of this command"] = ctx.meta[PLUGIN_FILES]
     if outputs:  # (atlas check writes nothing: its cold start stays as it was)
         from atlas_rap.outputs import check_apart
 
@@ -170,6 +176,7 @@ def _load_plugins(ctx: click.Context, param: click.Parameter, files: tuple[str, 
 
     for path in files:
         load_file(path)
+    ctx.meta[PLUGIN_FILES] = files
     plugin_specs()
     named_files("worlds")
     named_files("layer_rules")

@@ -157,7 +157,7 @@ def registered(name: str) -> Callable[[SkillClass], SkillClass]:
 def _declare(cls: type, spec: SkillSpec) -> None:
     """Give the class the interface its spec declares (what the skill manager reads)."""
     cls.name, cls.params, cls.events = spec.name, spec.params, spec.events  # type: ignore[attr-defined]
-    cls.rate, cls.always_on = spec.rate, spec.always_on  # type: ignore[attr-defined]
+    cls.rate, cls.always_on, cls.origin = spec.rate, spec.always_on, spec.origin  # type: ignore[attr-defined]
 
 
 def stock_classes() -> list[type]:

@@ -128,6 +128,7 @@ class Skill:
     rate: ClassVar[float] = 20.0
     always_on: ClassVar[bool] = False
     events: ClassVar[tuple[str, ...]] = ()
+    origin: ClassVar[str] = ""  # "stock", or the plugin that gave it (set by the catalog)
 
     def __init__(self) -> None:
         self.context: SkillContext | None = None
