@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from bus_processes import processes  # noqa: F401  (a fixture)
 from cli_process import ENV, REPO, assert_no_traceback, atlas, atlas_command
 
 EXAMPLE = REPO / "examples" / "atlas-rap-example-plugin"
@@ -179,6 +180,23 @@ def test_the_repl_takes_the_plugin_file(beeper):
     assert done.returncode == 0, done.stdout + done.stderr
     assert "+ (place inside)  (world)" in done.stdout  # the plugin's world, named by the mission
     assert "?n = 3" in done.stdout
+
+
+def test_a_skill_host_serves_a_plugin_files_skills_to_a_sequencer_that_has_no_plugin(beeper, processes):
+    """The host's skill list, sent over the bus, is the one the catalog gives: the sequencer checks and runs
+    the mission against it without the plugin file."""
+    pytest.importorskip("zenoh")
+    from bus_processes import Running, free_port
+
+    port = free_port()
+    host = Running("skills", "serve", "--plugin", "beeper.py", "--world", "closet", "--listen",
+                   f"tcp/127.0.0.1:{port}", cwd=beeper)
+    processes.append(host)
+    host.wait_for("skill host for robot robot in world closet")
+    run = Running("run", "beep.rap", "--quiet", "--connect", f"tcp/127.0.0.1:{port}", cwd=beeper)
+    processes.append(run)
+    assert run.finish() == 0, run.output + host.output
+    assert "1 of 1 posted tasks succeeded" in run.output
 
 
 # -- plugins that are wrong: a clear message, exit 2, no traceback ------------------------------------------
