@@ -39,6 +39,9 @@ def cli() -> None:
     `atlas experiment`; look at a run recorded for Foxglove with
     `atlas record show`; serve a robot's skills to a sequencer on
     another host with `atlas skills serve` (and `atlas run --connect`).
+    Your own skills, sensors, worlds and layer rules come in as plugins
+    (installed entry points, or --plugin FILE.py); `atlas skills list`
+    shows every skill and where it came from.
     """
 
 

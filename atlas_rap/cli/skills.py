@@ -23,11 +23,13 @@ def skills_group() -> None:
 @PLUGIN
 @click.option("--json", "as_json", is_flag=True, help="Print the skills as a JSON list, one object a skill.")
 def list_skills(as_json: bool) -> None:
-    """Every skill a simulated robot has: the stock skills and the plugins' (installed packages'
-    atlas_rap.skills entry points, and --plugin files), each with its parameters and their types,
-    the predicates of the facts it posts (besides done and why), its rate, whether RAPs enable it or
-    it is always on (sensors, monitors), and where it came from: stock, a distribution's name, or
-    a plugin file.
+    """List every skill a simulated robot has, as declared, and where it came from.
+
+    The stock skills, then the plugins' (installed packages' atlas_rap.skills
+    entry points, then --plugin files): each with its parameters and their
+    types, the predicates of the facts it posts (besides done and why), its
+    rate, whether RAPs enable it or it is always on (sensors, monitors), and
+    where it came from: stock, a distribution's name, or a plugin file.
     """
     from atlas_rap.skills.catalog import catalog
 
