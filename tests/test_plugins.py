@@ -80,6 +80,7 @@ def test_atlas_check_knows_the_plugin_skills_only_where_the_plugin_is_installed(
     mission = site / "atlas_rap_example_plugin" / "find-the-lamp.rap"
     done = run_atlas("check", str(mission), cwd=tmp_path, env=with_plugins(site))
     assert done.returncode == 0, done.stderr
+    assert "warning" not in done.stderr  # (wait-for (light robot bright)): the sensor's declared event
     alone = run_atlas("check", str(mission), cwd=tmp_path, env=ENV)
     assert alone.returncode == 1 and "cannot enable unknown skill 'creep'" in alone.stderr
 
