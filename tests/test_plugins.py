@@ -265,20 +265,37 @@ def test_a_plugin_file_that_is_not_there(tmp_path):
     assert_no_traceback(done)
 
 
-def test_an_entry_point_that_names_nothing_is_a_clear_error(tmp_path):
-    """An installed distribution (its metadata written as pip writes it) whose entry point names a class
-    its module does not have."""
+INSTALLED_BAD = {
+    "names nothing": ("[atlas_rap.skills]\nghost = ghost_plugin.skills:Ghost\n", ["skills", "list"],
+                      "plugin ghost-plugin (entry point atlas_rap.skills: ghost = ghost_plugin.skills:Ghost) failed to "
+                      "load: AttributeError: module 'ghost_plugin.skills' has no attribute 'Ghost'"),
+    "named not as its skill": ("[atlas_rap.skills]\nghost = ghost_plugin.skills:Spook\n", ["skills", "list"],
+                               "plugin ghost-plugin (entry point atlas_rap.skills: ghost = ghost_plugin.skills:Spook): "
+                               "skill class Spook: the entry point is named 'ghost' but the skill 'spook'"),
+    "a world that is no path": ("[atlas_rap.worlds]\nhaunted = ghost_plugin.skills:NOT_A_PATH\n",
+                                ["run", str(REPO / "rap_library" / "missions" / "deliver.rap"), "--world", "haunted"],
+                                "world 'haunted' must be the path of a file, not int"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(INSTALLED_BAD))
+def test_an_installed_plugin_that_is_wrong_is_a_clear_error(tmp_path, case):
+    """An installed distribution (its metadata written as pip writes it) whose entry point is wrong."""
+    entry_points, command, message = INSTALLED_BAD[case]
     site = tmp_path / "site"
     info = site / "ghost_plugin-0.1.dist-info"
     info.mkdir(parents=True)
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: ghost-plugin\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text("[atlas_rap.skills]\nghost = ghost_plugin.skills:Ghost\n")
+    (info / "entry_points.txt").write_text(entry_points)
     (site / "ghost_plugin").mkdir()
     (site / "ghost_plugin" / "__init__.py").write_text("")
-    (site / "ghost_plugin" / "skills.py").write_text("GHOST = None\n")
-    for command in (["skills", "list"], ["check", str(REPO / "rap_library" / "missions" / "deliver.rap")]):
-        done = run_atlas(*command, cwd=tmp_path, env=with_plugins(site))
-        assert done.returncode == 2, done.stdout + done.stderr
-        assert_no_traceback(done)
-        assert ("plugin ghost-plugin (entry point atlas_rap.skills: ghost = ghost_plugin.skills:Ghost) failed to "
-                "load: AttributeError: module 'ghost_plugin.skills' has no attribute 'Ghost'") in done.stderr
+    (site / "ghost_plugin" / "skills.py").write_text(
+        "from atlas_rap.skills import Skill\n\n\nclass Spook(Skill):\n    name = 'spook'\n\n\nNOT_A_PATH = 3\n")
+    done = run_atlas(*command, cwd=tmp_path, env=with_plugins(site))
+    assert done.returncode == 2, done.stdout + done.stderr
+    assert_no_traceback(done)
+    assert message in done.stderr
+    if case == "names nothing":  # atlas check too: it reads the plugins' skills
+        done = run_atlas("check", str(REPO / "rap_library" / "missions" / "deliver.rap"), cwd=tmp_path,
+                         env=with_plugins(site))
+        assert done.returncode == 2 and message in done.stderr

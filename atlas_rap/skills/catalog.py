@@ -98,7 +98,6 @@ class SkillSpec:
 
 _SENSING, _EVENTS, _MOTION = "atlas_rap.skills.sensing", "atlas_rap.skills.events", "atlas_rap.skills.motion"
 _NAVIGATION, _CAMERA, _HANDLING = "atlas_rap.skills.navigation", "atlas_rap.skills.camera", "atlas_rap.skills.handling"
-_SYMBOL = "symbol"
 
 STOCK: tuple[SkillSpec, ...] = (
     SkillSpec("sonar-ring", f"{_SENSING}:SonarSensor", rate=10.0, always_on=True),  # at the world's sonar.rate
