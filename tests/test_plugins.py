@@ -175,6 +175,21 @@ def test_atlas_check_and_skills_list_take_the_plugin_file(beeper):
     assert row.split() == ["beep", "times:", "number", "beeped", "2", "Hz", "by", "RAPs", "beeper.py"]
 
 
+def test_literal_arguments_are_checked_against_the_declared_types_by_check_and_run(beeper):
+    (beeper / "typed.rap").write_text(BEEP_MISSION.replace("(beep 3)", "(beep three) (move-to 2.0 lab)"))
+    for command in (["check"], ["run", "--quiet"]):
+        done = atlas(*command, "--plugin", "beeper.py", "typed.rap", cwd=beeper)
+        assert done.returncode == 1, done.stdout + done.stderr
+        assert_no_traceback(done)
+        assert "typed.rap:6:7: error: skill beep's times is a number, not the symbol three" in done.stderr
+        assert "hint: beep takes (times: number)" in done.stderr
+        assert "error: skill move-to's y is a number, not the symbol lab" in done.stderr  # a stock skill's
+    (beeper / "hidden.rap").write_text(BEEP_MISSION.replace("(beep 3)", "(beep 3) (move-to 2.0 lab)") +
+                                       "(define-virtual-skill (move-to ?x ?y) (after 1 (finish :succeed)))\n")
+    done = atlas("check", "--plugin", "beeper.py", "hidden.rap", cwd=beeper)  # its own move-to: no types
+    assert done.returncode == 0, done.stderr
+
+
 def test_the_repl_takes_the_plugin_file(beeper):
     done = subprocess.run(atlas_command("repl", "--plugin", "beeper.py", "beep.rap"), cwd=beeper,
                           input=":run 5\n(? (beeped robot ?n))\n", capture_output=True, text=True, env=ENV)

@@ -74,7 +74,7 @@ def _sequencer_problems(program, robot_first: bool = False) -> list:
     from atlas_rap.lang import ast
     from atlas_rap.sequencer.checks import check_program
     from atlas_rap.skillbus.remote import robot_first as with_robot_first
-    from atlas_rap.skills.catalog import skill_events, skill_names
+    from atlas_rap.skills.catalog import catalog, param_types, skill_events, skill_names
     from atlas_rap.skills.virtual import VirtualSkills
 
     if not any(program.of_type(kind) for kind in (ast.RapDef, ast.Post, ast.MemoryRuleDef, ast.InitialMemory,
@@ -82,12 +82,15 @@ def _sequencer_problems(program, robot_first: bool = False) -> list:
         return []
     virtual = VirtualSkills.from_program(program)
     names, events = virtual.skills(), virtual.produces()
+    types = {}
     worlds = program.of_type(ast.WorldDecl)
     if not worlds or worlds[-1].world != "none":  # a world run also has the stock skills
         available = skill_names()
+        if not robot_first:  # (with the robot's name first, the arguments are not as declared)
+            types = {name: typed for name, typed in param_types(catalog()).items() if name not in names}
         names = {**(with_robot_first(available) if robot_first else available), **names}
         events |= skill_events()
-    return check_program(program, names, events)
+    return check_program(program, names, events, param_types=types)
 
 
 def _planner_problems(program, path: str) -> list:

@@ -2,10 +2,11 @@
 
 Every skill a robot has is one :class:`SkillSpec` here, the one place its
 interface is written; everything else is derived from it: the class's
-``name``, ``params``, ``events``, ``rate`` and ``always_on`` (set on it by
-:func:`registered` for a stock skill, by :func:`plugin_specs` for a
-plugin's), the load-time checks of ``atlas check`` (:func:`skill_names`,
-:func:`skill_events`), the skill manager's skills (:func:`skill_classes`;
+``name``, ``params``, ``events``, ``rate``, ``always_on`` and ``origin`` (set
+on it by :func:`registered` for a stock skill, by :func:`plugin_specs` for a
+plugin's), the load-time checks of ``atlas check`` and of a run
+(:func:`skill_names`, :func:`skill_events`; :func:`param_types`: a literal
+argument of another type than declared is an error), the skill manager's skills (:func:`skill_classes`;
 the skill bus lists what the manager was built from) and ``atlas skills list``
 (:func:`catalog`).
 
@@ -29,12 +30,13 @@ from __future__ import annotations
 import importlib
 import re
 from dataclasses import dataclass, field
-from typing import Callable, NamedTuple, TypeVar
+from typing import Any, Callable, Iterable, NamedTuple, TypeVar
 
 from atlas_rap.plugins import Contribution, PluginError, contributions
 
-__all__ = ["PARAM_TYPES", "STOCK", "STOCK_EVENTS", "STOCK_SKILLS", "Param", "SkillSpec", "catalog", "plugin_specs",
-           "registered", "skill_classes", "skill_events", "skill_names", "spec_of", "stock_classes"]
+__all__ = ["PARAM_TYPES", "STOCK", "STOCK_EVENTS", "STOCK_SKILLS", "Param", "SkillSpec", "catalog", "param_types",
+           "params", "plugin_specs", "registered", "skill_classes", "skill_events", "skill_names", "spec_of",
+           "stock_classes"]
 
 PARAM_TYPES = ("number", "symbol", "string", "list", "any")
 """The types a skill's parameter may declare: what a RAP writes as its argument."""
@@ -224,6 +226,12 @@ def catalog() -> tuple[SkillSpec, ...]:
 def skill_classes() -> list[type]:
     """The class of every skill available, in :func:`catalog`'s order (importing the stock skills' modules)."""
     return [skill.load() for skill in catalog()]
+
+
+def param_types(skills: Iterable[Any]) -> dict[str, tuple[Param, ...]]:
+    """The declared parameters of ``skills`` (specs, classes or instances: anything with a ``name`` and
+    ``params``) by name, for the argument checks of ``atlas check`` and of a run."""
+    return {skill.name: params(*skill.params) for skill in skills}
 
 
 def skill_names() -> dict[str, set[int]]:
