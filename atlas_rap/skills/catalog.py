@@ -1,14 +1,17 @@
 """The skills registry: each skill's name, typed parameters, events, rate and class, declared once.
 
 Every skill a robot has is one :class:`SkillSpec` here, the one place its
-interface is written; everything else is derived from it: the class's
-``name``, ``params``, ``events``, ``rate``, ``always_on`` and ``origin`` (set
-on it by :func:`registered` for a stock skill, by :func:`plugin_specs` for a
-plugin's), the load-time checks of ``atlas check`` and of a run
-(:func:`skill_names`, :func:`skill_events`; :func:`param_types`: a literal
-argument of another type than declared is an error), the skill manager's skills (:func:`skill_classes`;
-the skill bus lists what the manager was built from) and ``atlas skills list``
-(:func:`catalog`).
+interface is written; everything else is derived from it:
+
+- the class's ``name``, ``params``, ``events``, ``rate``, ``always_on`` and
+  ``origin`` (set on it by :func:`registered` for a stock skill, by
+  :func:`plugin_specs` for a plugin's);
+- the load-time checks of ``atlas check`` and of a run: :func:`skill_names`,
+  :func:`skill_events`, and :func:`param_types` (a literal argument of
+  another type than declared is an error);
+- the skill manager's skills (:func:`skill_classes`); the skill bus lists
+  what the manager was built from;
+- ``atlas skills list`` (:func:`catalog`).
 
 - **Stock skills** are the table :data:`STOCK`, written here so that
   ``atlas check`` reads them without importing the skills (which import
