@@ -8,9 +8,11 @@ from collections import Counter
 import click
 
 from atlas_rap.cli.console import console, secho, styles_on
+from atlas_rap.cli.options import PLUGIN
 
 
 @click.command()
+@PLUGIN
 @click.argument("files", nargs=-1, required=True, type=click.Path(dir_okay=False))
 @click.option("--tree", is_flag=True, help="Print the AST of each file as a tree.")
 @click.option("--format", "format_", is_flag=True,
@@ -75,12 +77,12 @@ def program_problems(program, path: str, robots: tuple[str, ...] = ()) -> list:
 
 def _sequencer_problems(program, robot_first: bool = False) -> list:
     """Load-time checks of the RAPs against the skills they can use: the program's virtual
-    skills, and the stock skills of a simulated world unless the program says ``(world none)``
+    skills, and the stock and plugin skills of a simulated world unless the program says ``(world none)``
     (``robot_first``: with the robot's name as a first argument, as over the bus with several robots)."""
     from atlas_rap.lang import ast
     from atlas_rap.sequencer.checks import check_program
     from atlas_rap.skillbus.remote import robot_first as with_robot_first
-    from atlas_rap.skills.catalog import STOCK_EVENTS, STOCK_SKILLS
+    from atlas_rap.skills.catalog import catalog, param_types, skill_events, skill_names
     from atlas_rap.skills.virtual import VirtualSkills
 
     if not any(program.of_type(kind) for kind in (ast.RapDef, ast.Post, ast.MemoryRuleDef, ast.InitialMemory,
@@ -88,11 +90,15 @@ def _sequencer_problems(program, robot_first: bool = False) -> list:
         return []
     virtual = VirtualSkills.from_program(program)
     names, events = virtual.skills(), virtual.produces()
+    types = {}
     worlds = program.of_type(ast.WorldDecl)
     if not worlds or worlds[-1].world != "none":  # a world run also has the stock skills
-        names = {**(with_robot_first(STOCK_SKILLS) if robot_first else STOCK_SKILLS), **names}
-        events |= STOCK_EVENTS
-    return check_program(program, names, events)
+        available = skill_names()
+        if not robot_first:  # (with the robot's name first, the arguments are not as declared)
+            types = {name: typed for name, typed in param_types(catalog()).items() if name not in names}
+        names = {**(with_robot_first(available) if robot_first else available), **names}
+        events |= skill_events()
+    return check_program(program, names, events, param_types=types)
 
 
 def _planner_problems(program, path: str) -> list:

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from atlas_rap.cli.options import SEED, OutputFolder
+from atlas_rap.cli.options import SEED, LayerRules, OutputFolder
 
 
 class SeedSpec(click.ParamType):
@@ -68,8 +68,9 @@ def experiment_group() -> None:
 @click.option("--obstacles", "obstacles", type=ObstacleCases(), default="all", show_default=True, metavar="CASES",
               help="The cases of the obstacle scenario (Fig. 13b) run on the last run's map, each from it: "
                    "person, corridor-box and full-block ('all'), some of them comma-separated, or 'none'.")
-@click.option("--layer-rules", "layer_rules", type=click.Path(dir_okay=False, exists=True), metavar="RULES.rap",
-              help="Memory rules that choose the primary layer (default: the shipped rap_library/layers.rap).")
+@click.option("--layer-rules", "layer_rules", type=LayerRules(), metavar="RULES.rap",
+              help="Memory rules that choose the primary layer: a file, or the name of an installed plugin's "
+                   "(default: the shipped rap_library/layers.rap).")
 @click.option("--localisation", "localisation", type=click.Choice(["mcl", "odometry"]), default="mcl",
               show_default=True,
               help="How the robot knows where it is: its odometry corrected against the map it builds and "

@@ -151,13 +151,16 @@ class DocumentIndex:
         skills: dict[str, str] = {}
         worlds = self.program.of_type(ast.WorldDecl)
         if not worlds or worlds[-1].world != "none":
-            from atlas_rap.skills.catalog import STOCK
+            from atlas_rap.skills.catalog import catalog
 
-            for skill in STOCK:
-                call = f"({' '.join((skill.name, *(p.upper() for p in skill.params)))})"
+            for skill in catalog():  # the stock skills and the installed plugins'
+                call = f"({' '.join((skill.name, *(p.name.upper() for p in skill.params)))})"
+                types = ", ".join(str(p) for p in skill.params)
                 posts = f"; it posts {', '.join(skill.events)}" if skill.events else ""
                 always = " (always on)" if skill.always_on else ""
-                skills[skill.name] = f"```rap\n{call}\n```\n\nstock skill{always}{posts}"
+                origin = "stock skill" if skill.origin == "stock" else f"skill from {skill.origin}"
+                skills[skill.name] = (f"```rap\n{call}\n```\n\n{origin}{always}{posts}"
+                                      + (f"\n\nparameters: {types}" if types else ""))
         for form in self.program.of_type(ast.VirtualSkillDef):
             skills[form.name] = _definition(form, self.program).markdown()  # type: ignore[union-attr]
         return skills

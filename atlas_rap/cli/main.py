@@ -41,6 +41,9 @@ def cli() -> None:
     `atlas record show`; serve a robot's skills to a sequencer on
     another host with `atlas skills serve` (and `atlas run --connect`);
     give your editor diagnostics, hover and completion with `atlas lsp`.
+    Your own skills, sensors, worlds and layer rules come in as plugins
+    (installed entry points, or --plugin FILE.py); `atlas skills list`
+    shows every skill and where it came from.
     """
 
 

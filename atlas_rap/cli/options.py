@@ -14,6 +14,8 @@
   to 2**63 - 1 (numpy takes no negative seed).
 - :func:`world_help`: the ``--world`` help text, naming the worlds read
   from the shipped ``worlds/`` folder (never a hand-kept list).
+- :data:`PLUGIN`: ``--plugin FILE.py``, loaded before the other options;
+  :class:`LayerRules`: ``--layer-rules`` as a file or a plugin's name.
 """
 
 from __future__ import annotations
@@ -95,8 +97,12 @@ class OutputFolder(click.ParamType):
         return str(output_folder(value, _option(param)))
 
 
-INPUT_NAMES = ("world",)
-"""Options that take a shipped world's name or a file: an input when they name a file."""
+INPUT_NAMES = ("world", "layer_rules")
+"""Options that take a name (a shipped world, a plugin's world or layer rules) or a file: an input when
+they name a file."""
+
+PLUGIN_FILES = "atlas_rap.plugin_files"
+"""Where ``--plugin`` keeps its files in the click context's ``meta``: inputs of the command."""
 
 
 def check_outputs(ctx: click.Context, more: dict | None = None) -> None:
@@ -120,6 +126,8 @@ def check_outputs(ctx: click.Context, more: dict | None = None) -> None:
                 folders[label] = tuple(param.type.writes())
         elif isinstance(param.type, click.Path) or param.name in INPUT_NAMES:
             inputs[f"{named} of this command"] = value if isinstance(value, tuple) else (value,)
+    if ctx.meta.get(PLUGIN_FILES):
+        inputs["a plugin file of this command"] = ctx.meta[PLUGIN_FILES]
     if outputs:  # (atlas check writes nothing: its cold start stays as it was)
         from atlas_rap.outputs import check_apart
 
@@ -158,11 +166,58 @@ LIVE_PORT = click.option("--live-port", type=click.IntRange(0, 65535), default=8
 """``--live-port``, for the commands that serve a run to Foxglove (``atlas run``, ``atlas skills serve``)."""
 
 
+def _load_plugins(ctx: click.Context, param: click.Parameter, files: tuple[str, ...]) -> tuple[str, ...]:
+    """Import each plugin file, then check what every plugin gives (skills' declarations, worlds' and
+    layer rules' files), so that a wrong plugin named here is reported before the command starts."""
+    if not files:
+        return files
+    from atlas_rap.plugins import load_file, named_files
+    from atlas_rap.skills.catalog import plugin_specs
+
+    for path in files:
+        load_file(path)
+    ctx.meta[PLUGIN_FILES] = files
+    plugin_specs()
+    named_files("worlds")
+    named_files("layer_rules")
+    return files
+
+
+PLUGIN = click.option("--plugin", "plugins", multiple=True, metavar="FILE.py", is_eager=True, expose_value=False,
+                      type=click.Path(dir_okay=False), callback=_load_plugins,
+                      help="Load a plugin file first (repeatable): the skills, worlds and layer rules it gives "
+                           "in ATLAS_SKILLS, ATLAS_WORLDS and ATLAS_LAYER_RULES join the installed plugins' "
+                           "(see atlas skills list).")
+"""``--plugin FILE.py`` (:mod:`atlas_rap.plugins`), read before the other options so that ``--world`` and
+``--layer-rules`` can name what the file gives; for the commands that load skills, worlds or missions."""
+
+
+class LayerRules(click.ParamType):
+    """``--layer-rules``: a ``.rap`` file of layer-switching rules, or the name a plugin gives one
+    (the ``atlas_rap.layer_rules`` entry points, a ``--plugin`` file's ``ATLAS_LAYER_RULES``)."""
+
+    name = "RULES.rap"
+
+    def convert(self, value, param, ctx):
+        from pathlib import Path
+
+        from atlas_rap.plugins import named_files
+
+        if Path(value).is_file():
+            return value
+        given = named_files("layer_rules")
+        if value in given:
+            return str(given[value][0])
+        names = f"; the plugins' layer rules: {', '.join(sorted(given))}" if given else ""
+        self.fail(f"{value!r} is neither a file nor the name of a plugin's layer rules{names}", param, ctx)
+
+
 def world_help(default: str) -> str:
     """The help of a ``--world`` option: the shipped worlds by name, a file, or none."""
     from atlas_rap.shipped import shipped_worlds
 
-    return (f"World to run in: a shipped world ({', '.join(shipped_worlds())}), a world file, "
+    return (f"World to run in: a shipped world ({', '.join(shipped_worlds())}), a plugin's world by name, "
+            f"a world file, "
             f"or 'none' for virtual skills and scripted events only. {default}")
 
 
@@ -189,9 +244,9 @@ def layer_options(command):
         click.option("--layers", "layers", default="I,II,III,IV", show_default=True, metavar="I,II,...",
                      callback=lambda ctx, param, value: parse_layers(value),
                      help="The ATLAS layers enabled (each can drive the robot alone)."),
-        click.option("--layer-rules", "layer_rules", type=click.Path(dir_okay=False, exists=True),
-                     metavar="RULES.rap",
-                     help="Memory rules that choose the primary layer (default: the shipped rap_library/layers.rap)."),
+        click.option("--layer-rules", "layer_rules", type=LayerRules(), metavar="RULES.rap",
+                     help="Memory rules that choose the primary layer: a file, or the name of a plugin's "
+                          "(default: the shipped rap_library/layers.rap)."),
     ]
     for option in reversed(options):
         command = option(command)

@@ -22,13 +22,14 @@ from typing import TYPE_CHECKING, Iterable, Iterator, TextIO
 import click
 
 from atlas_rap.cli.bus_options import bus_options, check_bus_options
-from atlas_rap.cli.options import POSITIVE, SEED, OutputFile, layer_options, run_options, world_help
+from atlas_rap.cli.options import PLUGIN, POSITIVE, SEED, OutputFile, layer_options, run_options, world_help
 
 if TYPE_CHECKING:
     from atlas_rap.skillbus.remote import BusSettings
 
 
 @click.command()
+@PLUGIN
 @click.argument("files", nargs=-1, metavar="[FILE...]", type=click.Path(dir_okay=False))
 @click.option("--world", metavar="W",
               help=world_help("Default: the first file's (world ...) form, else none (virtual skills only)."))

@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING
 import click
 
 from atlas_rap.cli.bus_options import bus_options, check_bus_options
-from atlas_rap.cli.options import (LIVE_PORT, POSITIVE, SEED, OutputFile, check_outputs, engine_inputs, layer_options,
-                                   run_options, world_help)
+from atlas_rap.cli.options import (LIVE_PORT, PLUGIN, POSITIVE, SEED, OutputFile, check_outputs, engine_inputs,
+                                   layer_options, run_options, world_help)
 
 if TYPE_CHECKING:  # downward only
     from collections.abc import Mapping
@@ -24,6 +24,7 @@ if TYPE_CHECKING:  # downward only
 
 
 @click.command()
+@PLUGIN
 @click.argument("mission_file", metavar="MISSION.rap", type=click.Path(dir_okay=False))
 @click.option("--world", "world", metavar="W",
               help=world_help("Default: the mission's (world ...) form, else lab-corridor-office."))

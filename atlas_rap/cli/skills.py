@@ -1,22 +1,54 @@
-"""``atlas skills serve``: run a robot's world and skills as a skill host on the Zenoh skill bus."""
+"""``atlas skills``: ``list`` the skills available (stock and plugins'); ``serve`` a robot's world and
+skills as a skill host on the Zenoh skill bus."""
 
 from __future__ import annotations
 
+import json
 import signal
 import sys
 
 import click
 
 from atlas_rap.cli.bus_options import MAX_MESSAGE, ZENOH_CONFIG
-from atlas_rap.cli.options import LIVE_PORT, POSITIVE, SEED, OutputFile, world_help
+from atlas_rap.cli.options import LIVE_PORT, PLUGIN, POSITIVE, SEED, OutputFile, world_help
 
 
 @click.group("skills")
 def skills_group() -> None:
-    """Skills on their own host: serve a robot's skills to a sequencer elsewhere (Eclipse Zenoh)."""
+    """The robot's skills: list those available (stock and plugins'); serve them to a sequencer
+    elsewhere (Eclipse Zenoh)."""
+
+
+@skills_group.command("list")
+@PLUGIN
+@click.option("--json", "as_json", is_flag=True, help="Print the skills as a JSON list, one object a skill.")
+def list_skills(as_json: bool) -> None:
+    """List every skill a simulated robot has, as declared, and where it came from.
+
+    The stock skills, then the plugins' (installed packages' atlas_rap.skills
+    entry points, then --plugin files): each with its parameters and their
+    types, the predicates of the facts it posts (besides done and why), its
+    rate, whether RAPs enable it or it is always on (sensors, monitors), and
+    where it came from: stock, a distribution's name, or a plugin file.
+    """
+    from atlas_rap.skills.catalog import catalog
+
+    skills = catalog()
+    if as_json:
+        click.echo(json.dumps([{"name": skill.name, "params": [{"name": p.name, "type": p.type} for p in skill.params],
+                                "events": list(skill.events), "rate": skill.rate, "always_on": skill.always_on,
+                                "origin": skill.origin} for skill in skills], indent=2))
+        return
+    rows = [("SKILL", "PARAMETERS", "POSTS", "RATE", "ENABLED", "FROM")]
+    rows += [(skill.name, ", ".join(map(str, skill.params)) or "-", ", ".join(skill.events) or "-",
+              f"{skill.rate:g} Hz", "always on" if skill.always_on else "by RAPs", skill.origin) for skill in skills]
+    widths = [max(len(row[column]) for row in rows) for column in range(len(rows[0]) - 1)]
+    for row in rows:
+        click.echo("  ".join(cell.ljust(width) for cell, width in zip(row, widths)) + "  " + row[-1])
 
 
 @skills_group.command("serve")
+@PLUGIN
 @click.option("--world", "world", metavar="W", default="lab-corridor-office", show_default=True,
               help=world_help("The world the host simulates."))
 @click.option("--listen", "listen", metavar="ENDPOINT", multiple=True,

@@ -29,6 +29,7 @@ from atlas_rap.layers.system import System
 from atlas_rap.logic import Compound, Relation, Term
 from atlas_rap.sequencer import Task
 from atlas_rap.sequencer.checks import check_program
+from atlas_rap.skills.catalog import param_types
 from atlas_rap.skills.virtual import VirtualSkills, skill_names
 
 if TYPE_CHECKING:  # downward only: the planner is imported when a plan is asked for
@@ -76,7 +77,12 @@ def check(system: System, library: Library, program: Program, require_post: bool
     earlier = tuple(form for key, form in library.definitions.items() if key not in redefined)
     combined = dataclasses.replace(program, forms=earlier + program.forms, lines={**library.lines, **program.lines})
     mine = {source.path for source in program.files} | {program.root}
-    problems = [p for p in check_program(combined, skills, produces, require_post=require_post)
+    types = {}
+    if system.manager is not None:  # the skills here, as declared (not those a virtual skill's name hides)
+        hidden = set(system.virtual.skills()) | set(skill_names(new_skills))
+        types = {name: typed for name, typed in param_types(system.manager.catalog.values()).items()
+                 if name not in hidden}
+    problems = [p for p in check_program(combined, skills, produces, require_post=require_post, param_types=types)
                 if p.location.file in mine or p.location.file not in library.files]
     for event in program.of_type(ast.AtTime):
         if event.time < seq.now():

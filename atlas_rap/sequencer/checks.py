@@ -8,7 +8,10 @@ program and the skill link, so they run when a mission is loaded (and in
   a hint), or that has the wrong number of arguments (a ``(plan GOAL ...)``
   item or step is no call: its goals are queries for the planner, so only
   its ``wait-for``s and orderings are checked here);
-- a primitive that enables or disables a skill nobody provides;
+- a primitive that enables or disables a skill nobody provides, or gives
+  one a literal argument of another type than the skill declares
+  (``(creep fast 0.3)`` for ``distance: number``; variables and
+  expressions are not checked);
 - a post of something that is not a RAP;
 - steps ordered in a circle by ``sequence``, ``(for L)`` and ``until-end``
   (they would wait for each other for ever);
@@ -32,29 +35,37 @@ Warnings do not stop the run:
 
 from __future__ import annotations
 
-from typing import Iterable, Iterator
+from typing import Iterable, Iterator, Mapping, Sequence
 
 from atlas_rap.errors import AtlasError, Problem, SourceLocation, did_you_mean
 from atlas_rap.lang import ast
 from atlas_rap.lang.reader import SList, read_text
 from atlas_rap.lang.guesses import net_hint
-from atlas_rap.logic import COMPARISONS, Compound, FactError, Term, evaluated_fact, is_ground, rule_cycles, term_to_str
+from atlas_rap.logic import (COMPARISONS, Compound, FactError, String, Term, evaluated_fact, is_ground, rule_cycles,
+                             term_to_str)
+
+
+ParamTypes = Mapping[str, Sequence[tuple[str, str]]]
+"""Skills' declared parameters: name → ((parameter, type), ...), the types ``number``, ``symbol``,
+``string``, ``list`` and ``any`` (``atlas_rap.skills.catalog.Param`` is such a pair)."""
 
 
 def check_program(program, skills: dict[str, set[int]], produces: Iterable[str], *,
-                  require_post: bool = False) -> list[Problem]:
+                  require_post: bool = False, param_types: ParamTypes | None = None) -> list[Problem]:
     """Every problem of ``program`` run with ``skills`` (name → arities), errors first.
 
     ``produces`` are the predicates the skills' events may assert. With
     ``require_post`` (``atlas run``) a program that posts nothing is an error.
+    ``param_types``: the declared parameters of the skills whose literal arguments are checked.
     """
-    return _Checker(program, skills, set(produces)).run(require_post)
+    return _Checker(program, skills, set(produces), param_types or {}).run(require_post)
 
 
 class _Checker:
-    def __init__(self, program, skills: dict[str, set[int]], produces: set[str]) -> None:
+    def __init__(self, program, skills: dict[str, set[int]], produces: set[str], param_types: ParamTypes) -> None:
         self.program = program
         self.skills = skills
+        self.param_types = param_types
         self.raps: dict[str, set[int]] = {}
         for rap in program.of_type(ast.RapDef):
             self.raps.setdefault(rap.name, set()).add(len(rap.params))
@@ -144,6 +155,7 @@ class _Checker:
     def skill(self, skill: Compound, loc: SourceLocation, verb: str) -> None:
         name, arity = skill.functor, len(skill.args)
         if arity in self.skills.get(name, ()):
+            self.arguments(skill, loc)
             return
         if name in self.skills:
             self.report(f"skill {name} takes {_arities(self.skills[name])}, not {arity}", loc)
@@ -155,6 +167,18 @@ class _Checker:
             hint = (did_you_mean(name, sorted(self.skills)) or f"the skills here are: {known}" if known else
                     "no skills are known here; for a run without a world, define it with define-virtual-skill")
             self.report(f"cannot {verb} unknown skill '{name}'", loc, hint)
+
+    def arguments(self, skill: Compound, loc: SourceLocation) -> None:
+        """Each literal argument of a skill call against the type its parameter declares."""
+        declared = self.param_types.get(skill.functor)
+        if not declared or len(declared) != len(skill.args):
+            return
+        for (param, kind), arg in zip(declared, skill.args):
+            found = _literal_type(arg)
+            if found is not None and kind not in ("any", found):
+                signature = ", ".join(f"{name}: {of}" for name, of in declared)
+                self.report(f"skill {skill.functor}'s {param} is a {kind}, not the {found} {term_to_str(arg)}", loc,
+                            f"{skill.functor} takes ({signature})")
 
     def post(self, post: ast.Post) -> None:
         name, arity = post.task.functor, len(post.task.args)
@@ -354,6 +378,18 @@ def _item_location(program, form_loc: SourceLocation, path: tuple[int, ...]) -> 
         where = node.locs[index]
         node = node.items[index]
     return SourceLocation(form_loc.file, where[0], where[1])
+
+
+def _literal_type(term: Term) -> str | None:
+    """The type of a literal argument (``number``, ``symbol``, ``string``, ``list``), or None for what
+    is not checked: a variable, an expression, and ``nil`` (the empty list as well as a symbol)."""
+    if isinstance(term, (int, float)) and not isinstance(term, bool):
+        return "number"
+    if isinstance(term, str):
+        return None if term == "nil" else "symbol"
+    if isinstance(term, Compound):
+        return "list" if term.functor == "" else None
+    return "string" if isinstance(term, String) else None
 
 
 def _arities(arities: set[int]) -> str:

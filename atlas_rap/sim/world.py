@@ -119,6 +119,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode
 from atlas_rap.errors import AtlasError, SourceError, WorldError, WorldFileError, did_you_mean
 from atlas_rap.maps.rosmap import FREE, OCCUPIED, UNKNOWN, RosMap, load_ros_map, wall_segments
 from atlas_rap.yamlsource import YamlSource
+from atlas_rap.plugins import named_files
 from atlas_rap.shipped import resolve_user_path, shipped_root, shipped_worlds
 from atlas_rap.model import (
     DEFAULT_ODOMETRY_NOISE,
@@ -171,9 +172,11 @@ NAME_PATTERN = re.compile(r"[a-z][a-z0-9_-]*\Z")
 
 
 def world_path(name_or_path: str | Path) -> Path:
-    """The file a world name or path means: a bare name is a shipped world, anything else a path.
+    """The file a world name or path means: a bare name is a shipped world, else a plugin's world
+    (:mod:`atlas_rap.plugins`, the ``atlas_rap.worlds`` entry points and ``--plugin`` files), else a file
+    of that name here; anything else a path.
 
-    An unknown bare name raises :class:`WorldError` listing the shipped worlds.
+    An unknown bare name raises :class:`WorldError` listing the shipped worlds and the plugins'.
     """
     text = str(name_or_path)
     given = Path(text)
@@ -186,20 +189,28 @@ def world_path(name_or_path: str | Path) -> Path:
     candidate = root / f"{text}.yaml" if root is not None else None
     if candidate is not None and candidate.is_file():
         return candidate
+    plugin_worlds = named_files("worlds")
+    for name, (_, contribution) in plugin_worlds.items():
+        if name in shipped_worlds():
+            raise WorldError(f"{contribution.plugin}: world '{name}' has the name of a shipped world; rename it")
+    if text in plugin_worlds:
+        return plugin_worlds[text][0]
     if given.is_file():
         return given
     names = shipped_worlds()
 
-    near = did_you_mean(text.lower(), names)  # shipped names are lower-case: MAZE means maze
+    near = did_you_mean(text.lower(), [*names, *plugin_worlds])  # shipped names are lower-case: MAZE means maze
     message = f"no shipped world named '{text}'"
     message += f"; {near}" if near else ""
     message += f"\n  shipped worlds: {', '.join(names) if names else '(none found)'}"
+    if plugin_worlds:
+        message += f"\n  plugins' worlds: {', '.join(sorted(plugin_worlds))}"
     message += "\n  or give the path of a world file, e.g. my-world.yaml"
     raise WorldError(message)
 
 
 def load_world(name_or_path: str | Path) -> World:
-    """Read a world: a shipped one by name (``maze``) or a YAML file by path.
+    """Read a world: a shipped or a plugin's one by name (``maze``) or a YAML file by path.
 
     Raises :class:`WorldFileError` with every problem found in the file (and in
     the ROS map it names), or :class:`WorldError` for an unknown name.

@@ -66,7 +66,6 @@ class ColourCamera(Skill):
 
     inputs = ("pose",)
     outputs = ("sightings",)
-    rate = 10.0
     fov = math.radians(60.0)
     max_range = 5.0
     out_of_view_after = 1.0

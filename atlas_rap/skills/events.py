@@ -34,7 +34,6 @@ class PlaceMonitor(Skill):
     """Asserts ``(at robot PLACE)`` on entering a place."""
 
     inputs = ("pose",)
-    rate = 10.0
 
     def init(self, context) -> None:
         super().init(context)
@@ -56,7 +55,6 @@ class DoorMonitor(Skill):
     """Watches doorways within ``sensing_range`` with the sonar; asserts their state when it changes."""
 
     inputs = ("pose", "sonar")
-    rate = 10.0
     sensing_range = 3.0
     nearest = 0.4  # closer, the robot is in the doorway and its beams see the frame
     tolerance = 0.3

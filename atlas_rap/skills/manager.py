@@ -15,7 +15,11 @@ come back as facts in RAP memory:
   ``(door-closed office-door)``, ``(bumped robot)``, ``(blocked robot X)``).
 
 When a skill is disabled or finishes, its outputs are cleared, so a
-stopped motion skill leaves no stale velocity command behind. When two
+stopped motion skill leaves no stale velocity command behind. A plugin's
+skill that raises in one of its hooks stops the run with a
+:class:`~atlas_rap.errors.RunError` naming the skill, its plugin, the
+exception and the line of the plugin it came from (:func:`plugin_fault`);
+a stock skill's exception is a bug in atlas-rap and is raised as it is. When two
 enabled skills write the same output, the one later in dependency order
 (then the later enabled) wins.
 """
@@ -23,9 +27,11 @@ enabled skills write the same output, the one later in dependency order
 from __future__ import annotations
 
 import inspect
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterable
 
-from atlas_rap.errors import AtlasError
+from atlas_rap.errors import AtlasError, RunError
+from atlas_rap.plugins import failure
 from atlas_rap.logic import Compound, String
 from atlas_rap.skillbus.skill_link import SkillHost
 from atlas_rap.skills.skill import HALTED, Skill, SkillContext
@@ -70,10 +76,16 @@ class SkillManager:
     def connect(self, host: SkillHost) -> None:
         self.host = host
         for skill in self.order:
-            skill.init(self.context)
+            try:
+                skill.init(self.context)
+            except Exception as exc:
+                raise plugin_fault(skill, "init", exc)
         for skill in self.order:
             if skill.always_on:
-                skill.enable(())
+                try:
+                    skill.enable(())
+                except Exception as exc:
+                    raise plugin_fault(skill, "enable", exc)
                 self.enabled[skill.name] = None
                 self.due[skill.name] = self.now
 
@@ -96,7 +108,10 @@ class SkillManager:
             raise KeyError(f"{call.functor} is always on")
         self._clear_outputs(skill)
         self.finished.pop(skill.name, None)
-        skill.enable(tuple(_value(arg) for arg in call.args))
+        try:
+            skill.enable(tuple(_value(arg) for arg in call.args))
+        except Exception as exc:
+            raise plugin_fault(skill, "enable", exc)
         self.enabled.pop(skill.name, None)
         self.enabled[skill.name] = call
         self.due[skill.name] = self.now
@@ -109,10 +124,13 @@ class SkillManager:
             return  # enabled again since, with other arguments: that one stays
         del self.enabled[skill.name]
         reason = self.finished.pop(skill.name, HALTED)
-        if _takes_reason(skill):
-            skill.disable(reason)
-        else:
-            skill.disable()  # type: ignore[call-arg]  # an override written before disable had a reason
+        try:
+            if _takes_reason(skill):
+                skill.disable(reason)
+            else:
+                skill.disable()  # type: ignore[call-arg]  # an override written before disable had a reason
+        except Exception as exc:
+            raise plugin_fault(skill, "disable", exc)
         self._clear_outputs(skill)
 
     def running(self) -> list[Compound]:
@@ -133,7 +151,10 @@ class SkillManager:
             if now + 1e-9 < due:
                 continue
             self.due[name] = max(due + 1.0 / skill.rate, now)
-            outputs = skill.transform({key: data.get(key) for key in skill.inputs})
+            try:
+                outputs = skill.transform({key: data.get(key) for key in skill.inputs})
+            except Exception as exc:
+                raise plugin_fault(skill, "transform", exc)
             if outputs and name not in self.finished:
                 data.update(outputs)
 
@@ -188,6 +209,15 @@ def dependency_order(skills: list[Skill]) -> list[Skill]:
     for skill in skills:
         visit(skill, [])
     return order
+
+
+def plugin_fault(skill: Skill, hook: str, exc: Exception) -> Exception:
+    """What to raise for ``exc``, raised by ``skill``'s ``hook``: for a plugin's skill, a RunError naming the
+    skill, its plugin, the exception and where in the plugin's files; else ``exc`` itself (a bug of ours)."""
+    if skill.origin in ("", "stock"):
+        return exc
+    folder = Path(inspect.getfile(type(skill))).parent
+    return RunError(failure(f"skill {skill.name} (plugin {skill.origin}) failed in {hook}", exc, folder))
 
 
 def _takes_reason(skill: Skill) -> bool:

@@ -50,7 +50,6 @@ class _Driving(Skill):
 
     inputs = ("pose", "sonar")
     outputs = ("command",)
-    rate = 20.0
 
     def init(self, context) -> None:
         super().init(context)

@@ -35,7 +35,6 @@ class SafetyReflex(Skill):
 
     inputs = ("command", "sonar", "bump")
     outputs = ("safe-command",)
-    rate = 20.0
 
     slow_range = 0.6
     stop_range = 0.12

@@ -27,7 +27,7 @@ class SonarSensor(Skill):
 
     def init(self, context) -> None:
         super().init(context)
-        self.rate = float(context.world.sonar.rate) if context.world is not None else 10.0
+        self.rate = float(context.world.sonar.rate) if context.world is not None else self.rate
         self.angles = np.asarray(context.robot.sonar_angles, dtype=float)
 
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:

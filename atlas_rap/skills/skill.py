@@ -33,9 +33,13 @@ A skill runs in a :class:`SkillContext`, given to :meth:`Skill.init` by the
 skill manager that runs it; the context reaches the manager only through
 the narrow :class:`SkillRunner`, so this module imports nothing of the manager.
 
-A skill's ``name`` is how RAPs call it; ``params`` names its arguments (for
-messages and the arity check); ``events`` lists the predicates it may
-assert, so ``atlas check`` can tell a wait-for that nothing can produce.
+A skill's ``name`` is how RAPs call it; ``params`` names its arguments and
+their types (``"x: number"``; for messages, the arity check and ``atlas
+skills list``); ``events`` lists the predicates it may assert, so ``atlas
+check`` can tell a wait-for that nothing can produce; ``rate`` is how many
+times a second it runs. A stock skill takes these from its entry in
+:mod:`atlas_rap.skills.catalog`; a plugin's skill (:mod:`atlas_rap.plugins`)
+writes them as class attributes, which the catalog reads and checks.
 """
 
 from __future__ import annotations
@@ -118,12 +122,13 @@ class Skill:
     """Base class of every skill; see the module docstring for the lifecycle."""
 
     name: ClassVar[str] = ""
-    params: ClassVar[tuple[str, ...]] = ()
+    params: ClassVar[tuple[Any, ...]] = ()  # names ("x", "x: number"), or catalog.Param
     inputs: ClassVar[tuple[str, ...]] = ()
     outputs: ClassVar[tuple[str, ...]] = ()
     rate: ClassVar[float] = 20.0
     always_on: ClassVar[bool] = False
     events: ClassVar[tuple[str, ...]] = ()
+    origin: ClassVar[str] = ""  # "stock", or the plugin that gave it (set by the catalog)
 
     def __init__(self) -> None:
         self.context: SkillContext | None = None

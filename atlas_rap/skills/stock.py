@@ -1,23 +1,23 @@
-"""The skills every simulated robot has, and the manager that runs them."""
+"""The skills every simulated robot has (the stock skills and the plugins'), and the manager that runs them."""
 
 from __future__ import annotations
 
 from typing import Any
 
 from atlas_rap.skills.beliefs import OBJECTS
-from atlas_rap.skills.catalog import STOCK_EVENTS, STOCK_SKILLS, stock_classes
+from atlas_rap.skills.catalog import skill_classes
 from atlas_rap.skills.manager import SkillManager
 from atlas_rap.skills.skill import Skill
 
 
 def stock_skills() -> list[Skill]:
-    """One fresh instance of each stock skill, in the catalog's order: sensors, reflex, events, motion,
-    navigation, the colour camera and what it serves, the gripper."""
-    return [skill_class() for skill_class in stock_classes()]
+    """One fresh instance of each skill available, in the catalog's order: the stock skills (sensors, reflex,
+    events, motion, navigation, the colour camera and what it serves, the gripper), then the plugins'."""
+    return [skill_class() for skill_class in skill_classes()]
 
 
 def stock_manager(world: Any, robot: Any, rng: Any = None) -> SkillManager:
-    """A skill manager with the stock skills for ``robot`` in ``world`` (what the robot
+    """A skill manager with the stock and plugin skills for ``robot`` in ``world`` (what the robot
     believes of it: the true world, or only its places with no prior map). Mapping is
     not a skill: ATLAS Layer IV builds the grid (``atlas_rap.layers.strategic``).
 
@@ -31,13 +31,3 @@ def stock_manager(world: Any, robot: Any, rng: Any = None) -> SkillManager:
 
         manager.context.beliefs[OBJECTS] = ObjectSim(truth, robot)
     return manager
-
-
-def stock_skill_names() -> dict[str, set[int]]:
-    """The stock skills RAPs can enable: name → arity (for checking files without a world)."""
-    return {name: set(arities) for name, arities in STOCK_SKILLS.items()}
-
-
-def stock_events() -> set[str]:
-    """Predicates the stock skills may assert."""
-    return set(STOCK_EVENTS)
