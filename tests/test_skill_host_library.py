@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from bus_processes import Running, free_port, processes  # noqa: F401  (processes: a fixture)
-from cli_process import REPO
+from cli_process import REPO, atlas
 
 zenoh = pytest.importorskip("zenoh")
 
@@ -109,6 +109,17 @@ def test_when_the_host_stops_a_sequencer_is_told_no_host_answers(processes, tmp_
     assert lost.finish() == 1
     assert "no skill host for robot 'rover' answers" in lost.output
     assert "Traceback" not in lost.output + host.output
+
+
+def test_the_host_file_is_also_the_plugin_atlas_check_reads_the_skills_from(tmp_path):
+    checked = atlas("check", str(PATROL), "--plugin", str(HOST), cwd=tmp_path)
+    assert checked.returncode == 0, checked.stderr
+    unknown = atlas("check", str(PATROL), cwd=tmp_path)
+    assert unknown.returncode == 1 and "'drive-to' is neither a RAP nor a skill" in unknown.stderr
+    bad = tmp_path / "bad.rap"
+    bad.write_text('(include "' + PATROL.as_posix() + '")\n(define-rap (to-lab) (method (task-net (t1 (drive-to lab 0)))))\n')
+    typed = atlas("check", str(bad), "--plugin", str(HOST), cwd=tmp_path)
+    assert typed.returncode == 1 and "is a number, not the symbol lab" in typed.stderr
 
 
 @pytest.mark.parametrize("skills, message", [

@@ -139,7 +139,10 @@ class _Checker:
 
     def call(self, task: Compound, loc: SourceLocation, label: str | None = None) -> None:
         name, arity = task.functor, len(task.args)
-        if arity in self.raps.get(name, ()) or arity in self.skills.get(name, ()):
+        if arity in self.raps.get(name, ()):
+            return
+        if arity in self.skills.get(name, ()):  # a skill as a step: enabled with these arguments
+            self.arguments(task, loc)
             return
         known = self.raps.get(name, set()) | self.skills.get(name, set())
         if known:

@@ -52,7 +52,7 @@ class DriveTo(Skill):
     """Drive the rover to (X, Y) in a straight line."""
 
     name = "drive-to"
-    params = ("x", "y")
+    params = ("x: number", "y: number")
     events = ("at-point",)
     rate = 20.0
 
@@ -93,21 +93,26 @@ class Battery(Skill):
         return {}
 
 
+ATLAS_SKILLS = [DriveTo, Battery]
+"""The skills, for atlas's --plugin: atlas check patrol.rap --plugin rover_host.py checks the mission
+against them without the host running."""
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--listen", action="append", default=[], help="Zenoh endpoint (default tcp/127.0.0.1:7447)")
     parser.add_argument("--token-file", help="the host's token file (default: one per robot, printed at start)")
     args = parser.parse_args(argv)
-    with SkillHost("rover", [DriveTo, Battery], body=Rover(), facts=["(at-point robot 0 0)"],
-                   listen=args.listen, token_file=args.token_file) as host:
-        if host.exposure:
-            print(host.exposure, file=sys.stderr)
-        print(f"skill host for robot rover on {', '.join(host.endpoints)} (Ctrl-C to stop)")
-        print(f"token: {host.token_source}", flush=True)
-        try:
+    try:  # Ctrl-C, whenever it comes: the host leaves the bus (its token goes) and the process exits 130
+        with SkillHost("rover", ATLAS_SKILLS, body=Rover(), facts=["(at-point robot 0 0)"],
+                       listen=args.listen, token_file=args.token_file) as host:
+            if host.exposure:
+                print(host.exposure, file=sys.stderr)
+            print(f"skill host for robot rover on {', '.join(host.endpoints)} (Ctrl-C to stop)")
+            print(f"token: {host.token_source}", flush=True)
             host.serve(on_session=lambda text: print(f"robot rover: {text}", flush=True))
-        except KeyboardInterrupt:
-            return 130
+    except KeyboardInterrupt:
+        return 130
     return 0
 
 
