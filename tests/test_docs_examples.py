@@ -1,0 +1,54 @@
+"""Every RAP and AP example in the documentation is a program `atlas check` accepts.
+
+The ```rap and ```ap blocks of README.md and docs/ (tests/doc_blocks.py) are
+written to files and checked by one `atlas check` process; a bad block is
+reported by the page and line it is on.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+from doc_blocks import all_blocks
+
+PROGRAMS = all_blocks("rap", "ap")
+
+
+def test_the_language_reference_has_examples_of_both_languages():
+    pages = {block.path.name for block in PROGRAMS}
+    assert {"rap.md", "ap.md"} <= pages
+    assert len(PROGRAMS) >= 12
+
+
+def test_every_rap_and_ap_block_in_the_docs_checks(tmp_path):
+    files: dict[str, str] = {}
+    for n, block in enumerate(PROGRAMS):
+        name = f"block-{n}.{block.lang}"
+        (tmp_path / name).write_text(block.text, encoding="utf-8")
+        files[name] = block.where
+    done = subprocess.run([sys.executable, "-m", "atlas_rap", "check", *files], cwd=tmp_path,
+                          capture_output=True, text=True, env={**os.environ, "NO_COLOR": "1"}, timeout=120)
+    report = done.stdout + done.stderr
+    shown = re.sub(r"block-\d+\.(rap|ap)", lambda m: files[m.group(0)], report)
+    assert "Traceback" not in report, shown
+    assert done.returncode == 0, f"examples in the docs that atlas check refuses:\n{shown}"
+    for name in files:
+        assert f"ok: {name}" in report, f"{files[name]}: not checked\n{shown}"
+
+
+def test_a_bad_block_is_reported_by_its_page_and_line(tmp_path):
+    """The collector itself: a block that does not check is found and named where it is written."""
+    from doc_blocks import blocks
+
+    page = tmp_path / "page.md"
+    page.write_text("# A page\n\n```rap\n(define-rap (a) (sucede (x)))\n```\n", encoding="utf-8")
+    (block,) = blocks(page)
+    assert (block.line, block.lang) == (3, "rap")
+    (tmp_path / "b.rap").write_text(block.text, encoding="utf-8")
+    done = subprocess.run([sys.executable, "-m", "atlas_rap", "check", "b.rap"], cwd=tmp_path,
+                          capture_output=True, text=True, env={**os.environ, "NO_COLOR": "1"}, timeout=60)
+    assert done.returncode == 1 and "unknown clause 'sucede'" in done.stdout + done.stderr
