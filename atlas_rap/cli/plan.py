@@ -195,7 +195,8 @@ def _read_problem(files: tuple[str, ...], pddl: bool):
             raise click.UsageError("--pddl takes two files: DOMAIN.pddl PROBLEM.pddl")
         from atlas_rap.planner.pddl import load_pddl
 
-        return _with_goals(load_pddl(files[0], files[1]), files[1], "add (:goal ...) to the problem"), [], files
+        domain, problem = (resolve_user_path(file) for file in files)  # operators/pddl/... from any folder
+        return _with_goals(load_pddl(domain, problem), files[1], "add (:goal ...) to the problem"), [], files
     if len(files) != 1:
         raise click.UsageError("give one goals file (GOALS.ap), or --pddl DOMAIN.pddl PROBLEM.pddl")
     path = resolve_user_path(files[0])
