@@ -11,10 +11,16 @@ A block is a fence ```LANG ... ``` at the start of a line. Languages with a mean
   differs from run to run). A command with no lines after it must only succeed
   (exit 0) unless ``# exit N`` ends the command line (the comment is shell's own).
 
-An HTML comment ``<!-- not-run: REASON -->`` on the line before a block keeps
-the block from being run (it needs a second machine, a network, minutes); the
-reason is required. Commands shown in ``sh`` blocks are not run: a page shows a
-command it runs in a ``console`` block.
+An HTML comment on the line before a block says more of it:
+
+- ``<!-- not-run: REASON -->``: the block is not run (it needs a second machine,
+  a network, minutes); the reason is required. A block that shows a command is a
+  ``console`` block unless it says why it is not run (tests/test_docs_commands.py);
+- ``<!-- file: NAME -->``: the block is a file the reader saves as NAME; the
+  console blocks after it on the same page run with it in their folder, as the
+  reader's would be (a later block of the same NAME replaces it);
+- ``<!-- excerpt: PATH -->``: the block is an excerpt of the shipped file PATH, and
+  appears in it verbatim (tests/test_docs_examples.py).
 """
 
 from __future__ import annotations
@@ -24,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-NOT_RUN = re.compile(r"^<!--\s*not-run:\s*(\S.*?)\s*-->\s*$")
+MARKER = re.compile(r"^<!--\s*(not-run|file|excerpt):\s*(\S.*?)\s*-->\s*$")
 FENCE = re.compile(r"^```([A-Za-z0-9_-]*)\s*$")
 
 
@@ -34,7 +40,15 @@ class Block:
     line: int  # 1-based line of the opening fence
     lang: str
     text: str
-    not_run: str | None  # the reason given, when the block is marked not to run
+    marker: tuple[str, str] | None  # ("not-run", REASON), ("file", NAME) or ("excerpt", PATH)
+
+    @property
+    def not_run(self) -> str | None:
+        """The reason given, when the block is marked not to run."""
+        return self.marker[1] if self.marker and self.marker[0] == "not-run" else None
+
+    def marked(self, kind: str) -> str | None:
+        return self.marker[1] if self.marker and self.marker[0] == kind else None
 
     @property
     def where(self) -> str:
@@ -55,9 +69,9 @@ def blocks(path: Path) -> list[Block]:
             continue
         end = next((j for j in range(i + 1, len(lines)) if lines[j].rstrip() == "```"), None)
         assert end is not None, f"{path.relative_to(REPO)}:{i + 1}: a code block that never ends"
-        marker = NOT_RUN.match(lines[i - 1]) if i else None
+        marker = MARKER.match(lines[i - 1]) if i else None
         found.append(Block(path, i + 1, opening.group(1), "\n".join(lines[i + 1:end]) + "\n",
-                           marker.group(1) if marker else None))
+                           marker.groups() if marker else None))
         i = end + 1
     return found
 

@@ -13,6 +13,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from doc_blocks import all_blocks
 
 PROGRAMS = all_blocks("rap", "ap")
@@ -52,3 +54,22 @@ def test_a_bad_block_is_reported_by_its_page_and_line(tmp_path):
     done = subprocess.run([sys.executable, "-m", "atlas_rap", "check", "b.rap"], cwd=tmp_path,
                           capture_output=True, text=True, env={**os.environ, "NO_COLOR": "1"}, timeout=60)
     assert done.returncode == 1 and "unknown clause 'sucede'" in done.stdout + done.stderr
+
+
+EXCERPTS = [block for block in all_blocks("lisp", "rap", "ap", "yaml", "text", "") if block.marked("excerpt")]
+
+
+@pytest.mark.parametrize("block", EXCERPTS, ids=[block.where for block in EXCERPTS])
+def test_an_excerpt_of_a_shipped_file_is_in_it_verbatim(block):
+    from doc_blocks import REPO
+
+    shipped = (REPO / block.marked("excerpt")).read_text(encoding="utf-8")
+    assert block.text in shipped, f"{block.where}: not what {block.marked('excerpt')} says"
+
+
+def test_the_getting_started_mission_is_the_one_that_ships():
+    from doc_blocks import REPO, blocks
+
+    saved = [block for block in blocks(REPO / "docs" / "getting-started.md") if block.marked("file") == "coffee.rap"]
+    assert len(saved) >= 2  # written step by step
+    assert saved[-1].text == (REPO / "rap_library" / "missions" / "deliver-coffee.rap").read_text(encoding="utf-8")
