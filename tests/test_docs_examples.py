@@ -76,3 +76,17 @@ def test_the_getting_started_mission_is_the_one_that_ships():
     saved = [block for block in blocks(REPO / "docs" / "getting-started.md") if block.marked("file") == "coffee.rap"]
     assert len(saved) >= 2  # written step by step
     assert saved[-1].text == (REPO / "rap_library" / "missions" / "deliver-coffee.rap").read_text(encoding="utf-8")
+
+
+MISSIONS = [block for block in PROGRAMS if block.lang == "rap" and "(post " in block.text and not block.marked("file")]
+
+
+@pytest.mark.parametrize("block", MISSIONS, ids=[block.where for block in MISSIONS])
+def test_every_example_mission_runs_and_its_tasks_succeed(block, tmp_path):
+    """A reference example that posts tasks means what the page says: run, every posted task succeeds.
+    (Examples saved as files by a page run in its console blocks instead.)"""
+    (tmp_path / "example.rap").write_text(block.text, encoding="utf-8")
+    done = subprocess.run([sys.executable, "-m", "atlas_rap", "run", "example.rap", "--quiet"], cwd=tmp_path,
+                          capture_output=True, text=True, env={**os.environ, "NO_COLOR": "1"}, timeout=120)
+    assert done.returncode == 0, f"{block.where}:\n{done.stdout}{done.stderr}"
+    assert re.match(r"example\.rap: (\d+) of \1 posted tasks succeeded", done.stdout), done.stdout
