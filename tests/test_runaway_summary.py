@@ -32,10 +32,10 @@ def summary(tmp_path, mission: str, *options: str):
     return done
 
 
-def test_the_readme_shows_what_the_summary_of_a_rap_that_posts_itself_says(tmp_path):
-    readme = (REPO / "docs" / "language" / "rap.md").read_text(encoding="utf-8")
+def test_the_language_reference_shows_what_the_summary_of_a_rap_that_posts_itself_says(tmp_path):
+    page = (REPO / "docs" / "language" / "rap.md").read_text(encoding="utf-8")
     promise = re.search(r"The summary puts the\s+cause of such a runaway first\s+and folds the repeated chain\s+"
-                        r"\(`(… \d+ more levels of \(loop\) …)`\)", readme)
+                        r"\(`(… \d+ more levels of \(loop\) …)`\)", page)
     assert promise, "the language reference's promise about the runaway summary moved or changed"
     lines = summary(tmp_path, RUNAWAYS["itself"], "--quiet").stdout.splitlines()
     assert len(lines) < 25, "\n".join(lines)
