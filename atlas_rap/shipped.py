@@ -4,7 +4,7 @@ In a checkout they sit at the top of the repository; installed, they are
 package data (``atlas_rap.rap_library`` and friends). Use
 :func:`resolve_user_path` on a path a user typed: an existing file is taken
 as it is; a path such as ``rap_library/missions/site-visit.rap`` that does
-not exist here falls back to the installed copy, so the README's commands
+not exist here falls back to the installed copy, so the docs' commands
 work from any directory.
 """
 

@@ -1,4 +1,4 @@
-"""The names of trace records (LANGUAGE.md §2.8), in one place for every producer and consumer.
+"""The names of trace records (the language reference, docs/language/trace.md), in one place for every producer and consumer.
 
 A leaf module: the sequencer, the skill bus, the layers, the pictures and the
 CLI all name events through :class:`Event`, so nobody matches a bare string.
@@ -27,7 +27,7 @@ class Event(TextEnum):
     written from them are what they were when the names were bare strings.
     """
 
-    # LANGUAGE.md §2.8
+    # the records every trace has (docs/language/trace.md)
     TASK_POSTED = "task-posted"  #: a task was posted, or spawned by a step (``parent``)
     TASK_SELECTED = "task-selected"  #: the agenda selected a task (``repeat``: its repeat count)
     METHOD_SELECTED = "method-selected"  #: a method of the task was chosen (``method``, ``attempt``)
@@ -41,7 +41,7 @@ class Event(TextEnum):
     FACT_RETRACTED = "fact-retracted"  #: a fact left memory (``by``: who retracted it)
     PLAN_READY = "plan-ready"  #: the planner delivered a plan (``version``, ``actions``, ``latency``)
     LAYER_SWITCHED = "layer-switched"  #: the primary ATLAS layer changed (emitted by ``layers``)
-    # the plan executive (sequencer.deliberation), beyond LANGUAGE.md's list
+    # the plan executive (sequencer.deliberation), beyond the first list
     PLAN_REQUESTED = "plan-requested"  #: a ``(plan GOAL ...)`` step asked for a plan
     PLAN_STEP_STARTED = "plan-step-started"  #: a plan step's RAP task was spawned
     PLAN_STEP_DONE = "plan-step-done"  #: a plan step's RAP task succeeded

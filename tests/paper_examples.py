@@ -1,4 +1,4 @@
-"""The examples of the 3T paper (seed 003) as LANGUAGE.md restores them, shared by tests."""
+"""The examples of the 3T paper (seed 003) as the language reference gives them (docs/language/), shared by tests."""
 
 ATTACH_AT_SITE = """\
 (define-rap (attach-at-site ?thesite)
@@ -18,4 +18,4 @@ ATTACH_AT_SITE = """\
         (t2 (grip-attach ?thesite))
         (wait-for (docked ?thesite))))))
 """
-"""The 3T paper's RAP exactly as LANGUAGE.md §2.1 gives it."""
+"""The 3T paper's RAP exactly as docs/language/rap.md (define-rap) gives it."""

@@ -193,7 +193,7 @@ def test_a_sequencer_that_falls_silent_loses_the_host_after_its_lease(processes,
     assert silent.proc.poll() is None  # it was alive all along: the lease, not liveliness, ended it
 
 
-def test_mutual_tls_as_the_readme_sets_it_up(processes, tmp_path, clean_trace):
+def test_mutual_tls_as_the_skill_bus_how_to_sets_it_up(processes, tmp_path, clean_trace):
     for name in ("make-certs.sh", "host.json5", "sequencer.json5"):
         shutil.copy(TLS_EXAMPLE / name, tmp_path / name)
     made = subprocess.run(["sh", "make-certs.sh"], cwd=tmp_path, capture_output=True, text=True, env=ENV)

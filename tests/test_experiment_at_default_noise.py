@@ -1,8 +1,8 @@
 """The skill-acquisition experiment as it ships: the default odometry noise, the pose corrected against
-the map being built, the shipped rules, several seeds at once (the README's figures are of seeds 0-9:
+the map being built, the shipped rules, several seeds at once (the Benchmarks page's figures, docs/benchmarks.md, are of seeds 0-9:
 ``python benchmarks/bench_layers.py --only layers-experiment-seeds``).
 
-What is checked is what the README claims of every seed, not of a chosen one.
+What is checked is what the docs claim of every seed, not of a chosen one.
 """
 
 from __future__ import annotations

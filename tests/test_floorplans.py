@@ -291,7 +291,7 @@ def test_the_cli_writes_a_plan_and_its_preview(tmp_path: Path) -> None:
     assert cli.main(["--seed", "3", "--furniture", "--out", str(tmp_path / "plain")]) == 0
     names = {p.name for p in (tmp_path / "plain").iterdir()}
     assert {"plan-3.yaml", "plan-3.pgm", "plan-3-rooms.png", "plan-3-rooms.json", "plan-3-preview.png"} <= names
-    # the README's example: a SLAM-like scan, written and scored
+    # the example of docs/how-to/maps.md: a SLAM-like scan, written and scored
     assert cli.main(["--seed", "3", "--furniture", "--slam", "--out", str(tmp_path / "slam"), "--score"]) == 0
     _, truth = read_truth(tmp_path / "slam", "plan-3")
     assert truth["slam"] is True and truth["hard"] is True

@@ -1,4 +1,4 @@
-"""The RAP and the operator of the 3T paper (LANGUAGE.md §2.1, §3.1) parse
+"""The RAP and the operator of the 3T paper (docs/language/rap.md, define-rap; ap.md, operator) parse
 unchanged, field by field."""
 
 from __future__ import annotations

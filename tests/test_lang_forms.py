@@ -1,4 +1,4 @@
-"""Every form of LANGUAGE.md §2.3-§2.7 and §3.2 reads into the AST a user expects,
+"""Every form of docs/language/rap.md and ap.md reads into the AST a user expects,
 field by field, and the lexical rules of §1 hold (case folding, comments,
 numbers). The 3T examples (define-rap, operator) are in test_lang_3t_examples.py;
 the errors below are those that test_lang_errors.py does not already cover."""

@@ -110,11 +110,11 @@ def test_a_back_off_by_another_name_is_retry_backoff():
     assert problem.hint.startswith("did you mean 'retry-backoff'?")
 
 
-def test_the_readmes_example_of_the_additions_reads_and_means_what_it_says():
+def test_the_language_references_example_of_on_preempt_and_retry_backoff_means_what_it_says():
     from atlas_rap.lang import ast
 
-    readme = (REPO / "README.md").read_text(encoding="utf-8")
-    example = readme.split("Two additions to LANGUAGE.md's RAPs")[1].split("```lisp")[1].split("```")[0]
-    (rap,) = [form for form in parse_text(example, "README.md").forms if isinstance(form, ast.RapDef)]
+    page = (REPO / "docs" / "language" / "rap.md").read_text(encoding="utf-8")
+    example = page.split("### method")[1].split("```rap")[1].split("```")[0]
+    (rap,) = [form for form in parse_text(example, "rap.md").forms if isinstance(form, ast.RapDef)]
     assert rap.retries == 5 and rap.retry_backoff == 4
     assert [method.on_preempt for method in rap.methods] == ["fail"]

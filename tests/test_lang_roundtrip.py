@@ -1,4 +1,4 @@
-"""Printing an AST and reading it back gives the same AST (LANGUAGE.md §1-§3).
+"""Printing an AST and reading it back gives the same AST (docs/language/).
 
 Hypothesis builds random, *valid* AST nodes of every top-level form; each is
 printed with ``format_node`` (or a whole file with ``format_file``), read back
@@ -374,7 +374,7 @@ def test_an_operator_whose_first_precondition_is_t_reads_back_the_same():
 
 
 def test_an_empty_sequence_in_a_task_net_reads_and_prints_back():
-    # LANGUAGE.md's NET := (sequence NET ...) allows no parts; the validator builds
+    # (sequence NET ...) of no parts; the validator builds
     # Sequence(parts=()) and must not crash checking the labels.
     (rap,) = parse_text("(define-rap (idle) (method (task-net (sequence) (parallel))))").forms
     assert rap.methods[0].body.nets == (ast.Sequence(parts=()), ast.Parallel(parts=()))

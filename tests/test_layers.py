@@ -39,7 +39,7 @@ from atlas_rap.skills.beliefs import GRID, Belief, Beliefs
 REPO = Path(__file__).resolve().parents[1]
 RULES = shipped_root("rap_library") / "layers.rap"
 # The layers' mechanism (Figs. 12 and 13) is tested with exact odometry, so that what it checks does not
-# hang on how well the pose is corrected while mapping (README, "Where the robot is"); the experiment at
+# hang on how well the pose is corrected while mapping (docs/how-to/localise.md); the experiment at
 # the default noise is tested on its own below and in test_mapping_correction.py.
 EXACT = str(REPO / "tests" / "worlds" / "lab-corridor-office-exact.yaml")
 

@@ -190,7 +190,7 @@ CAN_LIFT = {
 
 
 def test_a_relation_is_proved_from_its_body_with_arithmetic_arguments(office: Memory) -> None:
-    # LANGUAGE.md §3.1/3.2: (can-lift ?arm (/ ?size-of-thing 2)) over (define-relation (can-lift ?agent ?weight) ...)
+    # docs/language/ap.md, operator and define-relation: (can-lift ?arm (/ ?size-of-thing 2)) over (define-relation (can-lift ?agent ?weight) ...)
     query = C(
         "and",
         C("=", Var("size-of-thing"), C("get-value", "box-1", "size")),

@@ -22,7 +22,7 @@ from atlas_rap.logic import (
 C = Compound.of
 THING, NEW, OLD, X, Y = Var("thing"), Var("new"), Var("old"), Var("x"), Var("y")
 
-# LANGUAGE.md §2.5, as the validator builds it.
+# docs/language/rap.md, define-memory-rule, as the validator builds it.
 AT_IS_UNIQUE = MemoryRule(
     "at-is-unique",
     trigger=C("at", THING, NEW),

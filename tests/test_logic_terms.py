@@ -50,7 +50,7 @@ _TOKEN = re.compile(r'\s*(?:(\()|(\))|"((?:[^"\\]|\\.)*)"|([^\s()"]+))', re.S)
 
 
 def read(text: str) -> object:
-    """Just enough of the reader's lexical rules (LANGUAGE.md §1) to check printing."""
+    """Just enough of the reader's lexical rules (docs/language/index.md) to check printing."""
     stack: list[list[object]] = [[]]
     for match in _TOKEN.finditer(text):
         opening, closing, string, atom = match.groups()

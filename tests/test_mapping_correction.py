@@ -25,7 +25,7 @@ def test_the_experiment_maps_agree_better_with_the_pose_correction_than_without(
     assert all(run["ok"] for run in runs["mcl"]), table
     # the corrected map agrees with the true walls better than dead reckoning's, run after run; on a
     # seed whose map never reaches the threshold (seed 1) Layer IV maps all seven runs and the
-    # drift still wears both down, the corrected one less (README, "Where the robot is")
+    # drift still wears both down, the corrected one less (docs/how-to/localise.md)
     assert runs["mcl"][0]["map_agreement"] >= 0.9, table
     for corrected, reckoned in zip(runs["mcl"], runs["odometry"]):
         assert corrected["map_agreement"] > reckoned["map_agreement"], table

@@ -459,3 +459,20 @@ def test_no_colour_on_a_terminal_when_no_color_is_set(tmp_path: Path) -> None:
     assert "no RAP in raps can execute it" in styled and "\x1b[" in styled  # red on a terminal...
     plain = stderr_on_a_terminal(args, tmp_path, {**ENV, "NO_COLOR": "1"})
     assert "no RAP in raps can execute it" in plain and "\x1b[" not in plain  # ...but not with NO_COLOR
+
+
+@pytest.mark.parametrize("text", ["x\n", "(foo) bar\n", ""])
+def test_a_pddl_file_that_is_no_define_form_is_an_error_with_a_caret_not_a_traceback(tmp_path: Path, text: str) -> None:
+    (tmp_path / "domain.pddl").write_text(text, encoding="utf-8")
+    (tmp_path / "problem.pddl").write_text(text, encoding="utf-8")
+    done = atlas("plan", "--pddl", "domain.pddl", "problem.pddl", cwd=tmp_path)
+    assert_no_traceback(done)
+    assert done.returncode == 1
+    assert "domain.pddl:1:1: error:" in done.stdout + done.stderr
+
+
+def test_the_shipped_pddl_example_is_found_from_any_folder(tmp_path: Path) -> None:
+    done = atlas("plan", "--pddl", "operators/pddl/rooms-domain.pddl", "operators/pddl/rooms-problem.pddl",
+                 "--plan-file", "plan.txt", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "plan.txt").read_text(encoding="utf-8").splitlines()[-2] == "(drop box storeroom)"

@@ -464,7 +464,7 @@ def test_plots_expand_into_steps_sharing_the_operators_duration(tmp_path: Path) 
 
 def test_an_agent_never_does_two_steps_at_once(tmp_path: Path) -> None:
     """One robot cannot pick up a parcel, pick up a box and prop a door in the same
-    time unit (LANGUAGE.md: agents of overlapping steps must be distinct)."""
+    time unit (docs/language/ap.md: agents of overlapping steps must be distinct)."""
     for name, text in [("door", door_problem(things=("parcel", "box"))), ("delivery", DELIVERY),
                        ("bulky-box", TWO_ARMS)]:
         folder = tmp_path / name

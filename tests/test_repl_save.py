@@ -82,6 +82,7 @@ def test_a_world_given_as_a_file_is_saved_by_its_full_path(tmp_path):
     world = tmp_path / "my-maze.yaml"
     world.write_text((REPO / "worlds" / "maze.yaml").read_text(encoding="utf-8"), encoding="utf-8")
     repl(":save saved.rap\n", "--world", str(world), cwd=tmp_path)
-    assert forms(tmp_path / "saved.rap")[1] == f'(world "{world}")'
+    # the printer wraps a form past its width, so a long tmp_path puts the path on a line of its own
+    assert " ".join(" ".join(forms(tmp_path / "saved.rap")).split()).startswith(f'(world "{world}")')
     loaded = repl(":layers\n", str(tmp_path / "saved.rap"), cwd=tmp_path.parent)
     assert loaded.returncode == 0, loaded.stderr

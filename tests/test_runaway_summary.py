@@ -1,6 +1,6 @@
 """A runaway recursion is summed up in a few lines, its cause first and its repeats folded.
 
-The README promises it (under `atlas run`): "The summary puts the cause of
+The language reference promises it (docs/language/rap.md, How a task runs): "The summary puts the cause of
 such a runaway first and folds the repeated chain (`… 61 more levels of
 (loop) …`)". These tests run the missions a user would write (a RAP that
 posts itself, with the same arguments or new ones, two RAPs that call each
@@ -32,11 +32,11 @@ def summary(tmp_path, mission: str, *options: str):
     return done
 
 
-def test_the_readme_shows_what_the_summary_of_a_rap_that_posts_itself_says(tmp_path):
-    readme = (REPO / "README.md").read_text(encoding="utf-8")
+def test_the_language_reference_shows_what_the_summary_of_a_rap_that_posts_itself_says(tmp_path):
+    page = (REPO / "docs" / "language" / "rap.md").read_text(encoding="utf-8")
     promise = re.search(r"The summary puts the\s+cause of such a runaway first\s+and folds the repeated chain\s+"
-                        r"\(`(… \d+ more levels of \(loop\) …)`\)", readme)
-    assert promise, "the README's promise about the runaway summary moved or changed"
+                        r"\(`(… \d+ more levels of \(loop\) …)`\)", page)
+    assert promise, "the language reference's promise about the runaway summary moved or changed"
     lines = summary(tmp_path, RUNAWAYS["itself"], "--quiet").stdout.splitlines()
     assert len(lines) < 25, "\n".join(lines)
     assert lines[1].strip() == "✗ (loop) failed at 0 s"

@@ -1,4 +1,4 @@
-"""Scenarios for the RAP sequencer (LANGUAGE.md §2), checked on the trace as a user would.
+"""Scenarios for the RAP sequencer (docs/language/rap.md), checked on the trace as a user would.
 
 Each test writes a small mission on virtual skills (``(world none)``,
 simulated seconds), runs it and asserts on what the trace says happened
@@ -717,7 +717,7 @@ def test_step_wait_for_bindings_flow_to_later_steps(tmp_path):
 # the timeout clause
 
 def test_timeout_clause_fails_the_task_with_outcome_timeout_and_disables_its_skills(tmp_path):
-    # LANGUAGE.md §2.1: "the task fails with outcome :timeout if not done in time";
+    # docs/language/rap.md: the task fails with :timeout if it is not done in time;
     # the step of the parent's net that ran it ends with that outcome
     text = """
     (world none)

@@ -348,9 +348,9 @@ def test_repl_a_go_to_of_higher_priority_goes_first_and_the_errand_resumes_uncha
     assert records[-1]["event"] != "task-failed"
     assert any(r["event"] == "task-succeeded" and r["task"] == "(deliver mail office lab)" for r in records)
     assert {r["attempt"] for r in records if r["event"] == "method-selected"} == {1}  # the errand paid no retry
-    readme = (REPO / "README.md").read_text(encoding="utf-8")
-    example = readme.split("## Tasks share the robot")[1].split("```\n12.00")[1].split("```")[0]
-    for line in ("12.00" + example).strip().splitlines():  # the README shows what the REPL prints
+    page = (REPO / "docs" / "explanation" / "sharing.md").read_text(encoding="utf-8")
+    example = page.split("# Tasks share the robot")[1].split("```\n12.00")[1].split("```")[0]
+    for line in ("12.00" + example).strip().splitlines():  # the page shows what the REPL prints
         assert line.strip() in shown
 
 

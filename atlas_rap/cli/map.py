@@ -171,7 +171,9 @@ def abstract_command(map_yaml: str, out_dir: str, robot_radius: float, world: st
         from atlas_rap.sim.world import load_world
 
         places = load_world(world).place_shapes()
-    rosmap = load_ros_map(map_yaml)
+    from atlas_rap.shipped import resolve_user_path
+
+    rosmap = load_ros_map(resolve_user_path(map_yaml))  # worlds/maps/... from any folder, as atlas run finds worlds
     check_outputs(click.get_current_context(), {"the map's image": [rosmap.image]})
     result = abstract_map(rosmap.occupancy, rosmap.frame, robot_radius, source=map_yaml, rooms=rooms, places=places)
     with naming("--out"):
@@ -192,7 +194,9 @@ def render_command(map_file: str, out_png: str) -> None:
     if map_file.endswith(".npz"):
         p_occ, frame = load_grid_arrays(map_file)
     else:
-        rosmap = load_ros_map(map_file)
+        from atlas_rap.shipped import resolve_user_path
+
+        rosmap = load_ros_map(resolve_user_path(map_file))
         check_outputs(click.get_current_context(), {"the map's image": [rosmap.image]})
         p_occ, frame = rosmap.occupancy, rosmap.frame
     with naming("--out"):

@@ -228,7 +228,7 @@ def _option(param) -> str:
 
 
 def layer_options(command):
-    """The ATLAS layers' options of ``atlas run`` and ``atlas repl`` (README, "The ATLAS layers")."""
+    """The ATLAS layers' options of ``atlas run`` and ``atlas repl`` (docs/how-to/layers.md)."""
     options = [
         click.option("--no-prior-map", "no_prior_map", is_flag=True,
                      help="The robot knows only the names and points of the places: Layer IV maps while it drives."),

@@ -1,7 +1,7 @@
 """``atlas plan GOALS.ap`` and ``atlas plan --pddl DOMAIN PROBLEM``: make a plan.
 
 What ``--json`` prints: always one JSON object on stdout, in the form of
-LANGUAGE.md §3.3, whatever the outcome; the exit code and the report on
+docs/language/ap.md (What the planner returns), whatever the outcome; the exit code and the report on
 stderr are the same as without ``--json``.
 
 - ``"status": "solved"`` (exit 0): the plan. ``risk`` is made of ``threats``,
@@ -56,7 +56,7 @@ from atlas_rap.cli.options import POSITIVE, OutputFile, check_outputs
                                            "preconditions, equality; ADL: or, imply, exists, forall, when, "
                                            "compiled away; FOND oneof as uncontrolled outcomes).")
 @click.option("--json", "as_json", is_flag=True,
-              help="Print the result as JSON (LANGUAGE.md §3.3), whatever it is: the plan with its risk and "
+              help="Print the result as JSON (the language reference, docs/language/ap.md), whatever it is: the plan with its risk and "
                    "the threats it is made of; status 'unsolvable' or 'timeout' with the reason; status 'error' "
                    "for bad input (a syntax error, no goals); status 'interrupted' on Ctrl-C (exit 130). "
                    "Without a plan it has a 'reason' and the located "
@@ -195,7 +195,8 @@ def _read_problem(files: tuple[str, ...], pddl: bool):
             raise click.UsageError("--pddl takes two files: DOMAIN.pddl PROBLEM.pddl")
         from atlas_rap.planner.pddl import load_pddl
 
-        return _with_goals(load_pddl(files[0], files[1]), files[1], "add (:goal ...) to the problem"), [], files
+        domain, problem = (resolve_user_path(file) for file in files)  # operators/pddl/... from any folder
+        return _with_goals(load_pddl(domain, problem), files[1], "add (:goal ...) to the problem"), [], files
     if len(files) != 1:
         raise click.UsageError("give one goals file (GOALS.ap), or --pddl DOMAIN.pddl PROBLEM.pddl")
     path = resolve_user_path(files[0])

@@ -3,7 +3,7 @@
 The REPL engine (``repl_session.py``) and the command (``repl.py``) build on
 these pieces; nothing here knows about the sequencer or memory.
 
-Choices made (the lexical rules are LANGUAGE.md section 1):
+Choices made (the lexical rules are in docs/language/index.md):
 
 - One small tokenizer (``_tokens``) mirrors ``lang/grammar.lark``: white
   space; ``;`` comments to end of line; ``#| ... |#`` block comments (not
@@ -40,7 +40,7 @@ Choices made (the lexical rules are LANGUAGE.md section 1):
   else inserts a newline and indents Lisp-style: two spaces past the column
   of the innermost ``(`` still open before the cursor (for a line that opens
   a form this is "the current line's indentation + 2"; after a line that
-  closes its own forms it lines up with its siblings, as in LANGUAGE.md).
+  closes its own forms it lines up with its siblings, as in the language reference's examples).
   Outside any paren the current line's indentation is kept; inside an open
   string no indentation is added (it would become part of the string).
   Escape Enter always submits. History that cannot be read or written (a

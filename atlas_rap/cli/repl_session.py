@@ -7,7 +7,7 @@ the REPL loads what ``atlas run`` loads. :meth:`Session.submit` takes one
 submission (the text typed before Enter) and returns True when it worked;
 output goes to the ``out`` console. What a submission may be:
 
-- any top-level form of LANGUAGE.md: ``define-rap``, ``define-memory-rule``,
+- any top-level form of the languages (docs/language/): ``define-rap``, ``define-memory-rule``,
   ``define-virtual-skill``, ``post``, ``initial-memory``, ``at-time``,
   ``include``, ``plan``, and the AP forms (``operator``, ``agents``,
   ``define-relation``, ``initial``, ``goals``) that the planner uses;

@@ -31,7 +31,7 @@ if TYPE_CHECKING:  # downward only
 @click.option("--seed", type=SEED, default=0, show_default=True,
               help="Seed for every random choice of the run (same files and seed, same trace).")
 @click.option("--trace", "trace_file", type=OutputFile(), metavar="FILE",
-              help="Write the trace as JSON lines (LANGUAGE.md §2.8), even if the run fails or is interrupted.")
+              help="Write the trace as JSON lines (the language reference, docs/language/trace.md), even if the run fails or is interrupted.")
 @click.option("--quiet", "-q", is_flag=True, help="No live trace; only warnings and the summary.")
 @click.option("--verbose", "-v", is_flag=True, help="Also show task selections and skill disables.")
 @click.option("--until", type=POSITIVE, default=3600.0, show_default=True, metavar="SECONDS",

@@ -10,7 +10,8 @@ the same thing compare equal (that is what the round-trip tests check).
 Queries, facts and task calls inside nodes are logic terms
 (``atlas_rap.logic``), ready for unification and memory.
 
-LANGUAGE.md is the contract; section numbers below refer to it.
+The language reference, docs/language/, documents every form; the sections below
+follow its pages.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ def _loc() -> SourceLocation:
     return field(default=NOWHERE, compare=False, repr=False)
 
 
-# ----------------------------------------------------------------- task nets (§2.2, §2.3)
+# ----------------------------------------------------------------- task nets, wait-for (rap.md)
 
 @dataclass(frozen=True, slots=True)
 class WaitFor:
@@ -130,7 +131,7 @@ class TaskNet:
     loc: SourceLocation = _loc()
 
 
-# ----------------------------------------------------------------- primitives (§2.4)
+# ----------------------------------------------------------------- primitives (rap.md)
 
 @dataclass(frozen=True, slots=True)
 class Enable:
@@ -163,7 +164,7 @@ class Primitive:
     loc: SourceLocation = _loc()
 
 
-# ----------------------------------------------------------------- define-rap (§2.1)
+# ----------------------------------------------------------------- define-rap (rap.md)
 
 @dataclass(frozen=True, slots=True)
 class Method:
@@ -214,7 +215,7 @@ class RapDef:
         return self.head.args
 
 
-# ----------------------------------------------------------------- memory, skills, events (§2.5, §2.6)
+# ----------------------------------------------------------------- memory rules, virtual skills, at-time (rap.md)
 
 @dataclass(frozen=True, slots=True)
 class MemoryRuleDef:
@@ -285,7 +286,7 @@ class AtTime:
     loc: SourceLocation = _loc()
 
 
-# ----------------------------------------------------------------- mission forms (§2.7)
+# ----------------------------------------------------------------- mission forms (rap.md)
 # (PlanRequest, also a net item, is with the task nets above.)
 
 @dataclass(frozen=True, slots=True)
@@ -322,7 +323,7 @@ class Post:
     loc: SourceLocation = _loc()
 
 
-# ----------------------------------------------------------------- AP operators (§3)
+# ----------------------------------------------------------------- AP operators (ap.md)
 
 @dataclass(frozen=True, slots=True)
 class PlotStep:

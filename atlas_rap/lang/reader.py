@@ -15,7 +15,7 @@ Positions live on the lists, not on the atoms: ``SList.locs[i]`` is the
 (line, column) of ``SList.items[i]``. That keeps atoms plain values, which
 is what makes the reader fast.
 
-Choices where LANGUAGE.md is silent:
+Choices (docs/language/index.md, Lexical rules):
 - string escapes: ``\\n`` is a newline, ``\\t`` a tab, ``\\`` followed by any
   other character is that character;
 - ``()`` reads as an empty list (the validator treats it as ``nil``);

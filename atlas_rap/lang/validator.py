@@ -6,7 +6,7 @@ the first problem: it skips the bad clause or form, goes on, and raises one
 misspelt clause or form name gets the nearest valid name as a hint, and a
 name from another language the name atlas uses (``lang/guesses.py``).
 
-Choices where LANGUAGE.md is silent (also in the README's language notes):
+Choices (also in the language reference, docs/language/):
 
 - Every top-level form is accepted in both ``.rap`` and ``.ap`` files: one
   language, two habits of use.

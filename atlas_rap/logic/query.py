@@ -1,6 +1,6 @@
 """Queries: asking memory whether something holds, and with which bindings.
 
-A query is a term (LANGUAGE.md §2.5):
+A query is a term (docs/language/index.md, Terms, facts and queries):
 
 - ``(pred arg ...)``: a pattern, matched against the facts in memory;
 - ``(and Q ...)``, ``(or Q ...)``: left to right; ``(and)`` is true,
@@ -91,7 +91,7 @@ class Facts(Protocol):
 
 @dataclass(frozen=True, slots=True)
 class Relation:
-    """One clause of a defined relation (``define-relation``, LANGUAGE.md §3.2).
+    """One clause of a defined relation (``define-relation``, docs/language/ap.md).
 
     ``(define-relation (can-lift ?agent ?weight) (>= (get-value ?agent max-lift) ?weight))``
     is ``Relation(head=(can-lift ?agent ?weight), body=(>= ...))``. A

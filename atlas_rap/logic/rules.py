@@ -1,4 +1,4 @@
-"""Memory rules: keeping memory consistent when facts arrive (LANGUAGE.md §2.5).
+"""Memory rules: keeping memory consistent when facts arrive (docs/language/rap.md, define-memory-rule).
 
 ::
 

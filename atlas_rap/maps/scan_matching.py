@@ -10,7 +10,7 @@ there, weighed by a prior toward the odometry.
 
 A ring of 16 sonars gives little to match, and a sonar grid is a poor thing
 to match against while it is being drawn, so each part is chosen for that
-(measured: see the README, "Where the robot is"):
+(measured: see docs/how-to/localise.md):
 
 - **A local scan, not a ring.** The rings of the last :attr:`MatchSettings.window`
   metres of travel, one every :attr:`~MatchSettings.ring_spacing` metres or

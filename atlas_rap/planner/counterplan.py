@@ -1,7 +1,7 @@
 """Counterplanning: protect a plan from what uncontrolled agents may do.
 
 An uncontrolled action (a person closing a door, nature flattening a tyre)
-is never planned, but it may happen. The model, where LANGUAGE.md is silent:
+is never planned, but it may happen. The model, where the language reference (docs/language/ap.md) leaves it open:
 
 - Uncontrolled agents act *between* our steps: in the state after each of
   our steps, any uncontrolled action whose preconditions hold there may

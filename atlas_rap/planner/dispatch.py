@@ -1,4 +1,4 @@
-"""Dispatch: which RAP executes each plan step (LANGUAGE.md §3.3).
+"""Dispatch: which RAP executes each plan step (docs/language/ap.md, What the planner returns).
 
 A step is executed by the RAP whose ``succeed`` clause unifies with the
 step's purpose (a RAP parameter that match leaves unbound takes the value

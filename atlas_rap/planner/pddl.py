@@ -201,6 +201,7 @@ class _Source:
     def __init__(self, name: str, forms: list, text: str) -> None:
         self.name = name
         self.forms = [_unglued(form) for form in forms]
+        self.locs = tuple(getattr(forms, "locs", ()))  # where each top-level form starts
         self.lines = source_lines(text)
 
     @classmethod
@@ -277,7 +278,7 @@ class _Loader:
             if type(form) is SList and _head(form) == "define":
                 break
         else:
-            where = src.forms.locs[0] if src.forms.locs else (1, 1)
+            where = src.locs[0] if src.locs else (1, 1)
             raise src.error(f"expected (define ({kind} NAME) ...)", where,
                             f"a PDDL {kind} file is one define form")
         header = form.items[1] if len(form.items) > 1 else None

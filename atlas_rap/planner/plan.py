@@ -1,4 +1,4 @@
-"""The plan the planner returns (LANGUAGE.md §3.3): steps with agents and times,
+"""The plan the planner returns (docs/language/ap.md, What the planner returns): steps with agents and times,
 orderings, causal links, simultaneity, counterplan steps, risk and the threats
 that make it; as text, JSON and Graphviz DOT. A result that is not a plan (an
 unsolvable problem, bad input: :func:`plan_of_error`) has the same JSON form,
@@ -137,7 +137,7 @@ class Plan:
         return self.deadline is None or self.makespan <= self.deadline + DEADLINE_SLACK
 
     def to_dict(self, timing: bool = False) -> dict[str, object]:
-        """The JSON form of LANGUAGE.md §3.3. ``stats`` holds counts only, so the same
+        """The JSON form of docs/language/ap.md, What the planner returns. ``stats`` holds counts only, so the same
         input gives the same JSON; ``timing`` (CPU seconds) only when asked for;
         ``deadline`` and ``meets_deadline`` only when the plan has a deadline."""
         return {

@@ -1,6 +1,6 @@
 """The agenda: tasks waiting to be selected, best first.
 
-Selection order (Firby's RAP interpreter, LANGUAGE.md §2.1): higher
+Selection order (Firby's RAP interpreter; docs/language/rap.md, How a task runs): higher
 priority first, then the earlier deadline (a task with no deadline comes
 after any task with one), then age (the task created first). A task is on
 the agenda at most once; a task that has ended while queued is skipped

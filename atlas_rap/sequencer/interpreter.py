@@ -1,6 +1,6 @@
 """The RAP interpreter: selects tasks from the agenda, chooses methods, runs them.
 
-This is Firby's RAP execution cycle (seed 003 §3.2, LANGUAGE.md §2) on a
+This is Firby's RAP execution cycle (seed 003 §3.2; the language reference, docs/language/rap.md) on a
 simulated clock:
 
 1. :meth:`Sequencer.settle` takes the best pending task off the agenda
@@ -18,7 +18,7 @@ simulated clock:
    method sends it back to choose again, until ``retries`` attempts are
    spent; the failure goes up to the parent's step, and so on.
 
-Choices where LANGUAGE.md is silent, as Firby's system did or as a robotics
+Choices where the papers are silent (docs/language/rap.md, How a task runs), as Firby's system did or as a robotics
 user would expect:
 
 - A subtask takes its RAP's ``priority`` if it has one, else its parent's;
@@ -113,7 +113,7 @@ from atlas_rap.skillbus.skill_link import NoSkills, SkillLink
 from atlas_rap.skillbus.timers import Timers
 
 DEFAULT_RETRIES = 3
-"""Method attempts a task gets when its RAP has no ``retries`` clause (LANGUAGE.md §2.1)."""
+"""Method attempts a task gets when its RAP has no ``retries`` clause (docs/language/rap.md, define-rap)."""
 
 DEFAULT_MAX_DEPTH = 64
 """How deeply tasks may nest before the innermost fails (a RAP calling itself without end)."""

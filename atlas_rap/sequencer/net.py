@@ -1,7 +1,7 @@
 """Running a method: task nets, primitives and wait-fors as live nodes.
 
 When the interpreter chooses a method it builds a :class:`MethodRun`, a tree
-of nodes mirroring the method's body (LANGUAGE.md §2.2-§2.4):
+of nodes mirroring the method's body (docs/language/rap.md: task nets, wait-for, primitive):
 
 - :class:`SequenceNode` starts its parts one after another; a
   :class:`ParallelNode` starts them all and ends when all have ended

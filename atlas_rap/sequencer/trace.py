@@ -1,4 +1,4 @@
-"""The trace: what happened, when, as one record per event (LANGUAGE.md §2.8).
+"""The trace: what happened, when, as one record per event (the language reference, docs/language/trace.md).
 
 The sequencer :meth:`Trace.emit`\\ s a record for every task, method, step,
 skill and fact event; sinks receive the records as they happen. Records are

@@ -173,11 +173,11 @@ def _check_tls(config: Any, listen: Sequence[str], connect: Sequence[str], confi
     if secure_listen and not (tls("listen_certificate") and tls("listen_private_key")):
         raise BusError(f"{secure_listen[0]}: listening on TLS needs the host's certificate and key: give "
                        f"transport/link/tls/listen_certificate and listen_private_key in {where} "
-                       f"(README: 'The skill bus across machines')")
+                       f"(docs/how-to/skill-bus.md, 'The skill bus across machines')")
     if secure_connect and not tls("root_ca_certificate"):
         raise BusError(f"{secure_connect[0]}: connecting over TLS needs the certificate authority that signed the "
                        f"host's certificate: give transport/link/tls/root_ca_certificate in {where} "
-                       f"(README: 'The skill bus across machines')")
+                       f"(docs/how-to/skill-bus.md, 'The skill bus across machines')")
 
 
 def exposure_warning(listen: Sequence[str], config_file: str | Path | None = None) -> str | None:
@@ -190,7 +190,8 @@ def exposure_warning(listen: Sequence[str], config_file: str | Path | None = Non
         return None
     return (f"warning: listening on {', '.join(exposed)} without TLS: anyone on that network can read every "
             f"frame and hold up the bus, and only the token keeps them from driving the robot. For a network you "
-            f"do not trust, listen on tls/ with --zenoh-config (README: 'The skill bus across machines').")
+            f"do not trust, listen on tls/ with --zenoh-config "
+            f"(docs/how-to/skill-bus.md, 'The skill bus across machines').")
 
 
 def _loopback(host: str) -> bool:

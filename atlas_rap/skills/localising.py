@@ -41,7 +41,7 @@ How it knows where the robot is, in the manner of nav2's AMCL
   carried from an earlier run (``--map-in``), whose frame it keeps. Where
   it explores, the pose is its odometry. Measured with ``deliver.rap
   --no-prior-map`` at the default noise on 12 seeds and in the experiment
-  (``benchmarks/bench_mapping_correction.py``; the README has the table).
+  (``benchmarks/bench_mapping_correction.py``; docs/how-to/localise.md has the table).
   The particle filter on the grid being built was measured first and made
   the pose worse (2 % drift, seeds 0-3: 0 of 4 errands, RMSE 3.5 m, against
   4 of 4 and 0.8 m by odometry alone): a sonar grid's walls are arcs where

@@ -1,4 +1,4 @@
-"""Virtual skills: skills whose behaviour is a script (LANGUAGE.md §2.6).
+"""Virtual skills: skills whose behaviour is a script (the language reference, docs/language/rap.md, define-virtual-skill).
 
 The 3T team tested RAPs against "virtual skills" before the robot was
 ready; so do we. ::

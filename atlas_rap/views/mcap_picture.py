@@ -1,7 +1,7 @@
 """A picture of a recording (``atlas run --record``), drawn from the MCAP file alone.
 
 What Foxglove's 3D panel shows at the end of the run, as a PNG, for people
-without Foxglove and for the README (``docs/foxglove-recording.png``):
+without Foxglove and for the docs (``docs/foxglove-recording.png``):
 the last occupancy grid, the scene (walls, doors, places, obstacles), the
 topology, every route the robot drove, its path, the last sonar ring and
 the robot; when the recording has the pose belief (``/robot/estimated_path``,

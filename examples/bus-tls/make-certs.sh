@@ -1,5 +1,5 @@
 #!/bin/sh
-# Certificates for the skill bus over mutual TLS (README: "The skill bus across machines"):
+# Certificates for the skill bus over mutual TLS (docs/how-to/skill-bus.md, "The skill bus across machines"):
 # a certificate authority of your own, a certificate for the skill host (named after the
 # host's address) and one for the sequencer. Run it in an empty folder:
 #     sh make-certs.sh [HOST-NAME]        (default: localhost)
