@@ -1,6 +1,6 @@
 """atlas-rap: task-level robot control in the 3T / ATLAS tradition.
 
-The pieces (see DESIGN.md): ``lang`` reads RAP and AP files, ``logic`` holds
+The pieces (see docs/explanation/architecture.md): ``lang`` reads RAP and AP files, ``logic`` holds
 terms, unification, memory and queries shared by the sequencer and the
 planner, ``cli`` is the ``atlas`` command. Every error a user can see is an
 :class:`AtlasError`, of its area's class (``atlas_rap.errors``).

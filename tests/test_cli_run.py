@@ -123,3 +123,14 @@ def test_ctrl_c_stops_the_run_with_130_and_keeps_the_trace(tmp_path):
     records = read_trace(trace)
     assert any(r["event"] == "task-succeeded" and r["task"] == "(navigate-to hull-3)" for r in records)
     assert not any(r["task"] == "(service-round)" for r in records if r["event"] == "task-succeeded")
+
+
+def test_a_run_whose_task_is_done_before_it_starts_prints_no_empty_primary_layer_line(tmp_path):
+    mission = tmp_path / "already.rap"
+    mission.write_text('(include "' + (REPO / "rap_library" / "navigation.rap").as_posix() + '")\n'
+                       "(define-rap (stay) (succeed (at robot lab)) (method (task-net (t1 (go-to office)))))\n"
+                       "(post (stay))\n")
+    done = atlas("run", str(mission), "--quiet", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "(stay) succeeded at 0 s" in done.stdout
+    assert all(line.strip() != "primary layer:" for line in done.stdout.splitlines())

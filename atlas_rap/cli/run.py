@@ -127,8 +127,9 @@ def _report(out: Console, err: Console, engine: MissionEngine, result: RunResult
         out.print(memory_table(engine.sequencer.memory))
     for line in summary(result, name, seconds):
         out.print(line)
-    if engine.stack is not None and engine.stack.timeline:
-        out.print("  primary layer: " + engine.stack.primary_summary(result.time), style="dim")
+    drove = engine.stack.primary_summary(result.time) if engine.stack is not None and engine.stack.timeline else ""
+    if drove:  # (a run that ends at 0 s, its task already done, had no layer drive)
+        out.print("  primary layer: " + drove, style="dim")
     errors = pose_errors(engine.system)
     if errors is not None:
         out.print("  " + errors.line(), style="dim")

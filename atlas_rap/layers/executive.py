@@ -1,6 +1,6 @@
 """What moves time for a run: the multirate executive of the ATLAS layers, or the timers alone.
 
-DESIGN.md §3: each periodic process has a period and all run on one thread
+The time model (docs/explanation/architecture.md, "Time"): each periodic process has a period and all run on one thread
 on one :class:`~atlas_rap.layers.clock.Clock`, counted in physics steps
 (100 Hz by default), so the rates never drift apart and a run is
 deterministic. At each step :class:`Executive` runs, in this order, what is

@@ -1,7 +1,7 @@
 """A skill host: a robot's world, skills and map layers, serving a sequencer on another host.
 
 ``atlas skills serve`` runs one :class:`SkillHostServer`. What runs where
-(DESIGN.md §7):
+(docs/explanation/architecture.md, "The 3T tiers"):
 
 - **on the skill host**: the simulation (pymunk physics, sonar, doors,
   disturbances), the skill manager with the stock skills, and the ATLAS

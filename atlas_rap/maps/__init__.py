@@ -1,4 +1,4 @@
-"""Maps: occupancy grids from sonar and their abstractions (DESIGN.md §5), and map files.
+"""Maps: occupancy grids from sonar and their abstractions (docs/how-to/maps.md), and map files.
 
 - ``grid``: :class:`OccupancyGrid` (Bayesian sonar updates, entropy, quality);
   ``inference``: :class:`InferenceGrid` (reachability, what has been explored);

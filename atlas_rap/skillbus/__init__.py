@@ -1,7 +1,7 @@
 """The skill bus: the seam between the sequencer and the skills (3T's sequencer ↔ skill manager).
 
 Both tiers import it and it imports neither: the sequencer and the skills
-meet here, as DESIGN.md §7 says they should, through narrow messages.
+meet here, as the 3T tiers should (docs/explanation/architecture.md), through narrow messages.
 
 - ``skill_link``: the :class:`SkillLink` protocol (enable, disable, facts
   back) and :class:`SkillHost`, what a link may use of the sequencer. The

@@ -13,7 +13,7 @@ and which predicates its events may assert (:meth:`produces`). The virtual
 skills of ``atlas_rap.skills.virtual`` implement it for runs without
 physics; the skill manager of the simulator implements it with a world.
 Keeping the link this small is what lets the skill manager run elsewhere
-later (DESIGN.md §7).
+later (docs/explanation/architecture.md).
 
 A skill *instance* is what runs as one and can serve one task at a time
 (:meth:`SkillLink.instance`): for the stock skills of a world, one per skill
