@@ -20,7 +20,7 @@ import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
-from atlas_rap.errors import Problem, SourceError, SourceLocation
+from atlas_rap.errors import AtlasError, Problem, SourceError, SourceLocation
 from atlas_rap.lang import ast
 from atlas_rap.lang.form_docs import FORMS
 from atlas_rap.lang.loader import Program, load_text
@@ -53,7 +53,10 @@ def diagnose(text: str, name: str) -> tuple[list[Problem], Program | None]:
         program = load_text(text, name)
     except SourceError as exc:
         return list(exc.problems), None
-    return program_problems(program, name), program
+    try:
+        return program_problems(program, name), program
+    except AtlasError as exc:  # an installed plugin that does not load: said on the file, as atlas check says it
+        return [Problem(str(exc), SourceLocation(name, 1, 1))], None
 
 
 @dataclass(frozen=True, slots=True)
