@@ -36,7 +36,9 @@ catches source errors catches them, and plain ones are not, as before.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Iterable
 
 
@@ -53,6 +55,16 @@ class SourceLocation:
 
 
 NOWHERE = SourceLocation("<input>", 1, 1)
+
+
+def shown_path(path: str | os.PathLike[str]) -> str:
+    """How a file is named in messages (a problem's location, a plugin's failure): relative to the
+    working directory when it is inside it, else absolute."""
+    resolved = Path(path).resolve()
+    try:
+        return str(resolved.relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(resolved)
 
 
 def source_lines(text: str) -> list[str]:

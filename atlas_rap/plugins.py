@@ -63,7 +63,7 @@ from importlib.metadata import EntryPoint, entry_points
 from pathlib import Path
 from types import ModuleType
 
-from atlas_rap.errors import AtlasError
+from atlas_rap.errors import AtlasError, shown_path
 
 __all__ = ["GROUPS", "Contribution", "PluginError", "contributions", "failure", "load_file", "named_files",
            "plugin_path"]
@@ -219,23 +219,14 @@ def failure(plugin: str, exc: BaseException, folder: Path | None) -> str:
     where = ""
     if isinstance(exc, SyntaxError) and exc.filename:
         last = f"{type(exc).__name__}: {exc.msg}"
-        where = f"{_near(exc.filename)}, line {exc.lineno}"
+        where = f"{shown_path(exc.filename)}, line {exc.lineno}"
         if exc.text:
             where += f": {exc.text.strip()}"
     elif folder is not None:
         frames = [frame for frame in traceback.extract_tb(exc.__traceback__)
                   if Path(frame.filename).resolve().is_relative_to(folder.resolve())]
         if frames:
-            where = f"{_near(frames[-1].filename)}, line {frames[-1].lineno}"
+            where = f"{shown_path(frames[-1].filename)}, line {frames[-1].lineno}"
             if frames[-1].line:
                 where += f": {frames[-1].line.strip()}"
     return f"{plugin}: {last}" + (f"\n  at {where}" if where else "")
-
-
-def _near(filename: str) -> str:
-    """A file as messages name it: relative to the working folder when it is under it."""
-    path = Path(filename)
-    try:
-        return str(path.resolve().relative_to(Path.cwd().resolve()))
-    except ValueError:
-        return filename

@@ -46,7 +46,8 @@ def build_server():
     from pygls.uris import to_fs_path
 
     from atlas_rap import __version__
-    from atlas_rap.cli.lsp_index import DocumentIndex, Word, diagnose, display_name, outline, word_at
+    from atlas_rap.cli.lsp_index import DocumentIndex, Word, diagnose, outline, word_at
+    from atlas_rap.errors import shown_path
 
     server = LanguageServer("atlas-rap", __version__)
     completion_kinds, symbol_kinds = _kinds(types)
@@ -54,7 +55,7 @@ def build_server():
 
     def check(uri: str) -> None:
         document = server.workspace.get_text_document(uri)
-        name = display_name(to_fs_path(uri) or uri)
+        name = shown_path(to_fs_path(uri) or uri)
         problems, program = diagnose(document.source, name)
         if program is not None:
             indexes[uri] = DocumentIndex(program)
@@ -119,7 +120,7 @@ def build_server():
     @server.feature(types.TEXT_DOCUMENT_DOCUMENT_SYMBOL)
     def symbols(params: types.DocumentSymbolParams) -> list[types.DocumentSymbol]:
         document = server.workspace.get_text_document(params.text_document.uri)
-        name = display_name(to_fs_path(params.text_document.uri) or params.text_document.uri)
+        name = shown_path(to_fs_path(params.text_document.uri) or params.text_document.uri)
         found = []
         for symbol in outline(document.source, name):
             line, start, end = symbol.selection

@@ -25,28 +25,20 @@ from atlas_rap.lang import ast
 from atlas_rap.lang.form_docs import FORMS
 from atlas_rap.lang.loader import Program, load_text
 from atlas_rap.lang.reader import SList, read_text
-from atlas_rap.logic import Compound
+from atlas_rap.logic import EXPRESSION_FORMS, QUERY_FORMS, Compound
+from atlas_rap.planner.pddl import ADL_FUNCTORS
 
-__all__ = ["Definition", "DocumentIndex", "Symbol", "Word", "diagnose", "display_name", "outline", "word_at"]
+__all__ = ["Definition", "DocumentIndex", "Symbol", "Word", "diagnose", "outline", "word_at"]
 
 _DELIMITERS = set(" \t\r\n()\";")
-_LOGIC_WORDS = {"and", "or", "not", "=", "/=", "<", "<=", ">", ">=", "+", "-", "*", "/", "get-value", "adl:and"}
+_LOGIC_WORDS = QUERY_FORMS | EXPRESSION_FORMS | ADL_FUNCTORS  # functors of logic, not of facts
 _CALL_FIELDS = {"task", "head", "skills"}  # AST fields that hold a call (a task or a skill), not a fact
 _KEYWORDS = (":succeed", ":fail", ":timeout", ":priority", ":deadline", ":max-failures", ":above")
 
 
-def display_name(path: str | Path) -> str:
-    """How ``atlas check`` names a file: relative to the working directory when inside it."""
-    resolved = Path(path).resolve()
-    try:
-        return str(resolved.relative_to(Path.cwd()))
-    except ValueError:
-        return str(resolved)
-
-
 def diagnose(text: str, name: str) -> tuple[list[Problem], Program | None]:
-    """The problems ``atlas check`` finds in ``text`` (a file named ``name``, as :func:`display_name`
-    gives it; its includes read from disk), and the program when it loaded (None when it did not)."""
+    """The problems ``atlas check`` finds in ``text`` (a file named ``name``, as
+    :func:`~atlas_rap.errors.shown_path` gives it; its includes read from disk), and the program when it loaded (None when it did not)."""
     from atlas_rap.cli.check import program_problems
 
     try:

@@ -20,7 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from atlas_rap.errors import LanguageError, Problem, SourceError, SourceLocation, line_of, source_lines
+from atlas_rap.errors import LanguageError, Problem, SourceError, SourceLocation, line_of, shown_path, source_lines
 from atlas_rap.lang import ast
 from atlas_rap.lang.reader import Forms, read_file, read_text
 from atlas_rap.lang.validator import to_term, validate, validate_partial
@@ -55,7 +55,7 @@ def _expand(root: str, files: dict[str, ast.SourceFile]) -> tuple[ast.TopLevel, 
         seen.add(source.path)
         for form in source.forms:
             if isinstance(form, ast.Include):
-                target = _display(_resolve(source.path, form.path))
+                target = shown_path(_resolve(source.path, form.path))
                 if target in files and target not in seen:
                     expand(files[target])
             else:
@@ -86,7 +86,7 @@ def parse_term(text: str, filename: str = "<input>") -> Term:
 
 def parse_file(path: str | Path) -> ast.SourceFile:
     """Read and validate one file (includes are not followed)."""
-    name = _display(Path(path))
+    name = shown_path(Path(path))
     forms, text = read_file(path, name)
     return validate(forms, name, text)
 
@@ -96,7 +96,7 @@ def load(path: str | Path) -> Program:
     loader = _Loader()
     root = Path(path)
     loader.visit(root, [])
-    return loader.program(_display(root))
+    return loader.program(shown_path(root))
 
 
 def load_text(text: str, name: str = "<input>", forms: Forms | None = None) -> Program:
@@ -108,15 +108,6 @@ def load_text(text: str, name: str = "<input>", forms: Forms | None = None) -> P
     loader = _Loader()
     loader.visit_text(text, name, forms)
     return loader.program(name)
-
-
-def _display(path: Path) -> str:
-    """How a file is named in messages: relative to the working directory when inside it."""
-    resolved = path.resolve()
-    try:
-        return str(resolved.relative_to(Path.cwd()))
-    except ValueError:
-        return str(resolved)
 
 
 def _resolve(including: str, target: str) -> Path:
@@ -158,7 +149,7 @@ class _Loader:
         self._add(name, forms, text, [])
 
     def visit(self, path: Path, chain: list[tuple[str, ast.Include]]) -> None:
-        name = _display(path)
+        name = shown_path(path)
         if name in self.files or name in self.failed:
             return
         try:
@@ -182,7 +173,7 @@ class _Loader:
     def include(self, source: ast.SourceFile, form: ast.Include,
                 chain: list[tuple[str, ast.Include]]) -> None:
         target = _resolve(source.path, form.path)
-        target_name = _display(target)
+        target_name = shown_path(target)
         stack = [name for name, _ in chain] + [source.path]
         if target_name in stack:
             cycle = stack[stack.index(target_name):] + [target_name]
