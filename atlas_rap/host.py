@@ -79,6 +79,8 @@ from atlas_rap.skillbus.host import LEASE, HostSession
 from atlas_rap.skillbus.keys import check_robot
 from atlas_rap.skillbus.messages import MAX_MESSAGE
 from atlas_rap.skillbus.zenoh_bus import exposure_warning, host_endpoints
+from atlas_rap.plugins import Contribution, PluginError
+from atlas_rap.skills.catalog import SkillSpec, spec_of
 from atlas_rap.skills.manager import SkillManager
 from atlas_rap.skills.skill import HALTED, Skill, SkillContext
 
@@ -101,7 +103,8 @@ class SkillHost(BusHost):
     """One robot's own skills served on the Zenoh skill bus (see the module docstring).
 
     ``robot``: the robot's name on the bus (``atlas run --connect ... --robot NAME``);
-    ``skills``: the :class:`Skill` classes, each with a ``name``; ``body``: the robot the skills
+    ``skills``: the :class:`Skill` classes, each declared as a plugin's skill is (a ``name``,
+    ``params`` such as ``("x: number",)``, ``events``, ``rate``); ``body``: the robot the skills
     drive (``self.context.robot``); ``facts``: what the sequencer's memory starts from (terms or
     their text); ``world``: the name the sequencer is told; ``seed``: of the skills' random
     generator (``self.context.rng``). ``listen`` / ``connect`` / ``zenoh_config``: where on
@@ -149,18 +152,16 @@ class SkillHost(BusHost):
 
 
 def _checked_skills(skills: Sequence[type[Skill]]) -> tuple[type[Skill], ...]:
-    """The skill classes, each a named :class:`Skill` subclass, no name twice."""
-    seen: dict[str, str] = {}
+    """The skill classes, each declared as a plugin's skill must be (:func:`~atlas_rap.skills.catalog.spec_of`:
+    a :class:`Skill` subclass, its name a RAP symbol, typed parameters, a rate), no name twice."""
+    taken: dict[str, SkillSpec] = {}
     for skill in skills:
-        if not (isinstance(skill, type) and issubclass(skill, Skill)):
-            raise ValueError(f"{skill!r} is not a Skill class: give the classes (SkillHost(..., [Beep])), "
-                             f"each a subclass of atlas_rap.host.Skill")
-        if not skill.name:
-            raise ValueError(f"skill class {skill.__qualname__} has no name: set name = \"...\" (how RAPs call it)")
-        if skill.name in seen:
-            raise ValueError(f"two skills are called {skill.name!r}: {seen[skill.name]} and {skill.__qualname__}")
-        seen[skill.name] = skill.__qualname__
-    if not seen:
+        name = getattr(skill, "name", "") if isinstance(skill, type) else ""
+        try:
+            taken[name] = spec_of(Contribution("skills", name, skill, "this host", "SkillHost"), taken)
+        except PluginError as exc:
+            raise ValueError(str(exc)) from None
+    if not taken:
         raise ValueError("a skill host needs at least one skill")
     return tuple(skills)
 

@@ -124,7 +124,7 @@ def test_the_host_file_is_also_the_plugin_atlas_check_reads_the_skills_from(tmp_
 
 @pytest.mark.parametrize("skills, message", [
     ([], "at least one skill"),
-    (["drive-to"], "is not a Skill class"),
+    (["drive-to"], "a skill must be a subclass of atlas_rap.skills.Skill, not 'drive-to'"),
 ])
 def test_a_host_refuses_what_is_not_a_skill_before_it_opens_the_bus(skills, message):
     from atlas_rap.host import SkillHost
@@ -133,7 +133,7 @@ def test_a_host_refuses_what_is_not_a_skill_before_it_opens_the_bus(skills, mess
         SkillHost("rover", skills)
 
 
-def test_a_host_refuses_a_nameless_skill_two_skills_of_one_name_and_a_fact_that_does_not_read():
+def test_a_host_refuses_skills_declared_as_no_plugin_may_be_and_a_fact_that_does_not_read():
     from atlas_rap.host import Skill, SkillHost
 
     class Nameless(Skill):
@@ -145,9 +145,15 @@ def test_a_host_refuses_a_nameless_skill_two_skills_of_one_name_and_a_fact_that_
     class OtherBeep(Skill):
         name = "beep"
 
-    with pytest.raises(ValueError, match="Nameless has no name"):
+    class Untyped(Skill):
+        name = "drive-to"
+        params = ("x: nmber",)
+
+    with pytest.raises(ValueError, match="skill class .*Nameless declares no name"):
         SkillHost("rover", [Nameless])
-    with pytest.raises(ValueError, match="two skills are called 'beep'"):
+    with pytest.raises(ValueError, match="name 'beep' is already the skill beep from this host"):
         SkillHost("rover", [Beep, OtherBeep])
+    with pytest.raises(ValueError, match="parameter x: unknown type 'nmber'"):
+        SkillHost("rover", [Untyped])
     with pytest.raises(ValueError, match="does not read as a term"):
         SkillHost("rover", [Beep], facts=["(at robot"])

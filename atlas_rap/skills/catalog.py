@@ -188,8 +188,8 @@ def spec_of(contribution: Contribution, taken: dict[str, SkillSpec]) -> SkillSpe
                           f"name the entry point as the skill")
     if name in taken:
         other = taken[name]
-        owner = "the stock skill" if other.origin == "stock" else f"the skill of plugin {other.origin}"
-        raise PluginError(f"{what}: name {name!r} is already {owner} {name}; choose another name")
+        owner = f"the stock skill {name}" if other.origin == "stock" else f"the skill {name} from {other.origin}"
+        raise PluginError(f"{what}: name {name!r} is already {owner}; choose another name")
     try:
         declared = params(*_sequence(cls.params, "params"))
         events = tuple(str(event) for event in _sequence(cls.events, "events"))
