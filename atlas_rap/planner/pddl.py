@@ -602,9 +602,7 @@ class _Loader:
         if len(items) != 3 or type(items[1]) is not SList or _head(items[1]) != TOTAL_COST:
             raise self.src.error("numeric fluents are not supported: the only numeric effect is the action's "
                                  "cost, (increase (total-cost) COST)", _at(form), _COST_HINT)
-        if TOTAL_COST not in self.functions:
-            raise self.src.error("(total-cost) is not declared", _at(items[1]),
-                                 "declare it in the domain: (:functions (total-cost) - number)")
+        self._total_cost_declared(_at(items[1]))
         if self.cost is not None:
             raise self.src.error("the action increases (total-cost) twice", _at(form),
                                  "give its cost in one (increase (total-cost) COST)")
@@ -648,9 +646,7 @@ class _Loader:
             raise self.src.error("expected (= (FUNCTION OBJECT ...) NUMBER) in :init", _at(fact), _COST_HINT)
         term, value = items[1], items[2]
         if _head(term) == TOTAL_COST:
-            if TOTAL_COST not in self.functions:
-                raise self.src.error("(total-cost) is not declared", _at(term),
-                                     "declare it in the domain: (:functions (total-cost) - number)")
+            self._total_cost_declared(_at(term))
             if value != 0:
                 raise self.src.error("the plan's total cost starts at 0", fact.locs[2], "write (= (total-cost) 0)")
             return
@@ -666,10 +662,14 @@ class _Loader:
                 or len(items[2].items) != 1 or _head(items[2]) != TOTAL_COST):
             raise self.src.error("plan metrics other than (:metric minimize (total-cost)) are not supported",
                                  _at(section), _SUPPORTED)
-        if TOTAL_COST not in self.functions:
-            raise self.src.error("(total-cost) is not declared in the domain", section.locs[2],
-                                 "declare it there: (:functions (total-cost) - number)")
+        self._total_cost_declared(section.locs[2])
         return True
+
+    def _total_cost_declared(self, where: Where) -> None:
+        """``(total-cost)`` is used at ``where``: the domain must declare it."""
+        if TOTAL_COST not in self.functions:
+            raise self.src.error("(total-cost) is not declared in the domain", where,
+                                 "declare it there: (:functions (total-cost) - number)")
 
     def _list_at(self, form: SList, i: int, hint: str) -> SList:
         item = form.items[i]
