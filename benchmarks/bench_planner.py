@@ -146,7 +146,7 @@ Run
 (half an hour or more: pyperplan times out on depot). Options: ``--quick``,
 ``--data-root DIR``, ``--data DIR`` (repeatable), ``--domains ...`` (none:
 only ``--data`` and the tireworld), ``--problems N``, ``--timeout S``,
-``--no-fd``, ``--no-cli``, ``--no-cli-pyperplan``, ``--no-tireworld``,
+``--no-fd``, ``--no-pyperplan``, ``--no-cli``, ``--no-cli-pyperplan``, ``--no-tireworld``,
 ``--tireworld-problems N``, ``--jobs N`` (default 1; more runs problems side
 by side, which disturbs the timings), ``--keep-plans DIR``, ``--hash-seed``
 (default 0; ``random`` for none): pyperplan breaks ties by set order, so its
@@ -1089,7 +1089,9 @@ def setup(args, workdir: Path) -> tuple[Bench, list[str]]:
     not installed (or does not run) is said in a line of its own, and the benchmark goes on without it."""
     planners_loaded, pyperplan_missing = load_planners()
     planners = [OURS]
-    if pyperplan_missing:
+    if args.no_pyperplan:
+        pyperplan_missing = "--no-pyperplan"
+    elif pyperplan_missing:
         emit({"bench": "planner-pyperplan-unavailable", "peer": PYPERPLAN, "planners": [PYPERPLAN, PYPERPLAN_CLI],
               "why": pyperplan_missing, "install": INSTALL_PEERS})
     else:
@@ -1161,6 +1163,8 @@ def parse_args() -> argparse.Namespace:
                         help=f"CPU seconds per planner per problem (default {FULL['timeout']:g}; --quick "
                              f"{QUICK['timeout']:g})")
     parser.add_argument("--no-fd", action="store_true", help="do not run Fast Downward")
+    parser.add_argument("--no-pyperplan", action="store_true",
+                        help="do not run pyperplan (in process nor its CLI): on p11-p20 it mostly times out")
     parser.add_argument("--no-cli", action="store_true", help="do not run our CLI as a subprocess")
     parser.add_argument("--cli-pyperplan", action=argparse.BooleanOptionalAction, default=True,
                         help="also run pyperplan's CLI as a subprocess (default on; not where pyperplan in "

@@ -83,11 +83,14 @@ from atlas_rap.cli.options import POSITIVE, OutputFile, check_outputs
 @click.option("--timing", is_flag=True,
               help="Add the CPU seconds of every phase to --json: startup (the interpreter and reading the "
                    "files), ground, search, shorten, counterplan, order, and seconds (the total).")
+@click.option("--shorten", is_flag=True,
+              help="After the first plan, search again from the start for a shorter one (weighted A*, as "
+                   "LAMA's later iterations restart), within --timeout: plans a little shorter, found slower.")
 @click.option("--no-counterplan", is_flag=True, help="Do not protect the plan from uncontrolled agents "
                                                      "(the risk is still reported).")
 def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_file: str | None,
          render: str | None, render_order: str | None, check_raps: str | None, timeout: float,
-         memory: float | None, timing: bool, no_counterplan: bool) -> None:
+         memory: float | None, timing: bool, shorten: bool, no_counterplan: bool) -> None:
     """Plan for the goals of GOALS.ap (with the operators it includes), or for a
     PDDL problem with --pddl.
 
@@ -114,7 +117,7 @@ def plan(files: tuple[str, ...], pddl: bool, as_json: bool, as_dot: bool, plan_f
 
         problem, warnings, read = _read_problem(files, pddl)
         check_outputs(click.get_current_context(), {"a file the goals file includes": read})
-        result = solve(problem, protect=not no_counterplan, limits=limits)
+        result = solve(problem, protect=not no_counterplan, limits=limits, shorten=shorten)
     except OutputUsageError:
         raise  # the command line is wrong: no JSON, as for other usage errors
     except AtlasError as exc:

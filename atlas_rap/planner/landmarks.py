@@ -1,161 +1,294 @@
-"""Landmarks, and the search LAMA makes with them: the restart for a search that wanders.
+"""Landmarks: what every plan passes through, their orderings, and the landmark count.
 
-A *landmark* is a fact every plan makes true at some point. They are found
-by back-chaining from the goals in the delete relaxation (Hoffmann, Porteous
-and Sebastia 2004; Richter, Helmert and Westphal 2008, simplified to facts):
-for a landmark L not true at the start, the actions that could first achieve
-it are those whose preconditions are reachable without achieving L; the
-preconditions they all share are landmarks too.
+A *landmark* is a fact every plan makes true at some point, or (a
+*disjunctive* landmark) a set of facts one of which every plan makes true.
+They are found as Fast Downward's ``lm_rhw`` finds them (Richter, Helmert and
+Westphal 2008; Hoffmann, Porteous and Sebastia 2004), by back-chaining from
+the goals in the delete relaxation, simplified:
 
-The **landmark count** of a state, on the path that reached it, is the number
-of landmarks not yet reached on that path, plus the goals reached before but
-false now (they must be made true again). :func:`landmark_search` is LAMA's
-first iteration: lazy greedy best-first search alternating four queues,
-hFF and the landmark count each with and without preferred operators (for
-hFF its helpful actions; for landmarks the applicable actions that reach a
-landmark not yet reached), boosting the preferred queues whenever either
-heuristic improves. Ties go by order of generation, so the same task gives
-the same plan. :mod:`~atlas_rap.planner.solve` restarts with it when the
-plain hFF search has evaluated many states without finding a plan.
+- for a landmark L not true at the start, its *first achievers* are the
+  actions that add a fact of L and whose preconditions are reachable in the
+  relaxation without making any fact of L true;
+- a precondition all first achievers share is a landmark P, ordered
+  **greedy-necessarily** before L (P is true in the state in which L is first
+  made true);
+- where they share none, a predicate every first achiever has a precondition
+  of gives a disjunctive landmark (at most :data:`MAX_DISJUNCTION` facts, none
+  true at the start, none already a landmark), ordered the same way: in
+  gripper, ``(carry ball1 left)`` or ``(carry ball1 right)`` before
+  ``(at ball1 roomb)``;
+- **reasonable orderings** (``lm_reasonable_orders_hps``, simplified): a
+  landmark L is ordered before a goal G when every action that adds L deletes
+  G (reaching G first is wasted: G must be made true again after L).
+
+An ordering that would close a cycle is left out, so every landmark can be
+reached (Fast Downward breaks cycles too).
+
+The **landmark count** of a state (Richter & Westphal 2010's LAMA, as Fast
+Downward's ``lmcount``) depends on the path that reached it: a landmark is
+*reached* once it is true in a state on the path in which every landmark
+ordered before it had been reached. The count is the landmarks not reached,
+plus those reached but false now that must be true again: goals, and
+landmarks greedy-necessarily ordered before one not yet reached.
+:class:`LandmarkGraph` holds the landmarks as bits of a Python ``int``, so a
+path's reached set is one integer and the count is a few integer operations.
 """
 
 from __future__ import annotations
 
-import heapq
-import time
-from typing import Callable
+from dataclasses import dataclass, field
+from typing import Iterator
 
 from atlas_rap.planner.ground import GroundTask
-from atlas_rap.planner.relaxation import INFINITY, RelaxedPlanHeuristic, relaxed_plan_heuristic
-from atlas_rap.planner.search import BOOST, SearchResult, _path_to
+from atlas_rap.planner.relaxation import RelaxedPlanHeuristic
+
+MAX_DISJUNCTION = 4  # facts in a disjunctive landmark, at most (as lm_rhw)
 
 
-def find_landmarks(task: GroundTask, heuristic: RelaxedPlanHeuristic) -> frozenset[int]:
-    """The fact landmarks of ``task`` (its goals included), by back-chaining in the relaxation."""
-    achievers: dict[int, list[int]] = {}
-    for i, adds in enumerate(heuristic.adds):
-        for f in adds:
-            achievers.setdefault(f, []).append(i)
-    found = set(task.goal)
-    pending = sorted(found)
-    while pending:
-        landmark = pending.pop()
-        if landmark in task.init:
-            continue
-        reachable = _reachable_without(task, heuristic, landmark)
-        first = [a for a in achievers.get(landmark, ()) if all(p in reachable for p in heuristic.pres[a])]
-        if not first:
-            continue
-        shared = set(heuristic.pres[first[0]])
-        for a in first[1:]:
-            shared &= set(heuristic.pres[a])
-        for fact in sorted(shared - found):
-            found.add(fact)
-            pending.append(fact)
-    return frozenset(found)
+@dataclass
+class LandmarkGraph:
+    """The landmarks of a task and their orderings, as bit masks over landmark numbers.
+
+    ``nodes[i]`` is landmark ``i``'s facts (one, or several for a disjunctive
+    landmark); ``parents[i]`` the mask of the landmarks ordered before it (any
+    ordering), ``gn_children[i]`` of those it is greedy-necessarily ordered
+    before; ``goal_mask`` the goal landmarks; ``fact_mask[f]`` the landmarks
+    fact ``f`` makes true; ``facts`` every fact of a landmark.
+    """
+
+    nodes: list[frozenset[int]] = field(default_factory=list)
+    parents: list[int] = field(default_factory=list)
+    gn_children: list[int] = field(default_factory=list)
+    goal_mask: int = 0
+    fact_mask: dict[int, int] = field(default_factory=dict)
+    facts: frozenset[int] = frozenset()
+    greedy_necessary: int = 0  # orderings of each kind, for the statistics
+    reasonable: int = 0
+
+    def __len__(self) -> int:
+        return len(self.nodes)
+
+    def true_in(self, state: frozenset[int]) -> int:
+        """The mask of the landmarks true in ``state``."""
+        fact_mask = self.fact_mask
+        mask = 0
+        for f in self.facts.intersection(state):
+            mask |= fact_mask[f]
+        return mask
+
+    def initially_reached(self, state: frozenset[int]) -> int:
+        """The landmarks reached at the start of a path from ``state``: those true in it."""
+        return self.true_in(state)
+
+    def progress(self, reached: int, state: frozenset[int]) -> tuple[int, int]:
+        """The reached mask after a step into ``state`` from a state with ``reached``, and the
+        mask of the landmarks true in ``state``."""
+        true = self.true_in(state)
+        new = true & ~reached
+        if new:
+            parents = self.parents
+            grown = reached
+            for i in _bits(new):
+                if parents[i] & ~reached == 0:
+                    grown |= 1 << i
+            reached = grown
+        return reached, true
+
+    def count(self, reached: int, true: int) -> int:
+        """The landmark count of a state with ``reached`` on its path and ``true`` landmarks true in it."""
+        missing = len(self.nodes) - reached.bit_count()
+        lost = reached & ~true
+        if lost:
+            again = lost & self.goal_mask
+            rest = lost & ~again
+            if rest:
+                gn_children = self.gn_children
+                for i in _bits(rest):
+                    if gn_children[i] & ~reached:
+                        again |= 1 << i
+            missing += again.bit_count()
+        return missing
+
+    def ready_facts(self, reached: int) -> set[int]:
+        """The facts of the landmarks not reached whose every predecessor is reached: an action
+        adding one makes progress (LAMA's preferred operators for the landmark count)."""
+        parents, nodes = self.parents, self.nodes
+        facts: set[int] = set()
+        for i in _bits(((1 << len(nodes)) - 1) & ~reached):
+            if parents[i] & ~reached == 0:
+                facts.update(nodes[i])
+        return facts
 
 
-def _reachable_without(task: GroundTask, heuristic: RelaxedPlanHeuristic, fact: int) -> set[int]:
-    """The facts reachable in the relaxation from the start without making ``fact`` true."""
+def _bits(mask: int) -> Iterator[int]:
+    """The numbers of the bits set in ``mask``, lowest first."""
+    while mask:
+        low = mask & -mask
+        yield low.bit_length() - 1
+        mask ^= low
+
+
+def find_landmarks(task: GroundTask, heuristic: RelaxedPlanHeuristic) -> LandmarkGraph:
+    """The landmark graph of ``task`` (module docstring)."""
+    return _Finder(task, heuristic).graph()
+
+
+class _Finder:
+    """Back-chains from the goals (module docstring), one landmark at a time."""
+
+    def __init__(self, task: GroundTask, heuristic: RelaxedPlanHeuristic) -> None:
+        self.task, self.h = task, heuristic
+        self.achievers: dict[int, list[int]] = {}
+        for a, adds in enumerate(heuristic.adds):
+            for f in adds:
+                self.achievers.setdefault(f, []).append(a)
+        self.nodes: list[frozenset[int]] = []
+        self.index: dict[int, int] = {}  # fact -> its landmark
+        self.parents: list[set[int]] = []
+        self.gn: list[tuple[int, int]] = []
+
+    def add(self, facts: frozenset[int]) -> int:
+        number = len(self.nodes)
+        self.nodes.append(facts)
+        self.parents.append(set())
+        for f in facts:
+            self.index[f] = number
+        return number
+
+    def order(self, before: int, after: int) -> bool:
+        """Order ``before`` before ``after`` unless that closes a cycle; whether it did."""
+        if before == after or before in self.parents[after]:
+            return False
+        if self._precedes(after, before):
+            return False
+        self.parents[after].add(before)
+        return True
+
+    def _precedes(self, first: int, second: int) -> bool:
+        """Whether ``first`` is ordered (transitively) before ``second``."""
+        seen, stack = {second}, [second]
+        while stack:
+            for p in self.parents[stack.pop()]:
+                if p == first:
+                    return True
+                if p not in seen:
+                    seen.add(p)
+                    stack.append(p)
+        return False
+
+    def graph(self) -> LandmarkGraph:
+        task, h = self.task, self.h
+        init = task.init
+        goals = sorted(set(task.goal))
+        for g in goals:
+            self.add(frozenset((g,)))
+        pending = list(range(len(self.nodes)))
+        while pending:
+            node = pending.pop(0)
+            facts = self.nodes[node]
+            if not facts.isdisjoint(init):
+                continue
+            reachable = _reachable_without(task, h, facts)
+            first = sorted({a for f in facts for a in self.achievers.get(f, ())
+                            if all(p in reachable for p in h.pres[a])})
+            if not first:
+                continue
+            shared = set(h.pres[first[0]])
+            for a in first[1:]:
+                shared &= set(h.pres[a])
+            for fact in sorted(shared - facts):
+                known = self.index.get(fact)
+                if known is None:
+                    known = self.add(frozenset((fact,)))
+                    pending.append(known)
+                elif len(self.nodes[known]) > 1:
+                    continue  # the fact is in a disjunction already: not a landmark of its own here
+                if self.order(known, node):
+                    self.gn.append((known, node))
+            for disjunction in self._disjunctions(first, shared):
+                new = self.add(disjunction)
+                pending.append(new)
+                if self.order(new, node):
+                    self.gn.append((new, node))
+        reasonable = self._reasonable_orderings(goals)
+        return self._packed(goals, reasonable)
+
+    def _disjunctions(self, first: list[int], shared: set[int]) -> list[frozenset[int]]:
+        """For each predicate every first achiever needs a fact of (not a shared one), the facts
+        of it they need, when few, none true at the start and none a landmark already."""
+        facts_of = self.task.facts
+        by_predicate: list[dict[tuple[str, int], set[int]]] = []
+        for a in first:
+            grouped: dict[tuple[str, int], set[int]] = {}
+            for p in self.h.pres[a]:
+                if p not in shared:
+                    fact = facts_of[p]
+                    grouped.setdefault((fact.functor, len(fact.args)), set()).add(p)
+            by_predicate.append(grouped)
+        common = set(by_predicate[0])
+        for grouped in by_predicate[1:]:
+            common &= set(grouped)
+        found = []
+        for predicate in sorted(common):
+            facts = frozenset().union(*(grouped[predicate] for grouped in by_predicate))
+            if (len(facts) <= MAX_DISJUNCTION and len(facts) > 1 and facts.isdisjoint(self.task.init)
+                    and all(f not in self.index for f in facts)):
+                found.append(facts)
+        return found
+
+    def _reasonable_orderings(self, goals: list[int]) -> list[tuple[int, int]]:
+        """L before goal G when every action adding L deletes G (module docstring)."""
+        h, found = self.h, []
+        for g in goals:
+            goal_node = self.index[g]
+            for node, facts in enumerate(self.nodes):
+                if node == goal_node or len(facts) > 1:
+                    continue
+                (fact,) = facts
+                adders = self.achievers.get(fact, ())
+                if adders and all(g in h.deletes[a] for a in adders) and self.order(node, goal_node):
+                    found.append((node, goal_node))
+        return found
+
+    def _packed(self, goals: list[int], reasonable: list[tuple[int, int]]) -> LandmarkGraph:
+        count = len(self.nodes)
+        graph = LandmarkGraph(nodes=self.nodes, parents=[0] * count, gn_children=[0] * count,
+                              greedy_necessary=len(self.gn), reasonable=len(reasonable))
+        for node, parents in enumerate(self.parents):
+            for p in parents:
+                graph.parents[node] |= 1 << p
+        for before, after in self.gn:
+            graph.gn_children[before] |= 1 << after
+        for g in goals:
+            graph.goal_mask |= 1 << self.index[g]
+        for node, facts in enumerate(self.nodes):
+            for f in facts:
+                graph.fact_mask[f] = graph.fact_mask.get(f, 0) | (1 << node)
+        graph.facts = frozenset(graph.fact_mask)
+        return graph
+
+
+def _reachable_without(task: GroundTask, heuristic: RelaxedPlanHeuristic, facts: frozenset[int]) -> set[int]:
+    """The facts reachable in the relaxation from the start without making any of ``facts`` true."""
     counter = heuristic.pre_count[:]
     reached = set(task.init)
     frontier = list(reached)
+    add_sets, adds = heuristic.add_sets, heuristic.adds
     for a in heuristic.no_pre:
         counter[a] = -1
-        frontier.extend(f for f in heuristic.adds[a] if f != fact and f not in reached)
-        reached.update(f for f in heuristic.adds[a] if f != fact)
+        if add_sets[a].isdisjoint(facts):
+            frontier.extend(f for f in adds[a] if f not in reached)
+            reached.update(adds[a])
+    pre_of = heuristic.pre_of
     while frontier:
         f = frontier.pop()
-        for a in heuristic.pre_of[f]:
+        for a in pre_of[f]:
             counter[a] -= 1
             if counter[a] == 0:
-                if fact in heuristic.add_sets[a]:
+                if not add_sets[a].isdisjoint(facts):
                     continue
-                for g in heuristic.adds[a]:
+                for g in adds[a]:
                     if g not in reached:
                         reached.add(g)
                         frontier.append(g)
     return reached
-
-
-def landmark_search(task: GroundTask, heuristic: RelaxedPlanHeuristic | None = None, *,
-                    stop: Callable[[], bool] | None = None,
-                    max_evaluations: int | None = None) -> SearchResult:
-    """LAMA's first search (module docstring): hFF and the landmark count, with preferred operators."""
-    started = time.process_time()
-    heuristic = heuristic or relaxed_plan_heuristic(task)
-    landmarks = find_landmarks(task, heuristic)
-    goals = frozenset(task.goal)
-    adds, negs, deletes = heuristic.add_sets, heuristic.negs, heuristic.deletes
-    acts = heuristic.actions
-    start = task.init
-    parents: dict[frozenset[int], tuple[frozenset[int] | None, int]] = {start: (None, -1)}
-    reached: dict[frozenset[int], frozenset[int]] = {start: landmarks & start}
-    queues: list[list] = [[], [], [], []]  # hFF, hFF preferred, landmarks, landmarks preferred
-    tick = expanded = evaluated = 0
-
-    def result(status: str, goal_state: frozenset[int] | None = None) -> SearchResult:
-        plan = _path_to(goal_state, parents, acts) if goal_state is not None else []
-        return SearchResult(status, plan, expanded, evaluated, time.process_time() - started, heuristic)
-
-    def count(state: frozenset[int], seen: frozenset[int]) -> int:
-        return len(landmarks) - len(seen) + len((goals & seen) - state)
-
-    def push(state: frozenset[int], h_ff: float, h_lm: int, applicable: list[int], helpful: set[int],
-             seen: frozenset[int]) -> None:
-        nonlocal tick
-        missing = landmarks - seen
-        for a in applicable:
-            neg = negs[a]
-            if neg and any(n in state for n in neg):
-                continue
-            tick += 1
-            heapq.heappush(queues[0], (h_ff, tick, state, a))
-            heapq.heappush(queues[2], (h_lm, tick, state, a))
-            if a in helpful:
-                heapq.heappush(queues[1], (h_ff, tick, state, a))
-            if not missing.isdisjoint(adds[a]):
-                heapq.heappush(queues[3], (h_lm, tick, state, a))
-
-    if task.is_goal(start):
-        return result("solved", start)
-    h_ff, applicable, helpful = heuristic.evaluate(start)
-    evaluated = 1
-    if h_ff == INFINITY:
-        return result("unsolvable")
-    best = [h_ff, count(start, reached[start])]
-    push(start, h_ff, best[1], applicable, helpful, reached[start])
-    priority = [0, 0, 0, 0]
-    turn = 0
-    while any(queues):
-        live = [q for q in range(4) if queues[q]]
-        boosted = [q for q in live if priority[q] > 0]
-        q = boosted[0] if boosted else live[turn % len(live)]
-        turn += 1
-        if boosted:
-            priority[q] -= 1
-        _, _, state, a = heapq.heappop(queues[q])
-        child = (state - deletes[a]) | adds[a]
-        if child in parents:
-            continue
-        parents[child] = (state, a)
-        seen = reached[state] | (landmarks & child)
-        reached[child] = seen
-        expanded += 1
-        if expanded % 8 == 0 and stop is not None and stop():
-            return result("timeout")
-        if task.is_goal(child):
-            return result("solved", child)
-        if max_evaluations is not None and evaluated >= max_evaluations:
-            return result("timeout")
-        h_ff, applicable, helpful = heuristic.evaluate(child)
-        evaluated += 1
-        if h_ff == INFINITY:
-            continue
-        h_lm = count(child, seen)
-        if h_ff < best[0] or h_lm < best[1]:
-            best = [min(best[0], h_ff), min(best[1], h_lm)]
-            priority[1] += BOOST
-            priority[3] += BOOST
-        push(child, h_ff, h_lm, applicable, helpful, seen)
-    return result("unsolvable")

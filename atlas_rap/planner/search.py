@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import heapq
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Collection, Sequence
 
 from atlas_rap.planner.ground import GroundAction, GroundTask
@@ -50,6 +50,7 @@ class SearchResult:
     evaluated: int = 0
     seconds: float = 0.0
     heuristic: RelaxedPlanHeuristic | None = None
+    stats: dict[str, int] = field(default_factory=dict)  # what else the search counted, for Plan.stats
 
 
 Settle = Callable[[frozenset[int], GroundAction], frozenset[int]]

@@ -5,22 +5,23 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
 :class:`~atlas_rap.planner.plan.Plan`. The steps:
 
 1. :func:`~atlas_rap.planner.ground.ground` the operators;
-2. greedy best-first search with hFF and helpful actions
-   (:mod:`~atlas_rap.planner.search`), ties to the shallower node; stuck
-   after STUCK evaluations, a restart with LAMA's landmark count beside hFF
-   (:mod:`~atlas_rap.planner.landmarks`); redundant actions dropped; then a
-   lazy weighted-A* (weight IMPROVE_WEIGHT) searches for a shorter plan,
-   bounded by that plan's length and by a count of evaluations (100 more
-   than IMPROVE_FACTOR times the first search's, at most IMPROVE_BUDGET), as
-   LAMA's later iterations do. Weight 2 and three times the evaluations gave
-   shorter plans than weight 3 and four times on the five shared domains, in
-   less than half the time (measured 2026-12-02: 4,100 steps in all against
-   4,111, 23 s against 53 s of shortening, a second greedy search with other
-   ties included in the latter, which now goes: it paid only on depot);
-   With PDDL action costs the searches still count actions, as Fast Downward's
+2. search as Fast Downward's ``lama-first`` does
+   (:func:`~atlas_rap.planner.lama.lama_search`: lazy greedy best-first
+   search alternating hFF and the landmark count, with preferred operators
+   and boosts); redundant actions dropped (greedy action elimination, cheap);
+   then, only with ``shorten=True`` (``atlas plan --shorten``), a lazy
+   weighted-A* (weight SHORTEN_WEIGHT) restarted from the start searches for
+   a shorter plan, bounded by that plan's length and by a count of
+   evaluations (100 more than SHORTEN_FACTOR times the first search's, at
+   most SHORTEN_BUDGET), as LAMA's later iterations restart. It is not the
+   default: on the thirteen IPC domains (p01-p10, 2026-12-05) it cost more
+   CPU than the search itself (in-process CPU 1.73x Fast Downward's with it,
+   1.24x without), for plans 1.4 % shorter, and the first plans are already
+   3 % shorter than lama-first's.
+   With PDDL action costs the searches count actions, as Fast Downward's
    lama-first does (``cost_type=one``, its heuristics ``adapt_costs(one)``):
    a first plan found fast, its cost (``Plan.cost``, the sum of its actions')
-   reported beside its length; the shortening step shortens by length too;
+   reported beside its length;
 3. :func:`~atlas_rap.planner.counterplan.counterplan` against uncontrolled agents;
 4. :func:`~atlas_rap.planner.partial_order.deorder` into a partial order,
    checked valid in every linearisation;
@@ -48,22 +49,17 @@ from atlas_rap.planner.counterplan import (
     shorten_exposure,
 )
 from atlas_rap.planner.ground import ground
-from atlas_rap.planner.landmarks import landmark_search
 from atlas_rap.planner.limits import LimitReached, Limits
 from atlas_rap.planner.partial_order import check_every_linearisation, deorder
 from atlas_rap.planner.plan import Plan, build_plan
 from atlas_rap.planner.problem import PlanningProblem
-from atlas_rap.planner.search import (
-    eliminate_redundant,
-    greedy_best_first,
-    shorter_plan,
-)
+from atlas_rap.planner.lama import lama_search
+from atlas_rap.planner.search import eliminate_redundant, shorter_plan
 
 DEFAULT_TIMEOUT = 60.0
-IMPROVE_BUDGET = 20000  # heuristic evaluations of the plan-shortening search, at most
-IMPROVE_FACTOR = 3  # ... and at most this many times the first search's, plus 100
-IMPROVE_WEIGHT = 2.0  # its weight on hFF
-STUCK = 20000  # heuristic evaluations of the hFF search before it restarts with landmarks (a count)
+SHORTEN_BUDGET = 20000  # heuristic evaluations of the plan-shortening search (shorten=True), at most
+SHORTEN_FACTOR = 3  # ... and at most this many times the first search's, plus 100
+SHORTEN_WEIGHT = 2.0  # its weight on hFF
 SHORTEN_SHARE = 0.5  # of the time left after the search, at most, for shortening (its counts bind first, as a rule)
 
 
@@ -72,7 +68,7 @@ class PlannerBug(AssertionError):
 
 
 def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, protect: bool = True,
-          memory: float | None = None, limits: Limits | None = None, *, restart_after: int = STUCK) -> Plan:
+          memory: float | None = None, limits: Limits | None = None, *, shorten: bool = False) -> Plan:
     """Plan for ``problem`` within ``timeout`` CPU seconds and ``memory`` MiB (None: no limit),
     or within ``limits`` already running (``atlas plan`` starts them before it reads the files).
 
@@ -81,8 +77,8 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     (``Plan.limited``); a plan whose counterplanning was cut while threats were
     left is not returned as safe (status ``timeout`` or ``memory``); without a
     plan, the status says which limit ran out. ``protect`` False skips
-    counterplanning (the risk is still reported). ``restart_after`` is the count of
-    hFF evaluations after which the search restarts with landmarks.
+    counterplanning (the risk is still reported). ``shorten`` searches again for a
+    shorter plan after the first (module docstring).
     """
     limits = limits if limits is not None else Limits(timeout, memory)
     timing: dict[str, float] = {}
@@ -103,14 +99,8 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     if limits.expired():
         return _without_plan(limits, phase, stats, "before the search began")
     phase("search", "search")
-    found = greedy_best_first(task, stop=limits.expired, max_evaluations=restart_after)
-    if found.status == "timeout" and not limits.expired():  # stuck: restart as LAMA would search
-        stuck = found
-        found = landmark_search(task, stuck.heuristic, stop=limits.expired)
-        found.expanded += stuck.expanded
-        found.evaluated += stuck.evaluated
-        stats["restarted_after"] = stuck.evaluated
-    stats.update(expanded=found.expanded, evaluated=found.evaluated)
+    found = lama_search(task, stop=limits.expired)
+    stats.update(expanded=found.expanded, evaluated=found.evaluated, **found.stats)
     if found.status == "unsolvable":
         phase.end()
         return Plan(status="unsolvable", stats=stats, timing=timing, limits=limits.to_dict(),
@@ -120,9 +110,9 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     phase("shortening", "shorten")
     share = limits.share(SHORTEN_SHARE)
     sequence = eliminate_redundant(task, found.plan, deadline=share)
-    if not share.expired():
-        better = shorter_plan(task, sequence, budget=min(IMPROVE_BUDGET, 100 + IMPROVE_FACTOR * found.evaluated),
-                              weight=IMPROVE_WEIGHT, heuristic=found.heuristic, stop=share.expired)
+    if shorten and not share.expired():
+        better = shorter_plan(task, sequence, budget=min(SHORTEN_BUDGET, 100 + SHORTEN_FACTOR * found.evaluated),
+                              weight=SHORTEN_WEIGHT, heuristic=found.heuristic, stop=share.expired)
         if better is not None:
             sequence = _shorter(task, better, sequence, share)
     phase("counterplanning", "counterplan")
