@@ -21,7 +21,9 @@ What Fast Downward's ``lama-first`` runs (Richter & Westphal 2010), in Python:
   its parent's values and is evaluated when it is taken out, so the
   heuristics are computed once per expanded state, not per generated one;
   closed states are not reopened;
-- ties go by order of generation, so the same task always gives the same plan.
+- ties go by order of generation, so the same task always gives the same plan;
+  the successors of a state share one heap entry per queue (their values and
+  their place in the order are the same), taken one at a time.
 
 ``settle`` is not supported here: counterplanning searches with
 :func:`~atlas_rap.planner.search.greedy_best_first`.
@@ -57,7 +59,9 @@ def lama_search(task: GroundTask, heuristic: RelaxedPlanHeuristic | None = None,
     start = task.init
     parents: dict[frozenset[int], tuple[frozenset[int] | None, int]] = {start: (None, -1)}
     reached: dict[frozenset[int], int] = {}
-    queues: list[list[tuple[float, int, frozenset[int], int]]] = [[], [], [], []]
+    # an entry is [h, tick, state, actions, next]: the successors of one state by those actions, taken
+    # one at a time from the top of the heap; in order of generation as entries per successor would be
+    queues: list[list[list]] = [[], [], [], []]
     priority = [0, 0, 0, 0]
     tick = expanded = evaluated = 0
 
@@ -69,19 +73,18 @@ def lama_search(task: GroundTask, heuristic: RelaxedPlanHeuristic | None = None,
     def push(state: frozenset[int], h_ff: float, h_lm: int, applicable: list[int], helpful: set[int],
              seen: int) -> None:
         nonlocal tick
+        actions = [a for a in applicable if not negs[a] or not any(n in state for n in negs[a])]
+        if not actions:
+            return
         ready = ready_facts(seen) if landmark_preferred else ()
+        preferred = [a for a in actions if a in helpful or (ready and not adds[a].isdisjoint(ready))]
+        tick += 1
         ff, ff_pref, lm, lm_pref = queues
-        push_ = heapq.heappush
-        for a in applicable:
-            neg = negs[a]
-            if neg and any(n in state for n in neg):
-                continue
-            tick += 1
-            push_(ff, (h_ff, tick, state, a))
-            push_(lm, (h_lm, tick, state, a))
-            if a in helpful or (ready and not adds[a].isdisjoint(ready)):
-                push_(ff_pref, (h_ff, tick, state, a))
-                push_(lm_pref, (h_lm, tick, state, a))
+        heapq.heappush(ff, [h_ff, tick, state, actions, 0])
+        heapq.heappush(lm, [h_lm, tick, state, actions, 0])
+        if preferred:
+            heapq.heappush(ff_pref, [h_ff, tick, state, preferred, 0])
+            heapq.heappush(lm_pref, [h_lm, tick, state, preferred, 0])
 
     if is_goal(start):
         return result("solved", start)
@@ -102,7 +105,14 @@ def lama_search(task: GroundTask, heuristic: RelaxedPlanHeuristic | None = None,
         if q < 0:
             return result("unsolvable")
         priority[q] += 1
-        _, _, state, a = heapq.heappop(queues[q])
+        queue = queues[q]
+        entry = queue[0]
+        _, _, state, actions, taken = entry
+        a = actions[taken]
+        if taken + 1 == len(actions):
+            heapq.heappop(queue)
+        else:
+            entry[4] = taken + 1
         child = (state - deletes[a]) | adds[a]
         if child in parents:
             continue
