@@ -404,3 +404,31 @@ def test_triangle_tireworld_p1_only_the_route_by_spares_is_safe() -> None:
     assert validate_plan(problem, direct, adversarial=True).failed_step == 2
     check = validate_plan(problem, by_spares, adversarial=True)
     assert check.ok, check.message
+
+
+def fond_blocksworld(number: int) -> tuple[Path, Path]:
+    if not SHARED_PDDL.is_dir():
+        pytest.skip(f"the public PDDL benchmarks are not here ({SHARED_PDDL} is absent)")
+    folder = SHARED_PDDL / "fond-blocksworld"
+    return folder / "domain.pddl", folder / f"p{number}.pddl"
+
+
+def test_a_fond_outcome_in_which_the_action_does_nothing_is_never_the_nominal_one() -> None:
+    problem = load_pddl(*fond_blocksworld(3))
+    # (oneof (and) (and (holding ?b) ...)): picking up may fail; what a plan intends is the second outcome
+    pick = problem.operator("pick-up-from-table")
+    failed = problem.operator("pick-up-from-table~1")
+    assert not pick.uncontrolled and ast.Effect(C("holding", V("b")), True) in pick.effects
+    assert failed.uncontrolled and failed.outcome_of == "pick-up-from-table" and not failed.effects
+
+
+def test_fond_blocksworld_plans_name_the_outcomes_that_may_defeat_them() -> None:
+    problem = load_pddl(*fond_blocksworld(3))
+    from atlas_rap.planner.solve import solve
+
+    result = solve(problem, timeout=30)
+    # every stacking may drop the block on the table: no sequential plan is safe, and the plan says why
+    assert result.status == "solved" and 0 < result.risk < 1
+    dropped = [t for t in result.threats if t.operator == "put-on-block~2"]
+    assert dropped and all(t.fact.startswith("(on ") for t in dropped)
+    assert validate_plan(problem, result.sequence).ok

@@ -7,7 +7,11 @@ is never planned, but it may happen. The model, where the language reference (do
   our steps, any uncontrolled action whose preconditions hold there may
   happen. (The state the plan starts in has been observed, so nothing
   happens before the first step.) A FOND bad outcome (``outcome_of``) is
-  tied to its step: it can happen only as that step's outcome.
+  tied to its step: it can happen only as that step's outcome, instead of
+  the nominal one, so what the step would have added and the outcome does
+  not counts as deleted (a block dropped on the table is not on the other:
+  FOND blocksworld's ``put-on-block``; conservative for a fact that was
+  already true before the step).
 - It **threatens** a causal link ``i --p--> j`` when it deletes ``p`` in one
   of the states from the producer ``i`` up to just before the consumer ``j``.
 - The **risk** of a plan is the probability that at least one threatening
@@ -23,8 +27,8 @@ threat (achieves a fact that disables the action), re-achieves the fact
 after the threat and before it is needed (the safe tireworld route changes
 a tyre wherever it may go flat), orders the need before the danger, or takes
 another way. When no such plan exists for every threat, it protects against
-as many threatening actions as it can, one kind at a time, and reports the
-risk that remains.
+as many threatening actions as it can, one kind at a time (each search
+bounded by TRIAL_EVALUATIONS), and reports the risk that remains.
 """
 
 from __future__ import annotations
@@ -109,9 +113,17 @@ class Adversary:
         self.actions = chosen
         self.anytime = [u for u in chosen if u.operator.outcome_of is None]
         self.tied: dict[tuple[str, tuple], list[GroundAction]] = {}
+        self.missed: dict[tuple[str, tuple], set[int]] = {}  # a step -> what an outcome of it may not add
+        nominal = {(a.operator.name, a.args): a for a in task.actions}
         for u in chosen:
             if u.operator.outcome_of is not None:
-                self.tied.setdefault((u.operator.outcome_of, u.args), []).append(u)
+                key = (u.operator.outcome_of, u.args)
+                step = nominal.get(key)
+                missed = tuple(f for f in step.add if f not in u.add and f not in u.delete) if step else ()
+                if missed:  # it happens instead of the step: what the step would have added is not there
+                    u = dataclasses.replace(u, delete=u.delete + missed)
+                    self.missed.setdefault(key, set()).update(missed)
+                self.tied.setdefault(key, []).append(u)
 
     def possible_after(self, state: frozenset[int], step: GroundAction | None) -> list[GroundAction]:
         """Uncontrolled actions that may happen in ``state``, reached by ``step``."""
@@ -141,18 +153,27 @@ class Adversary:
         (``(not F)`` in a precondition or goal). Such a fact therefore leaves a
         *shadow* ("F may still hold") that negative needs also require to be
         absent, and that only our own deletion of F removes.
+
+        A step an outcome of which may not add a fact does not add it here:
+        so where every way to a goal may fail, the relaxation says so at once,
+        rather than a search through every state.
         """
         task = self.task
         deletable = {f for u in self.actions for f in u.delete}
         negative = {f for a in task.actions for f in a.neg} | set(task.goal_neg)
         shadow = {f: len(task.facts) + i for i, f in enumerate(sorted(deletable & negative))}
-        if not shadow:
+        missed = self.missed
+        if not shadow and not missed:
             return task, self.worst_case
 
         def with_shadows(ids: tuple[int, ...]) -> tuple[int, ...]:
             return ids + tuple(shadow[f] for f in ids if f in shadow)
 
-        actions = [dataclasses.replace(a, neg=with_shadows(a.neg), delete=with_shadows(a.delete))
+        def sure(a: GroundAction) -> tuple[int, ...]:
+            lost = missed.get((a.operator.name, a.args))
+            return tuple(f for f in a.add if f not in lost) if lost else a.add
+
+        actions = [dataclasses.replace(a, neg=with_shadows(a.neg), delete=with_shadows(a.delete), add=sure(a))
                    for a in task.actions]
         facts = task.facts + [Compound("may-still-hold", (task.facts[f],)) for f in shadow]
         robust = dataclasses.replace(task, facts=facts, actions=actions, goal_neg=with_shadows(task.goal_neg))
@@ -163,6 +184,13 @@ class Adversary:
             return after | {shadow[f] for f in taken if f in shadow}
 
         return robust, settle
+
+
+TRIAL_EVALUATIONS = 5000
+"""Heuristic evaluations, at most, of each search for a plan safe from one more threatening action
+when no plan is safe from all of them (a count, so the same task gives the same plan): on FOND
+blocksworld, where any stacking may drop the block, every threat has its trial, and p7-p10 ran out
+of 60 s unbounded."""
 
 
 def assess(task: GroundTask, plan: list[GroundAction], adversary: Adversary | None = None,
@@ -256,15 +284,15 @@ def counterplan(task: GroundTask, plan: list[GroundAction], timeout: float | Non
         return Protected(plan, [], first, 0.0)
     cut = False
 
-    def robust(adversary: Adversary) -> list[GroundAction] | None:
+    def robust(adversary: Adversary, budget: int | None = None) -> list[GroundAction] | None:
         nonlocal cut
         if stop is not None and stop():
             cut = True
             return None
         worst, settle = adversary.robust_task()
-        found = greedy_best_first(worst, timeout=timeout, settle=settle, stop=stop)
-        if found.status == "timeout":
-            cut = True
+        found = greedy_best_first(worst, timeout=timeout, settle=settle, stop=stop, max_evaluations=budget)
+        if found.status == "timeout" and (budget is None or found.evaluated < budget):
+            cut = True  # stopped by the time limit, not by its own budget
         if found.status != "solved":
             return None
         shortened = eliminate_redundant(worst, found.plan, settle=settle)
@@ -275,7 +303,7 @@ def counterplan(task: GroundTask, plan: list[GroundAction], timeout: float | Non
         allowed: list[GroundAction] = []
         for u in first.actions():
             trial_adversary = Adversary(task, allowed + [u])
-            trial = robust(trial_adversary)
+            trial = robust(trial_adversary, TRIAL_EVALUATIONS)
             if trial is not None:
                 allowed.append(u)
                 best, best_adversary = trial, trial_adversary

@@ -73,8 +73,12 @@ Choices where PDDL leaves room:
   evaluated in the state before the action, deletions first, then additions,
   so an action that deletes and adds the same fact leaves it true.
 - FOND: at most one ``oneof`` per action. The controlled operator has the
-  common effects plus the first outcome (the nominal one); outcome k >= 2
-  is the uncontrolled operator ``ACTION~k`` (same parameters and
+  common effects plus the nominal outcome: the first with which the action
+  changes anything (an action that does nothing at all has failed, which no
+  plan intends: FOND blocksworld's ``pick-up-from-table`` lists that outcome
+  first; tireworld's empty first outcome, the tyre not going flat, comes
+  with the move itself and stays the nominal one); every other
+  outcome k is the uncontrolled operator ``ACTION~k`` (same parameters and
   preconditions, ``probability`` 1/n, ``outcome_of`` ACTION), listed right
   after its controlled operator. A ``oneof`` cannot be inside ``when`` or
   ``forall``; an outcome may contain them.
@@ -556,10 +560,14 @@ class _Loader:
         if ":effect" in parts:
             self._effect(self._list_at(section, parts[":effect"], _EFFECT_HINT), params, common, outcomes)
         loc = src.loc(_at(section))
-        nominal = outcomes[0] if outcomes else []
+        # the nominal outcome: the first in which the action changes anything (doing nothing is failing)
+        nominal_at = next((k for k, outcome in enumerate(outcomes) if common or outcome), 0)
+        nominal = outcomes[nominal_at] if outcomes else []
         ops = [ast.Operator(name, preconditions=tuple(preconditions), effects=tuple(common + nominal),
                             parameters=tuple(parameters), cost=self.cost, loc=loc)]
-        for k, outcome in enumerate(outcomes[1:], 2):
+        for k, outcome in enumerate(outcomes, 1):
+            if k == nominal_at + 1:
+                continue
             ops.append(ast.Operator(f"{name}~{k}", preconditions=tuple(preconditions),
                                     effects=tuple(common + outcome), uncontrolled=True,
                                     probability=1 / len(outcomes), parameters=tuple(parameters),
