@@ -137,7 +137,11 @@ Output: one JSON object a line (progress goes to stderr)
   fond-triangle-tireworld p1-p10, ours only, in-process as above: a problem
   passes when it is solved with ``risk == 0`` and ``validate_plan_file(...,
   adversarial=True)`` accepts the plan (no flat tire can defeat it); then
-  ``planner-tireworld-summary``.
+  ``planner-tireworld-summary``. Then ``planner-fond-blocksworld``: the same
+  on fond-blocksworld p1-p10, where any stacking may drop the block, so a
+  plan is rarely safe: a problem passes when it is solved, the plan is valid
+  and its risk is 0 or the threats that make it up are named (``threats``);
+  then ``planner-fond-blocksworld-summary``.
 
 Run
 ---
@@ -191,6 +195,7 @@ DOMAINS = ["blocks", "depot", "elevators-sat08-strips", "freecell", "gripper", "
            "pipesworld-notankage", "rovers", "scanalyzer-08-strips", "storage", "tpp", "transport-sat08-strips"]
 """The thirteen classical IPC domains of the shared data (the FOND ones are the tireworld's and the tests')."""
 TIREWORLD = "fond-triangle-tireworld"
+FOND_BLOCKSWORLD = "fond-blocksworld"
 GRACE_S = 5.0  # wall seconds past the timeout before a planner is killed
 MIN_CPU_S = 1e-3  # floor for time ratios (a zero would break the geometric mean)
 TAIL_CHARS = 800  # how much of a failing planner's stderr goes into its JSON line
@@ -462,7 +467,8 @@ def solve_ours(planners: SimpleNamespace, domain: Path, problem: Path, plan_path
             "parallel_length": plan.stats.get("parallel_length"),
             "makespan": number(plan.makespan) if solved else None, "risk": number(plan.risk),
             "risk_before_counterplanning": number(plan.risk_before_counterplanning),
-            "counterplan_steps": len(plan.counterplan), "ground_s": grounding_seconds(plan.timing),
+            "counterplan_steps": len(plan.counterplan), "threats": len(plan.threats),
+            "ground_s": grounding_seconds(plan.timing),
             "search_s": plan.timing.get("search_seconds"), "solve_s": plan.timing.get("seconds"),
             "reason": plan.reason or None}
 
@@ -1063,6 +1069,28 @@ def tireworld(bench: Bench) -> None:
           "ok": bool(passed) and all(passed) and bench.validator is not None})
 
 
+def fond_blocksworld(bench: Bench) -> None:
+    """Counterplanning on fond-blocksworld, ours in-process: there any stacking may drop the block, so
+    a sequential plan is rarely safe; a problem passes when it is solved with a valid plan and either
+    risk 0 or the threats that make up its risk named (``threats`` > 0): never an unexplained risk."""
+    folder = bench.args.data_root / FOND_BLOCKSWORLD
+    if not folder.is_dir():
+        emit({"bench": "planner-fond-blocksworld-summary", "skipped": f"no {folder}"})
+        return
+    passed, risky = [], 0
+    for problem, domain in list_problems(folder, bench.args.tireworld_problems):
+        record = attempt(Job(FOND_BLOCKSWORLD, problem, domain, OURS), bench)
+        risky += bool(record.get("risk"))
+        record.update(bench="planner-fond-blocksworld", passed=bool(
+            record.get("status") == "solved" and record.get("valid") is True
+            and (record.get("risk") == 0 or (record.get("threats") or 0) > 0)))
+        progress(describe(record) + (" (passed)" if record["passed"] else " (FAILED)"))
+        emit(record)
+        passed.append(record["passed"])
+    emit({"bench": "planner-fond-blocksworld-summary", "problems": len(passed), "passed": sum(passed),
+          "with_threats_named": risky, "ok": bool(passed) and all(passed) and bench.validator is not None})
+
+
 # -- main ----------------------------------------------------------------------
 
 
@@ -1170,9 +1198,10 @@ def parse_args() -> argparse.Namespace:
                         help="also run pyperplan's CLI as a subprocess (default on; not where pyperplan in "
                              "process timed out)")
     parser.add_argument("--tireworld", action=argparse.BooleanOptionalAction, default=True,
-                        help="counterplanning on fond-triangle-tireworld (default on)")
+                        help="counterplanning on the FOND domains, fond-triangle-tireworld and fond-blocksworld "
+                             "(default on)")
     parser.add_argument("--tireworld-problems", type=int, default=None,
-                        help=f"tireworld p1..pN (default {FULL['tireworld_problems']}; --quick "
+                        help=f"p1..pN of each FOND domain (default {FULL['tireworld_problems']}; --quick "
                              f"{QUICK['tireworld_problems']})")
     parser.add_argument("--jobs", type=int, default=1, help="problems at once (default 1; more disturbs the timings)")
     parser.add_argument("--keep-plans", type=Path, help="copy every plan into DIR/DOMAIN/PROBLEM.PLANNER.plan")
@@ -1208,6 +1237,7 @@ def main() -> None:
         bench_domains(bench, planners)
         if args.tireworld:
             tireworld(bench)
+            fond_blocksworld(bench)
 
 
 if __name__ == "__main__":

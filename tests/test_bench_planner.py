@@ -107,6 +107,7 @@ def test_quick_setup_says_what_ran_and_which_peers_are_missing(quick):
             assert not set(planners) & set(setup["planners"])
     unknown = {r["bench"] for r in records} - {"planner-setup", "planner", "planner-domain", "planner-overall",
                                                "planner-tireworld", "planner-tireworld-summary",
+                                               "planner-fond-blocksworld", "planner-fond-blocksworld-summary",
                                                "planner-pyperplan-unavailable", "planner-fd-unavailable"}
     assert not unknown
 
@@ -189,6 +190,18 @@ def test_quick_counterplanning_on_the_tireworld(quick):
     (summary,) = lines_of(records, "planner-tireworld-summary")
     assert summary == {"bench": "planner-tireworld-summary", "problems": QUICK_TIREWORLD,
                        "passed": QUICK_TIREWORLD, "ok": True}
+
+
+def test_quick_counterplanning_on_fond_blocksworld_names_what_may_defeat_each_plan(quick):
+    records, _ = quick
+    blocks = lines_of(records, "planner-fond-blocksworld")
+    assert [r["problem"] for r in blocks] == [f"p{n}" for n in range(1, QUICK_TIREWORLD + 1)]
+    # p1 needs no step; p2's pick-up may drop the block: its risk comes with the threat named
+    assert blocks[0]["risk"] == 0 and blocks[1]["risk"] > 0 and blocks[1]["threats"] > 0
+    assert all(r["passed"] and r["valid"] is True for r in blocks)
+    (summary,) = lines_of(records, "planner-fond-blocksworld-summary")
+    assert summary == {"bench": "planner-fond-blocksworld-summary", "problems": QUICK_TIREWORLD,
+                       "passed": QUICK_TIREWORLD, "with_threats_named": 1, "ok": True}
 
 
 # -- small pieces, no shared data needed -------------------------------------------

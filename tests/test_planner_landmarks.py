@@ -118,3 +118,22 @@ def test_lama_search_says_when_no_plan_exists() -> None:
     task = ground(parse_pddl(CORRIDOR_DOMAIN, one_way))  # the key is in a room with no way out
     assert task.unreachable_goals == ()  # in the relaxation, the vault can be reached
     assert lama_search(task).status == "unsolvable"
+
+
+def test_a_search_without_progress_gives_up_as_stuck(tmp_path: Path) -> None:
+    task = ground(load_pddl(*gripper_problem(tmp_path, balls=6)))
+    assert lama_search(task, stagnation=0).status == "stuck"  # the first evaluation that does not improve
+    assert lama_search(task, stagnation=1000).status == "solved"
+
+
+def test_a_stuck_search_restarts_with_h_add_and_says_so(tmp_path: Path, monkeypatch) -> None:
+    import importlib
+
+    solve_module = importlib.import_module("atlas_rap.planner.solve")  # the module (the package exports solve())
+    problem = load_pddl(*gripper_problem(tmp_path, balls=8))
+    assert "restarted_after" not in solve_module.solve(problem).stats
+    monkeypatch.setattr(solve_module, "STAGNATION", 0)
+    restarted = solve_module.solve(problem)
+    assert restarted.status == "solved" and restarted.stats["restarted_after"] >= 2
+    assert restarted.stats["evaluated"] > restarted.stats["restarted_after"]
+    assert validate_plan(problem, restarted.sequence).ok

@@ -1,7 +1,8 @@
-"""hFF's two backends: pure Python for small tasks, numpy for large ones. They must agree
-on what matters to the search (which actions apply, whether the goals are reachable at
-all, that helpful actions apply) and lead to valid plans; each picks achievers by its own
-rule, so h itself may differ by an action or two, never by the relaxed exploration."""
+"""hFF's two backends: pure Python for small tasks, numpy for large ones, for both ways of
+extracting the relaxed plan (layered, and by h_add's best supporters). They must agree on what
+matters to the search (which actions apply, whether the goals are reachable at all, that
+helpful actions apply) and lead to valid plans; each picks achievers by its own rule, so h
+itself may differ by an action or two, never by the relaxed exploration."""
 
 from __future__ import annotations
 
@@ -14,8 +15,11 @@ from pddl_problems import blocks_problem, gripper_problem
 from atlas_rap.planner.ground import ground
 from atlas_rap.planner.pddl import load_pddl
 from atlas_rap.planner.plan_file import validate_plan
+from atlas_rap.planner.pddl import parse_pddl
 from atlas_rap.planner.relaxation import (
     INFINITY,
+    AdditiveRelaxedPlanHeuristic,
+    VectorAdditiveRelaxedPlanHeuristic,
     PYTHON_SECONDS_PER_INCIDENCE,
     BackendCosts,
     RelaxedPlanHeuristic,
@@ -43,25 +47,31 @@ def test_both_backends_see_the_same_applicable_actions_and_reachability(tmp_path
     (tmp_path / "g").mkdir(), (tmp_path / "b").mkdir()
     for domain, problem in (gripper_problem(tmp_path / "g", 6), blocks_problem(tmp_path / "b", 7, seed=3)):
         task = ground(load_pddl(domain, problem))
-        python, vector = RelaxedPlanHeuristic(task), VectorRelaxedPlanHeuristic(task)
-        for state in random_walk_states(task, 40, seed=1):
-            h_py, applicable_py, helpful_py = python.evaluate(state)
-            h_np, applicable_np, helpful_np = vector.evaluate(state)
-            expected = {i for i, a in enumerate(task.actions) if all(p in state for p in a.pre)}
-            assert set(applicable_py) == set(applicable_np) == expected
-            assert (h_py == INFINITY) == (h_np == INFINITY)
-            assert (h_py == 0) == (h_np == 0) == task.is_goal(state)
-            assert helpful_np <= set(applicable_np) and helpful_py <= set(applicable_py)
-            if 0 < h_np < INFINITY:
-                assert helpful_np, "a state short of the goals has a helpful action"
+        for python, vector in ((RelaxedPlanHeuristic(task), VectorRelaxedPlanHeuristic(task)),
+                               (AdditiveRelaxedPlanHeuristic(task), VectorAdditiveRelaxedPlanHeuristic(task))):
+            check_agreement(task, python, vector)
+
+
+def check_agreement(task, python, vector) -> None:
+    for state in random_walk_states(task, 40, seed=1):
+        h_py, applicable_py, helpful_py = python.evaluate(state)
+        h_np, applicable_np, helpful_np = vector.evaluate(state)
+        expected = {i for i, a in enumerate(task.actions) if all(p in state for p in a.pre)}
+        assert set(applicable_py) == set(applicable_np) == expected
+        assert (h_py == INFINITY) == (h_np == INFINITY)
+        assert (h_py == 0) == (h_np == 0) == task.is_goal(state)
+        assert helpful_np <= set(applicable_np) and helpful_py <= set(applicable_py)
+        if 0 < h_np < INFINITY:
+            assert helpful_np and helpful_py, "a state short of the goals has a helpful action"
 
 
 def test_the_goals_unreachable_even_relaxed_are_infinity_for_both(tmp_path: Path) -> None:
     domain, problem = gripper_problem(tmp_path, 2)
     task = ground(load_pddl(domain, problem))
     empty = frozenset()  # no robot anywhere, no ball anywhere: nothing applies
-    assert RelaxedPlanHeuristic(task).evaluate(empty)[0] == INFINITY
-    assert VectorRelaxedPlanHeuristic(task).evaluate(empty)[0] == INFINITY
+    for backend in (RelaxedPlanHeuristic, VectorRelaxedPlanHeuristic, AdditiveRelaxedPlanHeuristic,
+                    VectorAdditiveRelaxedPlanHeuristic):
+        assert backend(task).evaluate(empty)[0] == INFINITY
 
 
 def test_the_numpy_backend_guides_the_search_to_valid_plans(tmp_path: Path) -> None:
@@ -104,3 +114,36 @@ def test_where_numpy_is_cheaper_the_search_changes_to_it_once_the_import_is_repa
         assert heuristic.evaluate(state) == expected
     found = greedy_best_first(task, heuristic=relaxed_plan_heuristic(task, costs=ten_evaluations))
     assert found.status == "solved" and validate_plan(parsed, [a.term for a in found.plan]).ok
+
+
+# The goal has two achievers, both one layer away: the first needs three facts (three actions), the
+# second one fact (one action). The layered relaxed plan takes the first to fire; h_add the cheaper.
+TWO_WAYS_DOMAIN = """(define (domain two-ways)
+  (:requirements :strips)
+  (:predicates (q1) (q2) (q3) (p) (goal))
+  (:action make-q1 :parameters () :effect (q1))
+  (:action make-q2 :parameters () :effect (q2))
+  (:action make-q3 :parameters () :effect (q3))
+  (:action make-p :parameters () :effect (p))
+  (:action by-three :parameters () :precondition (and (q1) (q2) (q3)) :effect (goal))
+  (:action by-one :parameters () :precondition (p) :effect (goal)))"""
+TWO_WAYS_PROBLEM = "(define (problem two) (:domain two-ways) (:init) (:goal (goal)))"
+
+
+def test_h_add_takes_the_achiever_whose_preconditions_cost_least() -> None:
+    task = ground(parse_pddl(TWO_WAYS_DOMAIN, TWO_WAYS_PROBLEM))
+    assert RelaxedPlanHeuristic(task).evaluate(task.init)[0] == 4  # by-three and what it needs
+    for backend in (AdditiveRelaxedPlanHeuristic, VectorAdditiveRelaxedPlanHeuristic):
+        h, _, helpful = backend(task).evaluate(task.init)
+        assert h == 2  # make-p, then by-one
+        assert {task.actions[a].name for a in helpful} == {"make-p"}  # the relaxed plan's applicable action
+
+
+def test_the_additive_hff_changes_to_numpy_too(tmp_path: Path) -> None:
+    domain, problem = gripper_problem(tmp_path, 4)
+    task = ground(load_pddl(domain, problem))
+    free_numpy = BackendCosts(numpy_seconds_per_layer=0.0, numpy_seconds_per_layer_incidence=0.0,
+                              numpy_import_seconds=0.0)
+    heuristic = relaxed_plan_heuristic(task, costs=free_numpy, additive=True)
+    assert type(heuristic) is SwitchingRelaxedPlanHeuristic and heuristic.after == 0
+    assert heuristic.evaluate(task.init) == VectorAdditiveRelaxedPlanHeuristic(task).evaluate(task.init)

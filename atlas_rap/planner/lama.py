@@ -21,6 +21,9 @@ What Fast Downward's ``lama-first`` runs (Richter & Westphal 2010), in Python:
   its parent's values and is evaluated when it is taken out, so the
   heuristics are computed once per expanded state, not per generated one;
   closed states are not reopened;
+- ``stagnation``: after that many evaluations in a row that improved neither
+  heuristic's best value, the search gives up (status ``stuck``) so that
+  :func:`~atlas_rap.planner.solve.solve` can restart it with another hFF;
 - ties go by order of generation, so the same task always gives the same plan;
   the successors of a state share one heap entry per queue (their values and
   their place in the order are the same), taken one at a time.
@@ -46,9 +49,11 @@ PREFERRED_QUEUES = (FF_PREFERRED, LANDMARKS_PREFERRED)
 
 def lama_search(task: GroundTask, heuristic: RelaxedPlanHeuristic | None = None, *,
                 landmarks: LandmarkGraph | None = None, landmark_preferred: bool = False,
-                stop: Callable[[], bool] | None = None, max_evaluations: int | None = None) -> SearchResult:
+                stop: Callable[[], bool] | None = None, max_evaluations: int | None = None,
+                stagnation: int | None = None) -> SearchResult:
     """Search ``task`` as LAMA's first iteration (module docstring). Stops (status ``timeout``)
-    when ``stop()`` says so or after ``max_evaluations`` evaluations."""
+    when ``stop()`` says so or after ``max_evaluations`` evaluations, and (status ``stuck``)
+    after ``stagnation`` evaluations in a row that improved neither heuristic's best value."""
     started = time.process_time()
     heuristic = heuristic or relaxed_plan_heuristic(task)
     graph = landmarks if landmarks is not None else find_landmarks(task, heuristic)
@@ -96,6 +101,7 @@ def lama_search(task: GroundTask, heuristic: RelaxedPlanHeuristic | None = None,
     reached[start] = seen
     h_lm = lm_count(seen, graph.true_in(start))
     best_ff, best_lm = h_ff, h_lm
+    progressed = evaluated
     push(start, h_ff, h_lm, applicable, helpful, seen)
     while True:
         q = -1
@@ -135,4 +141,7 @@ def lama_search(task: GroundTask, heuristic: RelaxedPlanHeuristic | None = None,
             best_ff, best_lm = min(best_ff, h_ff), min(best_lm, h_lm)
             for i in PREFERRED_QUEUES:
                 priority[i] -= BOOST
+            progressed = evaluated
+        elif stagnation is not None and evaluated - progressed > stagnation:
+            return result("stuck")
         push(child, h_ff, h_lm, applicable, helpful, seen)

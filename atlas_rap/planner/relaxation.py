@@ -15,7 +15,14 @@ its ``evaluate(state)`` once per state they evaluate, and it returns
   LAMA search took 4 % less CPU with these, 2026-12-05).
 
 The exploration is layered (each fact gets the first layer it is reached in)
-and counts satisfied preconditions per action. Two backends compute it:
+and counts satisfied preconditions per action; the relaxed plan takes, for
+each fact it needs, the first achiever that fired in the layer before.
+``additive=True`` extracts it instead from h_add's *best supporters*, as Fast
+Downward's ``ff()`` does (:class:`AdditiveRelaxedPlanHeuristic`): better
+guidance where the layered plan picks expensive achievers, at about twice
+the cost (the exploration must go on until every goal's cost is final); the
+search restarts with it when it stagnates (:mod:`~atlas_rap.planner.solve`).
+Two backends compute each:
 
 - :class:`RelaxedPlanHeuristic`, pure Python over lists: each evaluation
   touches each (fact, action) precondition incidence at most once.
@@ -27,6 +34,11 @@ and counts satisfied preconditions per action. Two backends compute it:
   blocks with 15 blocks (1,185 incidences, 13 layers) it would take 0.24 ms
   against 0.14; on triangle-tireworld p40 (16,558 incidences but 80 layers)
   3.4 ms against 2.0.
+- For h_add's relaxed plan, :class:`AdditiveRelaxedPlanHeuristic` (Python,
+  Dijkstra's over integer buckets) and
+  :class:`VectorAdditiveRelaxedPlanHeuristic` (numpy, Bellman-Ford rounds of
+  the same two products); the costs weighed are the layered ones times
+  ADDITIVE_PYTHON_FACTOR and ADDITIVE_NUMPY_FACTOR.
 
 :func:`relaxed_plan_heuristic` estimates both costs from the task's size and
 the number of layers between its initial state and its goals (constants
@@ -57,6 +69,8 @@ PYTHON_SECONDS_PER_INCIDENCE = 56e-9  # an evaluation in Python, per preconditio
 NUMPY_SECONDS_PER_LAYER = 15e-6  # an evaluation in numpy, per layer: the calls ...
 NUMPY_SECONDS_PER_LAYER_INCIDENCE = 1.5e-9  # ... and the products, per precondition incidence
 NUMPY_IMPORT_SECONDS = 0.25  # importing numpy and scipy.sparse
+ADDITIVE_PYTHON_FACTOR = 2.4  # h_add's exploration against the layered one, in Python (1.8-3.0 measured) ...
+ADDITIVE_NUMPY_FACTOR = 1.5  # ... and in numpy (1.1-1.6), on transport, depot and elevators, 2026-12-05
 
 
 @dataclass(frozen=True)
@@ -67,28 +81,34 @@ class BackendCosts:
     numpy_seconds_per_layer: float = NUMPY_SECONDS_PER_LAYER
     numpy_seconds_per_layer_incidence: float = NUMPY_SECONDS_PER_LAYER_INCIDENCE
     numpy_import_seconds: float = NUMPY_IMPORT_SECONDS
+    additive_python_factor: float = ADDITIVE_PYTHON_FACTOR
+    additive_numpy_factor: float = ADDITIVE_NUMPY_FACTOR
 
 
 MEASURED_COSTS = BackendCosts()
 
 
 def relaxed_plan_heuristic(task: GroundTask, actions: Sequence[GroundAction] | None = None, *,
-                           costs: BackendCosts = MEASURED_COSTS) -> RelaxedPlanHeuristic:
+                           costs: BackendCosts = MEASURED_COSTS, additive: bool = False) -> RelaxedPlanHeuristic:
     """The hFF of ``task`` over ``actions`` (default its own), with the backend that
-    should evaluate its states faster by ``costs`` (module docstring)."""
-    python = RelaxedPlanHeuristic(task, actions)
+    should evaluate its states faster by ``costs`` (module docstring); ``additive``, by h_add's
+    best supporters (:class:`AdditiveRelaxedPlanHeuristic`)."""
+    python = (AdditiveRelaxedPlanHeuristic if additive else RelaxedPlanHeuristic)(task, actions)
     incidences = sum(python.pre_count)
     python_cost = incidences * costs.python_seconds_per_incidence
     if python_cost < 5 * costs.numpy_seconds_per_layer:
         return python  # no need to look: five numpy layers would cost more than a whole evaluation here
-    if python.evaluate(task.init)[0] in (0, INFINITY):
+    if RelaxedPlanHeuristic.evaluate(python, task.init)[0] in (0, INFINITY):  # layered: it counts the layers
         return python
     numpy_cost = python.layers * (costs.numpy_seconds_per_layer + incidences * costs.numpy_seconds_per_layer_incidence)
+    if additive:
+        python_cost *= costs.additive_python_factor
+        numpy_cost *= costs.additive_numpy_factor
     saving = python_cost - numpy_cost
     if saving <= 0:
         return python
     after = math.ceil(costs.numpy_import_seconds / saving)
-    return SwitchingRelaxedPlanHeuristic(task, actions, after=after, built=python)
+    return SwitchingRelaxedPlanHeuristic(task, actions, after=after, built=python, additive=additive)
 
 
 class RelaxedPlanHeuristic:
@@ -205,6 +225,75 @@ class RelaxedPlanHeuristic:
         return len(relaxed), applicable, helpful
 
 
+class AdditiveRelaxedPlanHeuristic(RelaxedPlanHeuristic):
+    """hFF as Fast Downward's ``ff()`` computes it: the relaxed plan follows each fact's *best
+    supporter* by h_add (the achiever whose preconditions cost least in sum, unit costs), and the
+    helpful actions are the relaxed plan's actions applicable in the state.
+
+    The exploration is Dijkstra's over facts with buckets (the costs are small integers): a fact
+    is final when taken from its bucket, an action fires when its last precondition is, at one
+    plus the sum of its preconditions' costs. It goes on until every goal is final, past the
+    layer where the layered exploration stops: about twice its cost per evaluation.
+    """
+
+    def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
+        counter = self.pre_count[:]
+        pre_of, adds, pres = self.pre_of, self.adds, self.pres
+        unreached = 1 << 30
+        cost = [unreached] * self.n_facts
+        for f in state:
+            cost[f] = 0
+        support = {}
+        is_goal = self.is_goal_fact
+        missing = self.n_goals
+        buckets = [list(state), []]
+        applicable = list(self.no_pre)
+        for a in applicable:
+            for g in adds[a]:
+                if cost[g] > 1:
+                    cost[g] = 1; support[g] = a; buckets[1].append(g)
+        c = 0
+        while c < len(buckets):
+            for f in buckets[c]:
+                if cost[f] != c:
+                    continue
+                if is_goal[f]:
+                    missing -= 1
+                for a in pre_of[f]:
+                    left = counter[a] - 1
+                    counter[a] = left
+                    if left == 0:
+                        if c == 0:
+                            applicable.append(a); through = 1
+                        else:
+                            through = 1 + sum([cost[p] for p in pres[a]])
+                        for g in adds[a]:
+                            if through < cost[g]:
+                                cost[g] = through; support[g] = a
+                                while len(buckets) <= through:
+                                    buckets.append([])
+                                buckets[through].append(g)
+            if missing <= 0:
+                break
+            c += 1
+        else:
+            return INFINITY, applicable, set()
+        if c == 0:
+            return 0, applicable, set()
+        relaxed = set(); marked = set(self.goal)
+        stack = [g for g in self.goal if cost[g] > 0]
+        while stack:
+            a = support[stack.pop()]
+            if a in relaxed:
+                continue
+            relaxed.add(a)
+            for p in pres[a]:
+                if p not in marked and cost[p] > 0:
+                    marked.add(p); stack.append(p)
+        helpful = {a for a in relaxed if not any(cost[p] for p in pres[a])}
+        return len(relaxed), applicable, helpful
+
+
 class VectorRelaxedPlanHeuristic(RelaxedPlanHeuristic):
     """hFF with the exploration as sparse matrix-vector products (module docstring)."""
 
@@ -277,14 +366,83 @@ class VectorRelaxedPlanHeuristic(RelaxedPlanHeuristic):
         return self._relaxed_plan(levels, achiever, applicable)
 
 
+class VectorAdditiveRelaxedPlanHeuristic(RelaxedPlanHeuristic):
+    """:class:`AdditiveRelaxedPlanHeuristic` with numpy: h_add as Bellman-Ford rounds, each a
+    sparse matrix-vector product over the precondition incidences (an action's cost, one plus
+    its preconditions') and a minimum over each fact's achievers, until nothing changes.
+    Best supporters: of a fact's cheapest achievers, the lowest numbered."""
+
+    def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None, *,
+                 built: RelaxedPlanHeuristic | None = None) -> None:
+        import numpy as np
+        from scipy import sparse
+
+        super().__init__(task, actions, built=built)
+        self._np = np
+        n_actions, n_facts = len(self.actions), self.n_facts
+        rows = [a for a, pre in enumerate(self.pres) for _ in pre]
+        cols = [f for pre in self.pres for f in pre]
+        self.pre_matrix = sparse.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_actions, n_facts))
+        pairs = sorted((f, a) for a, add in enumerate(self.adds) for f in add)
+        self.add_facts = np.array(sorted({f for f, _ in pairs}), dtype=np.intp)
+        self.add_actions = np.array([a for _, a in pairs], dtype=np.intp)
+        fact_of_pair = np.array([f for f, _ in pairs], dtype=np.intp)
+        self.add_starts = (np.flatnonzero(np.r_[True, fact_of_pair[1:] != fact_of_pair[:-1]]) if pairs
+                           else np.zeros(0, dtype=np.intp))
+        adders: list[list[int]] = [[] for _ in range(n_facts)]
+        for f, a in pairs:
+            adders[f].append(a)
+        self.adders = adders
+
+    def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
+        np = self._np
+        cost = np.full(self.n_facts, np.inf)
+        cost[np.fromiter(state, dtype=np.intp, count=len(state))] = 0.0
+        goal = list(self.goal)
+        action_cost = 1.0 + self.pre_matrix @ cost
+        applicable = np.flatnonzero(action_cost == 1.0).tolist()
+        if not cost[goal].any():
+            return 0, applicable, set()
+        facts, starts, via = self.add_facts, self.add_starts, self.add_actions
+        while len(via):
+            cheapest = np.minimum.reduceat(action_cost[via], starts)
+            improved = cheapest < cost[facts]
+            if not improved.any():
+                break
+            cost[facts[improved]] = cheapest[improved]
+            action_cost = 1.0 + self.pre_matrix @ cost
+        if np.isinf(cost[goal]).any():
+            return INFINITY, applicable, set()
+        costs = cost.tolist()
+        through = action_cost.tolist()
+        adders, pres = self.adders, self.pres
+        relaxed: set[int] = set()
+        marked = set(goal)
+        stack = [g for g in goal if costs[g] > 0]
+        while stack:
+            a = min(adders[stack.pop()], key=through.__getitem__)
+            if a in relaxed:
+                continue
+            relaxed.add(a)
+            for p in pres[a]:
+                if p not in marked and costs[p] > 0:
+                    marked.add(p)
+                    stack.append(p)
+        helpful = {a for a in relaxed if through[a] == 1.0}
+        return len(relaxed), applicable, helpful
+
+
 class SwitchingRelaxedPlanHeuristic(RelaxedPlanHeuristic):
-    """hFF in Python for the first ``after`` evaluations, then in numpy (module docstring)."""
+    """hFF in Python for the first ``after`` evaluations, then in numpy (module docstring);
+    ``additive``, both by h_add's best supporters."""
 
     def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None, *, after: int,
-                 built: RelaxedPlanHeuristic | None = None) -> None:
+                 built: RelaxedPlanHeuristic | None = None, additive: bool = False) -> None:
         super().__init__(task, actions, built=built)
         self.task, self.after, self.evaluated = task, after, 0
-        self._vector: VectorRelaxedPlanHeuristic | None = None
+        self._python = AdditiveRelaxedPlanHeuristic.evaluate if additive else RelaxedPlanHeuristic.evaluate
+        self._vector_class = VectorAdditiveRelaxedPlanHeuristic if additive else VectorRelaxedPlanHeuristic
+        self._vector: RelaxedPlanHeuristic | None = None
 
     def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
         if self._vector is not None:
@@ -292,6 +450,6 @@ class SwitchingRelaxedPlanHeuristic(RelaxedPlanHeuristic):
         self.evaluated += 1
         if self.evaluated > self.after:
             # built once: a search may hold on to this bound method, so it must not build one per call
-            self._vector = VectorRelaxedPlanHeuristic(self.task, self.actions, built=self)
+            self._vector = self._vector_class(self.task, self.actions, built=self)
             return self._vector.evaluate(state)
-        return super().evaluate(state)
+        return self._python(self, state)

@@ -8,7 +8,14 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
 2. search as Fast Downward's ``lama-first`` does
    (:func:`~atlas_rap.planner.lama.lama_search`: lazy greedy best-first
    search alternating hFF and the landmark count, with preferred operators
-   and boosts); redundant actions dropped (greedy action elimination, cheap);
+   and boosts), hFF from the layered relaxed exploration; when neither
+   heuristic has improved for STAGNATION evaluations in a row, a restart
+   from the start with hFF by h_add's best supporters (Fast Downward's
+   ``ff()``). The layered hFF is the cheaper to compute and guides as well
+   on most domains; h_add's guides far better where the layered one sits on
+   a plateau (mprime, large transport problems), at twice the cost per
+   evaluation. Redundant actions are dropped (greedy action elimination,
+   cheap);
    then, only with ``shorten=True`` (``atlas plan --shorten``), a lazy
    weighted-A* (weight SHORTEN_WEIGHT) restarted from the start searches for
    a shorter plan, bounded by that plan's length and by a count of
@@ -53,6 +60,7 @@ from atlas_rap.planner.limits import LimitReached, Limits
 from atlas_rap.planner.partial_order import check_every_linearisation, deorder
 from atlas_rap.planner.plan import Plan, build_plan
 from atlas_rap.planner.problem import PlanningProblem
+from atlas_rap.planner.relaxation import relaxed_plan_heuristic
 from atlas_rap.planner.lama import lama_search
 from atlas_rap.planner.search import eliminate_redundant, shorter_plan
 
@@ -60,6 +68,7 @@ DEFAULT_TIMEOUT = 60.0
 SHORTEN_BUDGET = 20000  # heuristic evaluations of the plan-shortening search (shorten=True), at most
 SHORTEN_FACTOR = 3  # ... and at most this many times the first search's, plus 100
 SHORTEN_WEIGHT = 2.0  # its weight on hFF
+STAGNATION = 1000  # evaluations in a row without progress after which the search restarts (a count)
 SHORTEN_SHARE = 0.5  # of the time left after the search, at most, for shortening (its counts bind first, as a rule)
 
 
@@ -99,7 +108,13 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     if limits.expired():
         return _without_plan(limits, phase, stats, "before the search began")
     phase("search", "search")
-    found = lama_search(task, stop=limits.expired)
+    found = lama_search(task, stop=limits.expired, stagnation=STAGNATION)
+    if found.status == "stuck":  # restart with hFF by h_add's best supporters
+        first = found
+        found = lama_search(task, relaxed_plan_heuristic(task, additive=True), stop=limits.expired)
+        found.expanded += first.expanded
+        found.evaluated += first.evaluated
+        stats["restarted_after"] = first.evaluated
     stats.update(expanded=found.expanded, evaluated=found.evaluated, **found.stats)
     if found.status == "unsolvable":
         phase.end()
