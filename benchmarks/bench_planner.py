@@ -127,9 +127,11 @@ Output: one JSON object a line (progress goes to stderr)
   and ``cli_wall_ratio_vs_fd`` (whole processes), ``mean_length_ours_vs_fd``
   and ``mean_length_fd``; ``cli_over_in_process_ours`` (our CLI's CPU over
   our in-process CPU: what start-up costs us), ``ours_cli_same_plan``; and
-  the targets ``coverage_ok`` (ours >= pyperplan's), ``time_ok`` (ratio <=
-  1.0) and ``length_ok`` (our mean length <= pyperplan's) (null when there
-  is nothing to compare). A domain folder that is missing or holds no
+  the targets ``coverage_ok`` (ours >= pyperplan's), ``time_ok`` (in-process
+  ratio <= 0.25) and ``length_ok`` (our mean length <= pyperplan's), and
+  against Fast Downward ``coverage_ok_vs_fd`` (ours >= FD's),
+  ``time_ok_vs_fd`` (whole-process ratio <= 2 in a domain, <= 1.5 over all)
+  and ``length_ok_vs_fd`` (null when there is nothing to compare). A domain folder that is missing or holds no
   problem gives a line with ``skipped`` instead.
 - ``planner-overall``: the same figures over every problem, and whether
   every target was met.
@@ -939,14 +941,27 @@ def all_of(verdicts: list[bool | None]) -> bool | None:
     return None if all(verdict is None for verdict in verdicts) else True
 
 
-def targets(result: dict) -> dict:
-    """The targets on a set of figures: coverage, time ratio and mean length against pyperplan (None when
-    pyperplan did not run or nothing was solved by both)."""
+TARGET_VS_PYPERPLAN = 0.25  # our CPU over pyperplan's, in process, at most
+TARGET_VS_FD = 1.5  # our whole-process CPU over Fast Downward's, geometric mean over all domains, at most ...
+TARGET_VS_FD_DOMAIN = 2.0  # ... and in each domain
+
+
+def targets(result: dict, fd_time_target: float = TARGET_VS_FD_DOMAIN) -> dict:
+    """The targets on a set of figures (None where the peer did not run or nothing was solved by both):
+    against pyperplan coverage, CPU in process (TARGET_VS_PYPERPLAN) and mean length; against Fast
+    Downward lama-first coverage, whole-process CPU (``fd_time_target``) and mean length."""
     ratio, length_ours = result["time_ratio_vs_pyperplan"], result["mean_length_ours"]
-    coverage_pp = result[f"coverage_{PYPERPLAN}"]
+    coverage_pp, coverage_fd = result[f"coverage_{PYPERPLAN}"], result[f"coverage_{FD}"]
+    cli_fd, length_vs_fd = result["cli_time_ratio_vs_fd"], result["mean_length_ours_vs_fd"]
     return {"coverage_ok": None if coverage_pp is None else result[f"coverage_{OURS}"] >= coverage_pp,
-            "time_ok": None if ratio is None else ratio <= 1.0,
-            "length_ok": None if length_ours is None else length_ours <= result["mean_length_pyperplan"]}
+            "time_ok": None if ratio is None else ratio <= TARGET_VS_PYPERPLAN,
+            "length_ok": None if length_ours is None else length_ours <= result["mean_length_pyperplan"],
+            "coverage_ok_vs_fd": None if coverage_fd is None else result[f"coverage_{OURS}"] >= coverage_fd,
+            "time_ok_vs_fd": None if cli_fd is None else cli_fd <= fd_time_target,
+            "length_ok_vs_fd": None if length_vs_fd is None else length_vs_fd <= result["mean_length_fd"]}
+
+
+TARGET_NAMES = ("coverage_ok", "time_ok", "length_ok", "coverage_ok_vs_fd", "time_ok_vs_fd", "length_ok_vs_fd")
 
 
 def by_planner_of(records: list[dict], planners: list[str], key: Callable[[dict], object]) -> dict[str, dict]:
@@ -967,18 +982,17 @@ def domain_summary(domain_name: str, folder: Path, records: list[dict], planners
 def overall_summary(records: list[dict], summaries: list[dict], planners: list[str]) -> dict:
     """The overall line: the figures over every problem, and whether every target was met."""
     result = figures(by_planner_of(records, planners, lambda rec: (rec["domain"], rec["problem"])), planners)
-    ratio = result["time_ratio_vs_pyperplan"]
-    failed = [f"{s['domain']}:{target}" for s in summaries for target in ("coverage_ok", "time_ok", "length_ok")
-              if s[target] is False]
-    overall_time = None if ratio is None else ratio <= 1.0
+    overall = targets(result, TARGET_VS_FD)
+    failed = [f"{s['domain']}:{target}" for s in summaries for target in TARGET_NAMES if s[target] is False]
+    failed += [f"overall:{target}" for target in ("time_ok", "time_ok_vs_fd") if overall[target] is False]
+    verdicts = {target: all_of([overall[target] if target.startswith("time") else None,
+                                *(s[target] for s in summaries)]) for target in TARGET_NAMES}
     return {"bench": "planner-overall", "problems": sum(s["problems"] for s in summaries),
             "domains": [s["domain"] for s in summaries], **result,
-            "target_time_ratio": 1.0,
-            "coverage_ok": all_of([s["coverage_ok"] for s in summaries]),
-            "time_ok": all_of([overall_time, *(s["time_ok"] for s in summaries)]),
-            "length_ok": all_of([s["length_ok"] for s in summaries]),
-            "targets_met": ratio is not None and ratio <= 1.0 and not failed, "targets_failed": failed,
-            "load_average": load_average()}
+            "target_time_ratio": TARGET_VS_PYPERPLAN, "target_cli_time_ratio_vs_fd": TARGET_VS_FD,
+            "target_cli_time_ratio_vs_fd_per_domain": TARGET_VS_FD_DOMAIN, **verdicts,
+            "targets_met": not failed and any(verdict is not None for verdict in verdicts.values()),
+            "targets_failed": failed, "load_average": load_average()}
 
 
 # -- the runs ------------------------------------------------------------------

@@ -35,6 +35,7 @@ SUMMARY_KEYS = {
     "cli_wall_ratio_vs_pyperplan", "commonly_solved_vs_fd", "time_ratio_vs_fd", "search_time_ratio_vs_fd",
     "cli_time_ratio_vs_fd", "cli_wall_ratio_vs_fd", "mean_length_ours_vs_fd", "mean_length_fd",
     "cli_over_in_process_ours", "ours_cli_same_plan", "coverage_ok", "time_ok", "length_ok",
+    "coverage_ok_vs_fd", "time_ok_vs_fd", "length_ok_vs_fd",
     *(f"coverage_{planner}" for planner in ALL_PLANNERS), *(f"unchecked_{planner}" for planner in ALL_PLANNERS),
 }
 # the figures that compare with a peer, null exactly when that peer did not run
@@ -281,7 +282,7 @@ def test_unchecked_plans_are_counted_apart_from_coverage(tmp_path, monkeypatch):
                 "status": status, key: cpu, "length": 5 if status in ("solved", "unchecked") else None}
 
     planners = ["ours", "pyperplan", "fd-lama-first"]
-    records = [run("p1", "ours", "solved", 0.1), run("p1", "pyperplan", "solved", 0.2),
+    records = [run("p1", "ours", "solved", 0.04), run("p1", "pyperplan", "solved", 0.2),
                run("p1", "fd-lama-first", "unchecked", 0.3),
                run("p2", "ours", "solved", 0.1), run("p2", "pyperplan", "timeout", 1.0),
                run("p2", "fd-lama-first", "solved", 0.3)]
@@ -289,5 +290,28 @@ def test_unchecked_plans_are_counted_apart_from_coverage(tmp_path, monkeypatch):
     assert (summary["coverage_ours"], summary["coverage_pyperplan"], summary["coverage_fd-lama-first"]) == (2, 1, 1)
     assert summary["unchecked_fd-lama-first"] == 1 and summary["unchecked_ours"] == 0
     assert summary["coverage_ours-cli"] is None and summary["unchecked_pyperplan-cli"] is None
-    assert summary["time_ratio_vs_pyperplan"] == 0.5 and summary["commonly_solved_vs_fd"] == 1
+    assert summary["time_ratio_vs_pyperplan"] == 0.2 and summary["commonly_solved_vs_fd"] == 1
     assert summary["coverage_ok"] is True and summary["time_ok"] is True and summary["length_ok"] is True
+    # against FD: more solved, as long on the one solved by both; no CLI ran, so no whole-process verdict
+    assert summary["coverage_ok_vs_fd"] is True and summary["length_ok_vs_fd"] is True
+    assert summary["time_ok_vs_fd"] is None
+
+
+def test_whole_process_cpu_against_fd_is_held_to_2x_per_domain_and_1_5x_overall(tmp_path, monkeypatch):
+    bench = load_bench(monkeypatch)
+
+    def run(domain, planner, cpu):
+        key = "cpu_s" if planner == "ours" else "cli_cpu_s"
+        return {"bench": "planner", "domain": domain, "problem": "p1", "planner": planner, "solved": True,
+                "status": "solved", key: cpu, "length": 5}
+
+    planners = ["ours", "ours-cli", "fd-lama-first"]
+    records = [run(domain, planner, cpu) for domain in ("a", "b")
+               for planner, cpu in (("ours", 1.0), ("ours-cli", 1.8), ("fd-lama-first", 1.0))]
+    summaries = [bench.domain_summary(domain, tmp_path, [r for r in records if r["domain"] == domain], planners, 1)
+                 for domain in ("a", "b")]
+    assert all(s["cli_time_ratio_vs_fd"] == 1.8 and s["time_ok_vs_fd"] is True for s in summaries)
+    overall = bench.overall_summary(records, summaries, planners)
+    assert overall["time_ok_vs_fd"] is False and overall["targets_failed"] == ["overall:time_ok_vs_fd"]
+    assert overall["coverage_ok_vs_fd"] is True and overall["length_ok_vs_fd"] is True
+    assert overall["time_ok"] is None and overall["targets_met"] is False
