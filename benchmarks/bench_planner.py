@@ -131,7 +131,10 @@ Output: one JSON object a line (progress goes to stderr)
   ratio <= 0.25) and ``length_ok`` (our mean length <= pyperplan's), and
   against Fast Downward ``coverage_ok_vs_fd`` (ours >= FD's),
   ``time_ok_vs_fd`` (whole-process ratio <= 2 in a domain, <= 1.5 over all)
-  and ``length_ok_vs_fd`` (null when there is nothing to compare). A domain folder that is missing or holds no
+  and ``length_ok_vs_fd`` (null when there is nothing to compare); and
+  ``max_rss_mb_ours_cli``, ``max_rss_mb_fd``: the largest peak resident
+  memory of a solved run (each subprocess line has its ``cli_max_rss_mb``;
+  Fast Downward's is that of its largest component). A domain folder that is missing or holds no
   problem gives a line with ``skipped`` instead.
 - ``planner-overall``: the same figures over every problem, and whether
   every target was met.
@@ -324,6 +327,7 @@ class Run:
     stdout: str
     stderr: str
     killed: bool
+    max_rss_mb: float | None = None  # a subprocess's peak resident memory (its largest process, children included)
 
 
 @dataclass
@@ -558,7 +562,8 @@ def run_process(cmd: list[str], cwd: Path, kill_after_s: float) -> Run:
         wall = time.perf_counter() - start
         proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here, not by Popen
     return Run(proc.returncode, usage.ru_utime + usage.ru_stime, wall,
-               out_path.read_text(errors="replace"), err_path.read_text(errors="replace"), killed.is_set())
+               out_path.read_text(errors="replace"), err_path.read_text(errors="replace"), killed.is_set(),
+               round(usage.ru_maxrss / 1024, 1))  # KiB on Linux
 
 
 def run_ours_cli(domain: Path, problem: Path, scratch: Path, timeout_s: float) -> Outcome:
@@ -796,8 +801,9 @@ def attempt(job: Job, bench: Bench, adversarial: bool = False) -> dict:
 
 def time_fields(job: Job, run: Run) -> dict:
     """``cpu_s``/``wall_s`` for an in-process run, ``cli_cpu_s``/``cli_wall_s`` for a subprocess."""
-    prefix = "" if job.planner in IN_PROCESS else "cli_"
-    return {f"{prefix}cpu_s": round(run.cpu_s, 4), f"{prefix}wall_s": round(run.wall_s, 3)}
+    if job.planner in IN_PROCESS:
+        return {"cpu_s": round(run.cpu_s, 4), "wall_s": round(run.wall_s, 3)}
+    return {"cli_cpu_s": round(run.cpu_s, 4), "cli_wall_s": round(run.wall_s, 3), "cli_max_rss_mb": run.max_rss_mb}
 
 
 def plan_record(job: Job, outcome: Outcome, domain: Path, problem: Path, scratch: Path, bench: Bench,
@@ -976,7 +982,17 @@ def domain_summary(domain_name: str, folder: Path, records: list[dict], planners
     """The per-domain line: coverage, time ratios and lengths on commonly solved problems, the targets."""
     result = figures(by_planner_of(records, planners, lambda rec: rec["problem"]), planners)
     return {"bench": "planner-domain", "domain": domain_name, "folder": str(folder), "problems": problems,
-            **result, **targets(result)}
+            **result, **targets(result), **peak_memory(records)}
+
+
+def peak_memory(records: list[dict]) -> dict:
+    """The largest peak resident memory (MiB) of our CLI and of Fast Downward over the problems each solved."""
+    def largest(planner: str) -> float | None:
+        peaks = [r["cli_max_rss_mb"] for r in records if r["planner"] == planner and r.get("solved")
+                 and r.get("cli_max_rss_mb") is not None]
+        return max(peaks, default=None)
+
+    return {"max_rss_mb_ours_cli": largest(OURS_CLI), "max_rss_mb_fd": largest(FD)}
 
 
 def overall_summary(records: list[dict], summaries: list[dict], planners: list[str]) -> dict:
@@ -990,7 +1006,7 @@ def overall_summary(records: list[dict], summaries: list[dict], planners: list[s
     return {"bench": "planner-overall", "problems": sum(s["problems"] for s in summaries),
             "domains": [s["domain"] for s in summaries], **result,
             "target_time_ratio": TARGET_VS_PYPERPLAN, "target_cli_time_ratio_vs_fd": TARGET_VS_FD,
-            "target_cli_time_ratio_vs_fd_per_domain": TARGET_VS_FD_DOMAIN, **verdicts,
+            "target_cli_time_ratio_vs_fd_per_domain": TARGET_VS_FD_DOMAIN, **verdicts, **peak_memory(records),
             "targets_met": not failed and any(verdict is not None for verdict in verdicts.values()),
             "targets_failed": failed, "load_average": load_average()}
 

@@ -35,7 +35,7 @@ SUMMARY_KEYS = {
     "cli_wall_ratio_vs_pyperplan", "commonly_solved_vs_fd", "time_ratio_vs_fd", "search_time_ratio_vs_fd",
     "cli_time_ratio_vs_fd", "cli_wall_ratio_vs_fd", "mean_length_ours_vs_fd", "mean_length_fd",
     "cli_over_in_process_ours", "ours_cli_same_plan", "coverage_ok", "time_ok", "length_ok",
-    "coverage_ok_vs_fd", "time_ok_vs_fd", "length_ok_vs_fd",
+    "coverage_ok_vs_fd", "time_ok_vs_fd", "length_ok_vs_fd", "max_rss_mb_ours_cli", "max_rss_mb_fd",
     *(f"coverage_{planner}" for planner in ALL_PLANNERS), *(f"unchecked_{planner}" for planner in ALL_PLANNERS),
 }
 # the figures that compare with a peer, null exactly when that peer did not run
@@ -126,6 +126,8 @@ def test_quick_every_problem_line_has_its_keys_and_ours_solves_everything(quick)
         assert record["mode"] == ("in-process" if in_process else "subprocess")
         times = ("cpu_s", "wall_s") if in_process else ("cli_cpu_s", "cli_wall_s")
         assert all(key in record for key in times), record
+        if not in_process:  # a whole process's peak memory, its children included
+            assert record["cli_max_rss_mb"] > 10, record
         if record["planner"] in ("ours", "ours-cli"):
             assert record["solved"] is True and record["status"] == "solved", (record, stderr[-2000:])
             assert record["valid"] is True and record["length"] > 0

@@ -280,18 +280,8 @@ class AdditiveRelaxedPlanHeuristic(RelaxedPlanHeuristic):
             return INFINITY, applicable, set()
         if c == 0:
             return 0, applicable, set()
-        relaxed = set(); marked = set(self.goal)
-        stack = [g for g in self.goal if cost[g] > 0]
-        while stack:
-            a = support[stack.pop()]
-            if a in relaxed:
-                continue
-            relaxed.add(a)
-            for p in pres[a]:
-                if p not in marked and cost[p] > 0:
-                    marked.add(p); stack.append(p)
-        helpful = {a for a in relaxed if not any(cost[p] for p in pres[a])}
-        return len(relaxed), applicable, helpful
+        # a fact of cost 1 is one whose supporter applies in the state: the "first layer" of the extraction
+        return self._relaxed_plan(cost, support.__getitem__, applicable)
 
 
 class VectorRelaxedPlanHeuristic(RelaxedPlanHeuristic):
@@ -305,10 +295,7 @@ class VectorRelaxedPlanHeuristic(RelaxedPlanHeuristic):
         super().__init__(task, actions, built=built)
         self._np = np
         n_actions, n_facts = len(self.actions), self.n_facts
-        rows = [a for a, pre in enumerate(self.pres) for _ in pre]
-        cols = [f for pre in self.pres for f in pre]
-        self.pre_matrix = sparse.csr_matrix((np.ones(len(rows), dtype=np.int32), (rows, cols)),
-                                            shape=(n_actions, n_facts))
+        self.pre_matrix = _precondition_matrix(self, np.int32)
         rows = [f for add in self.adds for f in add]
         cols = [a for a, add in enumerate(self.adds) for _ in add]
         self.add_matrix = sparse.csr_matrix((np.ones(len(rows), dtype=np.int32), (rows, cols)),
@@ -316,11 +303,7 @@ class VectorRelaxedPlanHeuristic(RelaxedPlanHeuristic):
         self.pre_needed = np.array(self.pre_count, dtype=np.int32)
         self.goal_mask = np.zeros(n_facts, dtype=bool)
         self.goal_mask[list(self.goal)] = True
-        adders: list[list[int]] = [[] for _ in range(n_facts)]
-        for a, add in enumerate(self.adds):
-            for f in add:
-                adders[f].append(a)
-        self.adders = adders
+        self.adders = _adders(self)
 
     def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
         np, n_facts = self._np, self.n_facts
@@ -375,24 +358,17 @@ class VectorAdditiveRelaxedPlanHeuristic(RelaxedPlanHeuristic):
     def __init__(self, task: GroundTask, actions: Sequence[GroundAction] | None = None, *,
                  built: RelaxedPlanHeuristic | None = None) -> None:
         import numpy as np
-        from scipy import sparse
 
         super().__init__(task, actions, built=built)
         self._np = np
-        n_actions, n_facts = len(self.actions), self.n_facts
-        rows = [a for a, pre in enumerate(self.pres) for _ in pre]
-        cols = [f for pre in self.pres for f in pre]
-        self.pre_matrix = sparse.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n_actions, n_facts))
+        self.pre_matrix = _precondition_matrix(self, np.float64)
         pairs = sorted((f, a) for a, add in enumerate(self.adds) for f in add)
         self.add_facts = np.array(sorted({f for f, _ in pairs}), dtype=np.intp)
         self.add_actions = np.array([a for _, a in pairs], dtype=np.intp)
         fact_of_pair = np.array([f for f, _ in pairs], dtype=np.intp)
         self.add_starts = (np.flatnonzero(np.r_[True, fact_of_pair[1:] != fact_of_pair[:-1]]) if pairs
                            else np.zeros(0, dtype=np.intp))
-        adders: list[list[int]] = [[] for _ in range(n_facts)]
-        for f, a in pairs:
-            adders[f].append(a)
-        self.adders = adders
+        self.adders = _adders(self)
 
     def evaluate(self, state: frozenset[int]) -> tuple[float, list[int], set[int]]:
         np = self._np
@@ -413,23 +389,32 @@ class VectorAdditiveRelaxedPlanHeuristic(RelaxedPlanHeuristic):
             action_cost = 1.0 + self.pre_matrix @ cost
         if np.isinf(cost[goal]).any():
             return INFINITY, applicable, set()
-        costs = cost.tolist()
-        through = action_cost.tolist()
-        adders, pres = self.adders, self.pres
-        relaxed: set[int] = set()
-        marked = set(goal)
-        stack = [g for g in goal if costs[g] > 0]
-        while stack:
-            a = min(adders[stack.pop()], key=through.__getitem__)
-            if a in relaxed:
-                continue
-            relaxed.add(a)
-            for p in pres[a]:
-                if p not in marked and costs[p] > 0:
-                    marked.add(p)
-                    stack.append(p)
-        helpful = {a for a in relaxed if through[a] == 1.0}
-        return len(relaxed), applicable, helpful
+        through, adders = action_cost.tolist(), self.adders
+
+        def supporter(fact: int) -> int:
+            return min(adders[fact], key=through.__getitem__)
+
+        return self._relaxed_plan(cost.tolist(), supporter, applicable)
+
+
+def _adders(heuristic: RelaxedPlanHeuristic) -> list[list[int]]:
+    """For each fact, the actions that add it, in order."""
+    adders: list[list[int]] = [[] for _ in range(heuristic.n_facts)]
+    for a, add in enumerate(heuristic.adds):
+        for f in add:
+            adders[f].append(a)
+    return adders
+
+
+def _precondition_matrix(heuristic: RelaxedPlanHeuristic, dtype):
+    """The (actions × facts) sparse matrix with a one where an action needs a fact."""
+    import numpy as np
+    from scipy import sparse
+
+    rows = [a for a, pre in enumerate(heuristic.pres) for _ in pre]
+    cols = [f for pre in heuristic.pres for f in pre]
+    return sparse.csr_matrix((np.ones(len(rows), dtype=dtype), (rows, cols)),
+                             shape=(len(heuristic.actions), heuristic.n_facts))
 
 
 class SwitchingRelaxedPlanHeuristic(RelaxedPlanHeuristic):
