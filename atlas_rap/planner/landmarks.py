@@ -36,6 +36,7 @@ path's reached set is one integer and the count is a few integer operations.
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Iterator
 
@@ -148,6 +149,7 @@ class _Finder:
         self.gn: list[tuple[int, int]] = []
 
     def add(self, facts: frozenset[int]) -> int:
+        """A new landmark of ``facts``; its number."""
         number = len(self.nodes)
         self.nodes.append(facts)
         self.parents.append(set())
@@ -177,14 +179,15 @@ class _Finder:
         return False
 
     def graph(self) -> LandmarkGraph:
+        """Every landmark back-chained from the goals, breadth first, then the reasonable orderings."""
         task, h = self.task, self.h
         init = task.init
         goals = sorted(set(task.goal))
         for g in goals:
             self.add(frozenset((g,)))
-        pending = list(range(len(self.nodes)))
+        pending = deque(range(len(self.nodes)))
         while pending:
-            node = pending.pop(0)
+            node = pending.popleft()
             facts = self.nodes[node]
             if not facts.isdisjoint(init):
                 continue
