@@ -778,10 +778,12 @@ def run_job(job: Job, bench: Bench, domain: Path, problem: Path, scratch: Path) 
 
 def base_record(job: Job) -> dict:
     """The fields every ``planner`` line has, set for a run that did not happen (yet)."""
-    prefix = "" if job.planner in IN_PROCESS else "cli_"
+    in_process = job.planner in IN_PROCESS
+    times = {"cpu_s": None, "wall_s": None} if in_process else {"cli_cpu_s": None, "cli_wall_s": None,
+                                                                  "cli_max_rss_mb": None}
     return {"bench": "planner", "domain": job.domain_name, "problem": job.problem.stem, "planner": job.planner,
-            "mode": "in-process" if job.planner in IN_PROCESS else "subprocess", "solved": False, "status": None,
-            f"{prefix}cpu_s": None, f"{prefix}wall_s": None, "length": None, "valid": None}
+            "mode": "in-process" if in_process else "subprocess", "solved": False, "status": None,
+            **times, "length": None, "valid": None}
 
 
 def attempt(job: Job, bench: Bench, adversarial: bool = False) -> dict:
