@@ -1088,42 +1088,41 @@ def bench_domains(bench: Bench, planners: list[str]) -> None:
 def tireworld(bench: Bench) -> None:
     """Counterplanning on fond-triangle-tireworld, ours in-process: a problem passes when it is solved
     with risk 0 and no flat tire can defeat the plan (adversarial validation)."""
-    folder = bench.args.data_root / TIREWORLD
-    if not folder.is_dir():
-        emit({"bench": "planner-tireworld-summary", "skipped": f"no {folder}"})
-        return
-    passed = []
-    for problem, domain in list_problems(folder, bench.args.tireworld_problems):
-        record = attempt(Job(TIREWORLD, problem, domain, OURS), bench, adversarial=True)
-        record.update(bench="planner-tireworld", passed=bool(
-            record.get("status") == "solved" and record.get("risk") == 0 and record.get("valid") is True))
-        progress(describe(record) + (" (passed)" if record["passed"] else " (FAILED)"))
-        emit(record)
-        passed.append(record["passed"])
-    emit({"bench": "planner-tireworld-summary", "problems": len(passed), "passed": sum(passed),
-          "ok": bool(passed) and all(passed) and bench.validator is not None})
+    fond_domain(bench, TIREWORLD, "planner-tireworld", adversarial=True,
+                passes=lambda record: record.get("risk") == 0)
 
 
 def fond_blocksworld(bench: Bench) -> None:
     """Counterplanning on fond-blocksworld, ours in-process: there any stacking may drop the block, so
     a sequential plan is rarely safe; a problem passes when it is solved with a valid plan and either
-    risk 0 or the threats that make up its risk named (``threats`` > 0): never an unexplained risk."""
-    folder = bench.args.data_root / FOND_BLOCKSWORLD
+    risk 0 or the threats that make up its risk named (``threats`` > 0): never an unexplained risk.
+    Its summary counts the plans with threats named (``with_threats_named``)."""
+    fond_domain(bench, FOND_BLOCKSWORLD, "planner-fond-blocksworld", adversarial=False,
+                passes=lambda record: record.get("risk") == 0 or (record.get("threats") or 0) > 0,
+                counted={"with_threats_named": lambda record: bool(record.get("risk"))})
+
+
+def fond_domain(bench: Bench, name: str, line: str, *, adversarial: bool, passes: Callable[[dict], bool],
+                counted: dict[str, Callable[[dict], bool]] | None = None) -> None:
+    """Ours on the first problems of the FOND domain ``name``, in-process: a line ``line`` per problem,
+    passed when it is solved, its plan valid (under every bad outcome with ``adversarial``) and
+    ``passes(record)``; then ``LINE-summary``, with the count of each of ``counted``."""
+    folder = bench.args.data_root / name
     if not folder.is_dir():
-        emit({"bench": "planner-fond-blocksworld-summary", "skipped": f"no {folder}"})
+        emit({"bench": f"{line}-summary", "skipped": f"no {folder}"})
         return
-    passed, risky = [], 0
+    records = []
     for problem, domain in list_problems(folder, bench.args.tireworld_problems):
-        record = attempt(Job(FOND_BLOCKSWORLD, problem, domain, OURS), bench)
-        risky += bool(record.get("risk"))
-        record.update(bench="planner-fond-blocksworld", passed=bool(
-            record.get("status") == "solved" and record.get("valid") is True
-            and (record.get("risk") == 0 or (record.get("threats") or 0) > 0)))
+        record = attempt(Job(name, problem, domain, OURS), bench, adversarial=adversarial)
+        record.update(bench=line, passed=bool(
+            record.get("status") == "solved" and record.get("valid") is True and passes(record)))
         progress(describe(record) + (" (passed)" if record["passed"] else " (FAILED)"))
         emit(record)
-        passed.append(record["passed"])
-    emit({"bench": "planner-fond-blocksworld-summary", "problems": len(passed), "passed": sum(passed),
-          "with_threats_named": risky, "ok": bool(passed) and all(passed) and bench.validator is not None})
+        records.append(record)
+    passed = [record["passed"] for record in records]
+    emit({"bench": f"{line}-summary", "problems": len(passed), "passed": sum(passed),
+          **{key: sum(map(count, records)) for key, count in (counted or {}).items()},
+          "ok": bool(passed) and all(passed) and bench.validator is not None})
 
 
 # -- main ----------------------------------------------------------------------
