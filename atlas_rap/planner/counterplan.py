@@ -114,7 +114,8 @@ class Adversary:
         self.anytime = [u for u in chosen if u.operator.outcome_of is None]
         self.tied: dict[tuple[str, tuple], list[GroundAction]] = {}
         self.missed: dict[tuple[str, tuple], set[int]] = {}  # a step -> what an outcome of it may not add
-        nominal = {(a.operator.name, a.args): a for a in task.actions}
+        tied = any(u.operator.outcome_of is not None for u in chosen)  # the steps by name only then
+        nominal = {(a.operator.name, a.args): a for a in task.actions} if tied else {}
         for u in chosen:
             if u.operator.outcome_of is not None:
                 key = (u.operator.outcome_of, u.args)
