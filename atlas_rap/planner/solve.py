@@ -59,6 +59,7 @@ from atlas_rap.planner.counterplan import (
 )
 from atlas_rap.planner.ground import ground
 from atlas_rap.planner.lama import lama_search
+from atlas_rap.planner.landmarks import find_landmarks
 from atlas_rap.planner.limits import LimitReached, Limits
 from atlas_rap.planner.partial_order import check_every_linearisation, deorder
 from atlas_rap.planner.plan import Plan, build_plan
@@ -110,10 +111,13 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
     if limits.expired():
         return _without_plan(limits, phase, stats, "before the search began")
     phase("search", "search")
-    found = lama_search(task, stop=limits.expired, stagnation=STAGNATION)
+    heuristic = relaxed_plan_heuristic(task)
+    landmarks = find_landmarks(task, heuristic)  # the task's, whichever hFF: the restart takes them too
+    found = lama_search(task, heuristic, landmarks=landmarks, stop=limits.expired, stagnation=STAGNATION)
     if found.status == "stuck":  # restart with hFF by h_add's best supporters
         first = found
-        found = lama_search(task, relaxed_plan_heuristic(task, additive=True), stop=limits.expired)
+        found = lama_search(task, relaxed_plan_heuristic(task, additive=True), landmarks=landmarks,
+                            stop=limits.expired)
         found.expanded += first.expanded
         found.evaluated += first.evaluated
         stats["restarted_after"] = first.evaluated
