@@ -60,7 +60,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 from atlas_rap.planner.ground import GroundAction, GroundTask
 
@@ -201,9 +201,11 @@ class RelaxedPlanHeuristic:
         self.layers = layer
         return self._relaxed_plan(level, achiever.__getitem__, applicable)
 
-    def _relaxed_plan(self, level: list[int], achiever, applicable: list[int]) -> tuple[int, list[int], set[int]]:
-        """h and the helpful actions, from each fact's layer and ``achiever(fact)``: the actions of
-        the relaxed plan applicable in the state (those achieving a fact of the first layer)."""
+    def _relaxed_plan(self, level: Sequence[float], achiever: Callable[[int], int],
+                      applicable: list[int]) -> tuple[int, list[int], set[int]]:
+        """h and the helpful actions, from each fact's layer (or h_add cost: 0 in the state, 1 one
+        action away) and ``achiever(fact)``: the actions of the relaxed plan applicable in the state
+        (those achieving a fact of the first layer)."""
         pres = self.pres
         relaxed: set[int] = set()
         helpful: set[int] = set()
@@ -243,15 +245,17 @@ class AdditiveRelaxedPlanHeuristic(RelaxedPlanHeuristic):
         cost = [unreached] * self.n_facts
         for f in state:
             cost[f] = 0
-        support = {}
+        support: dict[int, int] = {}
         is_goal = self.is_goal_fact
         missing = self.n_goals
-        buckets = [list(state), []]
+        buckets: list[list[int]] = [list(state), []]  # the facts reached at each cost
         applicable = list(self.no_pre)
         for a in applicable:
             for g in adds[a]:
                 if cost[g] > 1:
-                    cost[g] = 1; support[g] = a; buckets[1].append(g)
+                    cost[g] = 1
+                    support[g] = a
+                    buckets[1].append(g)
         c = 0
         while c < len(buckets):
             for f in buckets[c]:
@@ -264,12 +268,14 @@ class AdditiveRelaxedPlanHeuristic(RelaxedPlanHeuristic):
                     counter[a] = left
                     if left == 0:
                         if c == 0:
-                            applicable.append(a); through = 1
+                            applicable.append(a)
+                            through = 1
                         else:
                             through = 1 + sum([cost[p] for p in pres[a]])
                         for g in adds[a]:
                             if through < cost[g]:
-                                cost[g] = through; support[g] = a
+                                cost[g] = through
+                                support[g] = a
                                 while len(buckets) <= through:
                                     buckets.append([])
                                 buckets[through].append(g)
