@@ -114,12 +114,10 @@ class Adversary:
         self.anytime = [u for u in chosen if u.operator.outcome_of is None]
         self.tied: dict[tuple[str, tuple], list[GroundAction]] = {}
         self.missed: dict[tuple[str, tuple], set[int]] = {}  # a step -> what an outcome of it may not add
-        tied = any(u.operator.outcome_of is not None for u in chosen)  # the steps by name only then
-        nominal = {(a.operator.name, a.args): a for a in task.actions} if tied else {}
         for u in chosen:
             if u.operator.outcome_of is not None:
                 key = (u.operator.outcome_of, u.args)
-                step = nominal.get(key)
+                step = task.step_by_name.get(key)
                 missed = tuple(f for f in step.add if f not in u.add and f not in u.delete) if step else ()
                 if missed:  # it happens instead of the step: what the step would have added is not there
                     u = dataclasses.replace(u, delete=u.delete + missed)

@@ -71,8 +71,9 @@ fact pruning that share its indexes (what an operator's form says is already in 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from bisect import bisect_left
+from dataclasses import dataclass
+from functools import cached_property
 from itertools import product
 from typing import Callable, Iterator
 
@@ -175,6 +176,12 @@ class GroundTask:
 
     def is_goal(self, state: frozenset[int]) -> bool:
         return all(g in state for g in self.goal) and not any(g in state for g in self.goal_neg)
+
+    @cached_property
+    def step_by_name(self) -> dict[tuple[str, tuple[Term, ...]], GroundAction]:
+        """Our actions by operator name and values (the step a FOND outcome's ``outcome_of`` names),
+        built once per task, when first asked for."""
+        return {(a.operator.name, a.args): a for a in self.actions}
 
     def applicable(self, action: GroundAction, state: frozenset[int]) -> bool:
         return all(p in state for p in action.pre) and not any(n in state for n in action.neg)
