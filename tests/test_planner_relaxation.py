@@ -147,3 +147,19 @@ def test_the_additive_hff_changes_to_numpy_too(tmp_path: Path) -> None:
     heuristic = relaxed_plan_heuristic(task, costs=free_numpy, additive=True)
     assert type(heuristic) is SwitchingRelaxedPlanHeuristic and heuristic.after == 0
     assert heuristic.evaluate(task.init) == VectorAdditiveRelaxedPlanHeuristic(task).evaluate(task.init)
+
+
+def test_numpy_backends_give_the_same_answers_with_scipys_kernel_or_its_matrix_product(tmp_path: Path) -> None:
+    """Both numpy backends call scipy's compiled CSR kernel directly; a scipy without it falls
+    back on ``matrix @ x``, which must give every state the same h, applicable and helpful actions."""
+    domain, problem = blocks_problem(tmp_path, 7, seed=3)
+    task = ground(load_pddl(domain, problem))
+    states = random_walk_states(task, 40, seed=2)
+    for backend in (VectorRelaxedPlanHeuristic, VectorAdditiveRelaxedPlanHeuristic):
+        kernel, fallback = backend(task), backend(task)
+        products = [value for value in vars(fallback).values() if type(value).__name__ == "_Product"]
+        assert products and all(p._kernel is not None for p in products)
+        for product in products:
+            product._kernel = None
+        for state in states:
+            assert kernel.evaluate(state) == fallback.evaluate(state)
