@@ -13,9 +13,12 @@ How bindings are found (the choices, in order):
    ``_Grown.answers``), with the answers in the order
    ``atlas_rap.logic.Memory`` (which indexes the first argument only) gives
    them; a fact is numbered by its functor and arguments, without building
-   it. On the thirteen IPC domains, p01-p10, grounding took 45 % less CPU
-   than through Memory, for the same tasks. Reachability is a fixpoint:
-   an operator is joined again whenever a predicate it reads gained facts.
+   it. A round of the semi-naive join, which matches one atom to a new fact
+   first, joins the others in an order of its own (greedy from that atom's
+   variables, as the whole join's). On the fifteen shared domains, p01-p10,
+   grounding took 48 % less CPU than through Memory, for the same tasks.
+   Reachability is a fixpoint: an operator is joined again whenever a
+   predicate it reads gained facts.
    Uncontrolled operators do not add to what our plan may reach; they are
    grounded once, against everything our actions can reach.
 2. ``:arguments`` are evaluated over the initial facts (``get-value``).
@@ -329,9 +332,10 @@ class _OperatorGrounder:
         self.reads = {(a.functor, len(a.args)) for a in self.fluent_atoms}
         self.join_order = _join_order(self.static_atoms, self.fluent_atoms)
         self.fluent_positions = [i for i, (_, is_static) in enumerate(self.join_order) if not is_static]
-        # each atom's probe in the full join, and in the join round the k-th atom (matched first)
-        self.probes = self._probes(set())
-        self.probes_round = {k: self._probes(set(variables(self.join_order[k][0]))) for k in self.fluent_positions}
+        self.probes = self._probes(set())  # each atom's in the full join
+        # the join round the k-th atom (matched first to a new fact): the others in their own
+        # greedy order from its variables (the joins found are sorted afterwards), with their probes
+        self.rounds = {k: self._round(k) for k in self.fluent_positions}
         self.watermark = 0  # how many of reach's facts this operator's last join saw
         candidates = problem.uncontrolled if op.uncontrolled else problem.controlled
         self.agents = AgentProblem(variables=agent_variables(op, operator_purposes(problem)),
@@ -347,6 +351,19 @@ class _OperatorGrounder:
             probes.append(_Probe.of(atom, bound))
             bound = bound | set(variables(atom))
         return probes
+
+    def _round(self, k: int) -> list[tuple[int, Compound, bool, _Probe | None]]:
+        """(number in the join order, atom, is it static, probe) of every atom but the ``k``-th,
+        in the order to join them once the ``k``-th is matched."""
+        bound = set(variables(self.join_order[k][0]))
+        others = [i for i in range(len(self.join_order)) if i != k]
+        steps = []
+        for j in _greedy_order([self.join_order[i] for i in others], bound):
+            i = others[j]
+            atom, is_static = self.join_order[i]
+            steps.append((i, atom, is_static, _Probe.of(atom, bound)))
+            bound |= set(variables(atom))
+        return steps
 
     def key(self, s: Subst) -> tuple[Term, ...]:
         return tuple(s.get(v, v) for v in self.order)
@@ -378,36 +395,35 @@ class _OperatorGrounder:
         """The joins that use a fact gained since the last join (see :meth:`new_bindings`)."""
         mark = self.watermark
         found: dict[tuple[int, ...], Subst] = {}
+        positions = [0] * len(self.join_order)  # of each atom's fact in grown, in join order
         for k in self.fluent_positions:
             atom = self.join_order[k][0]
             for fact in grown.since(mark, (atom.functor, len(atom.args))):
                 first = unify(atom, fact)
                 if first is None:
                     continue
-                at = grown.position[fact]
-                for s, positions in self._join_rest(grown, 0, first, k, mark, ()):
-                    found.setdefault(positions[:k] + (at,) + positions[k:], s)
+                positions[k] = grown.position[fact]
+                for s in self._join_rest(grown, self.rounds[k], 0, first, k, mark, positions):
+                    found.setdefault(tuple(positions), s)
         return [found[key] for key in sorted(found)]
 
-    def _join_rest(self, grown: _Grown, i: int, s: Subst, k: int, mark: int,
-                   positions: tuple[int, ...]) -> Iterator[tuple[Subst, tuple[int, ...]]]:
-        """The join of every atom but the ``k``-th (already matched to a new fact), with the
-        positions in ``grown`` of the facts it matched; the fluent atoms before it only on facts
-        older than ``mark``, so each join is made once."""
-        if i == len(self.join_order):
-            yield s, positions
+    def _join_rest(self, grown: _Grown, steps: list, j: int, s: Subst, k: int, mark: int,
+                   positions: list[int]) -> Iterator[Subst]:
+        """The join of the round's ``steps`` from the ``j``-th, writing the position in ``grown`` of
+        each fact matched into ``positions``; the fluent atoms before the ``k``-th (in the join
+        order) only on facts older than ``mark``, so each join is made once."""
+        if j == len(steps):
+            yield s
             return
-        if i == k:
-            yield from self._join_rest(grown, i + 1, s, k, mark, positions)
-            return
-        atom, is_static = self.join_order[i]
+        i, atom, is_static, probe = steps[j]
         older = not is_static and i < k
         where = grown.position
-        for answer, fact in (self.static if is_static else grown).answers(atom, self.probes_round[k][i], s):
+        for answer, fact in (self.static if is_static else grown).answers(atom, probe, s):
             at = where[fact]
             if older and at >= mark:
                 continue
-            yield from self._join_rest(grown, i + 1, answer, k, mark, positions + (at,))
+            positions[i] = at
+            yield from self._join_rest(grown, steps, j + 1, answer, k, mark, positions)
 
     def _join(self, grown: _Grown, i: int, s: Subst) -> Iterator[Subst]:
         if i == len(self.join_order):
@@ -454,17 +470,25 @@ class _OperatorGrounder:
 def _join_order(static: list[Compound], fluent: list[Compound]) -> list[tuple[Compound, bool]]:
     """Atoms in the order to join them: greedily the one with most bound variables,
     static before fluent, then fewest new variables, then as written."""
-    pending = [(a, True) for a in static] + [(a, False) for a in fluent]
-    bound: set[Var] = set()
-    order: list[tuple[Compound, bool]] = []
+    items = [(a, True) for a in static] + [(a, False) for a in fluent]
+    return [items[i] for i in _greedy_order(items, set())]
+
+
+def _greedy_order(items: list[tuple[Compound, bool]], bound: set[Var]) -> list[int]:
+    """The numbers of ``items`` (atom, is it static) in the order :func:`_join_order` says,
+    with the variables ``bound`` bound from the start."""
+    pending = list(range(len(items)))
+    bound = set(bound)
+    order: list[int] = []
     while pending:
-        def score(item: tuple[Compound, bool]) -> tuple[int, int, int]:
-            atom_vars = set(variables(item[0]))
-            return (-len(atom_vars & bound) if bound else 0, 0 if item[1] else 1, len(atom_vars - bound))
-        best = min(range(len(pending)), key=lambda i: (score(pending[i]), i))
-        atom, is_static = pending.pop(best)
-        order.append((atom, is_static))
-        bound |= set(variables(atom))
+        def score(i: int) -> tuple[int, int, int, int]:
+            atom, is_static = items[i]
+            atom_vars = set(variables(atom))
+            return (-len(atom_vars & bound) if bound else 0, 0 if is_static else 1, len(atom_vars - bound), i)
+        best = min(pending, key=score)
+        pending.remove(best)
+        order.append(best)
+        bound |= set(variables(items[best][0]))
     return order
 
 
@@ -511,7 +535,7 @@ def ground(problem: PlanningProblem, stop: Callable[[], bool] | None = None, *, 
         for g in ours:
             if g.reads & grew:
                 dirty[g] = True
-    nature_found = [(g, b) for g in theirs for b in _enabled(g, reach)[0]]
+    nature_found = [(g, b) for g in theirs for b in _enabled(g, reach, grown)[0]]
 
     facts: list[Compound] = list(dict.fromkeys(reach))
     fact_ids = {f: i for i, f in enumerate(facts)}
