@@ -332,7 +332,7 @@ class _OperatorGrounder:
         self.reads = {(a.functor, len(a.args)) for a in self.fluent_atoms}
         self.join_order = _join_order(self.static_atoms, self.fluent_atoms)
         self.fluent_positions = [i for i, (_, is_static) in enumerate(self.join_order) if not is_static]
-        self.probes = self._probes(set())  # each atom's in the full join
+        self.probes = [probe for *_, probe in self._steps(list(range(len(self.join_order))), set())]  # the full join's
         # the join round the k-th atom (matched first to a new fact): the others in their own
         # greedy order from its variables (the joins found are sorted afterwards), with their probes
         self.rounds = {k: self._round(k) for k in self.fluent_positions}
@@ -344,26 +344,22 @@ class _OperatorGrounder:
         self.seen: dict[tuple[Term, ...], Subst] = {}
         self.adl: _AdlOperator | None = None
 
-    def _probes(self, bound: set[Var]) -> list[_Probe | None]:
-        """The probe of each atom of the join order, with ``bound`` and the atoms before it bound."""
-        probes = []
-        for atom, _ in self.join_order:
-            probes.append(_Probe.of(atom, bound))
-            bound = bound | set(variables(atom))
-        return probes
-
-    def _round(self, k: int) -> list[tuple[int, Compound, bool, _Probe | None]]:
-        """(number in the join order, atom, is it static, probe) of every atom but the ``k``-th,
-        in the order to join them once the ``k``-th is matched."""
-        bound = set(variables(self.join_order[k][0]))
-        others = [i for i in range(len(self.join_order)) if i != k]
+    def _steps(self, numbers: list[int], bound: set[Var]) -> list[tuple[int, Compound, bool, _Probe | None]]:
+        """(number in the join order, atom, is it static, probe) of the atoms ``numbers``, joined in
+        that order with ``bound`` bound from the start: each probe knows the variables before it."""
+        bound = set(bound)
         steps = []
-        for j in _greedy_order([self.join_order[i] for i in others], bound):
-            i = others[j]
+        for i in numbers:
             atom, is_static = self.join_order[i]
             steps.append((i, atom, is_static, _Probe.of(atom, bound)))
             bound |= set(variables(atom))
         return steps
+
+    def _round(self, k: int) -> list[tuple[int, Compound, bool, _Probe | None]]:
+        """The steps of every atom but the ``k``-th, in the order to join them once the ``k``-th is matched."""
+        others = [i for i in range(len(self.join_order)) if i != k]
+        matched = set(variables(self.join_order[k][0]))
+        return self._steps([others[j] for j in _greedy_order([self.join_order[i] for i in others], matched)], matched)
 
     def key(self, s: Subst) -> tuple[Term, ...]:
         return tuple(s.get(v, v) for v in self.order)

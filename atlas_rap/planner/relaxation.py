@@ -445,7 +445,7 @@ class _Product:
     def __init__(self, matrix) -> None:
         try:
             from scipy.sparse._sparsetools import csr_matvec
-        except ImportError:  # pragma: no cover - present in every scipy since 0.7
+        except ImportError:  # pragma: no cover - a private module: scipy 1.17 has it, a later release may not
             csr_matvec = None
         self.matrix = matrix
         self._kernel = csr_matvec
