@@ -419,7 +419,7 @@ class OccupancyGrid:
     # -- Bayes -----------------------------------------------------------------
 
     def update_sonar(self, x: float, y: float, heading: float, ranges: Any, angles: Any,
-                     robot_radius: float, config: SonarConfig) -> int:
+                     robot_radius: float, config: SonarConfig, weight: float = 1.0) -> int:
         """Fuse one reading or a whole ring taken at robot pose (x, y, heading); return the cell updates made.
 
         ``ranges`` are metres from the robot's rim (``config.max_range`` =
@@ -430,7 +430,16 @@ class OccupancyGrid:
         beams, then the occupied arcs, shared out by what the grid then
         believes. The count returned is the number of cell updates (a cell
         in both an empty cone and an arc counts twice).
+
+        ``weight`` (in (0, 1]) is the share of an independent reading's
+        evidence this one counts for: every increment is scaled by it (an arc's
+        shares are worked out from the grid as the weighted cones left it). A ring
+        read from nearly where the last was sees the same surfaces at the same
+        angles, and the recursive update, which assumes independent readings,
+        would grow surer on repetition alone (Layer IV's ``map-update-distance``).
         """
+        if not 0.0 < weight <= 1.0:
+            raise ValueError(f"update_sonar's weight must be in (0, 1], not {weight}")
         ranges = np.atleast_1d(np.asarray(ranges, dtype=np.float64))
         angles = np.atleast_1d(np.asarray(angles, dtype=np.float64))
         if ranges.shape != angles.shape or ranges.ndim != 1:
@@ -480,7 +489,8 @@ class OccupancyGrid:
                 keep = np.arange(cells.size) <= first[beam]
                 cells, keys = cells[keep], keys[keep]
         if cells.size:
-            np.add.at(buffer, cells, tpl.free.ravel()[keys])  # increments <= 0: clamp below
+            free = tpl.free.ravel()[keys]
+            np.add.at(buffer, cells, free if weight == 1.0 else free * np.float32(weight))  # <= 0: clamp below
             buffer[cells] = np.maximum(buffer[cells], -model.clamp)
             seen[cells] = True
             total += cells.size
@@ -491,7 +501,7 @@ class OccupancyGrid:
             p = 1.0 / (1.0 + np.exp(-buffer[cells].astype(np.float64)))
             denominator = np.bincount(beam, weights * (p + model.false_alarm), minlength=ranges.size)
             k = model.reliability * weights / np.maximum(denominator[beam], 1e-300)
-            np.add.at(buffer, cells, (np.log1p(k * (1.0 - p)) - np.log1p(-k * p)).astype(np.float32))
+            np.add.at(buffer, cells, (weight * (np.log1p(k * (1.0 - p)) - np.log1p(-k * p))).astype(np.float32))
             buffer[cells] = np.minimum(buffer[cells], model.clamp)  # increments >= 0: clamp above
             seen[cells] = True
             total += cells.size
