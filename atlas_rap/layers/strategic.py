@@ -8,7 +8,20 @@ The slowest layer. At its period it
   believed it had (the recursive Bayesian update of
   :meth:`~atlas_rap.maps.grid.OccupancyGrid.update_sonar`); while mapping,
   the motion skills keep to ``mapping-speed`` (a layer setting, a fraction
-  of top speed) so that the sonar sees each cell often;
+  of top speed) so that the sonar sees each cell often. **Repeated rings**:
+  a ring read from nearly where the last one was sees the same surfaces at
+  the same angles, and is not the independent evidence the recursive update
+  assumes. With ``map-update-distance`` D metres and ``map-update-turn`` A
+  radians set (both 0, off, in the shipped rules: every ring counts in
+  full), each ring counts for ``min(1, max(moved / D, turned / A))`` of a
+  reading, by the motion since the ring before it (the ``weight`` of
+  :meth:`~atlas_rap.maps.grid.OccupancyGrid.update_sonar`), so the map grows
+  surer by the ground covered, not by the rings read: a robot standing
+  still learns nothing more. ROS mappers do the like by dropping scans:
+  slam_toolbox's ``minimum_travel_distance`` and ``_heading`` (0.5 m, 0.5
+  rad), gmapping's ``linearUpdate`` and ``angularUpdate`` (1.0 m, 0.5 rad);
+  here every ring is kept at its share, so the cells between two dropped
+  scans' cones are not left unseen;
 - **measures the map** every ``quality-every`` seconds in a run without a
   prior map: ``(map-quality Q)``, one minus the mean entropy of a region
   of interest, which the rules compare with their threshold. The region is
@@ -75,6 +88,7 @@ class StrategicLayer(Layer):
         self.path_version = -1
         self._last_ranges = None
         self._marked: Point | None = None  # where the last footprint was marked free
+        self._last_ring: tuple[float, float, float] | None = None  # where the last ring fused was read
         if stack.prior_map:
             stack.assert_fact(self, "mapping", "on")
         else:
@@ -91,8 +105,12 @@ class StrategicLayer(Layer):
         if mapping and rings:
             grid, poses = beliefs[GRID], beliefs[POSES]
             driving = stack.driver == self.name
+            spacing = (stack.setting("map-update-distance", 0.0), stack.setting("map-update-turn", 0.0))
             for (x, y, heading), ranges, angles in rings:  # one by one: each ring's arcs see the rings before
-                grid.update_sonar(float(x), float(y), float(heading), ranges, angles, stack.robot_radius, self.sonar)
+                weight = self._ring_weight((float(x), float(y), float(heading)), *spacing)
+                if weight > 0.0:
+                    grid.update_sonar(float(x), float(y), float(heading), ranges, angles, stack.robot_radius,
+                                      self.sonar, weight)
                 if self._marked is None or math.dist(self._marked, (x, y)) >= FOOTPRINT_SPACING:
                     grid.mark_free(float(x), float(y), stack.robot_radius)
                     self._marked = (float(x), float(y))
@@ -110,6 +128,17 @@ class StrategicLayer(Layer):
             self._measure()
         if stack.driver == self.name and echoes:
             self._watch_path(np.concatenate(echoes))
+
+    def _ring_weight(self, pose: tuple[float, float, float], distance: float, turn: float) -> float:
+        """The share of a reading's evidence the ring read at ``pose`` counts for: by the motion since
+        the ring before it, ``distance`` metres or ``turn`` radians counting in full (module docstring,
+        "Repeated rings"); 1 when neither is set, and for the first ring."""
+        last, self._last_ring = self._last_ring, pose
+        if last is None or (distance <= 0.0 and turn <= 0.0):
+            return 1.0
+        moved = math.dist(last[:2], pose[:2]) / distance if distance > 0.0 else 0.0
+        turned = abs(math.remainder(pose[2] - last[2], math.tau)) / turn if turn > 0.0 else 0.0
+        return min(1.0, max(moved, turned))
 
     def _rings(self):
         """The rings to fuse: Layer I's log, or the latest ring when Layer I is not running."""
