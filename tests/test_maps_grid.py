@@ -380,11 +380,11 @@ def test_layer_iv_with_map_update_distance_grows_surer_by_the_ground_covered_not
     from atlas_rap.skills.beliefs import GRID
 
     text = (shipped_root("rap_library") / "layers.rap").read_text(encoding="utf-8")
-    for name in ("map-update-distance", "map-update-turn"):
-        assert f"(layer-setting {name} 0.0)" in text  # shipped: every ring counts in full
-        text = text.replace(f"(layer-setting {name} 0.0)", f"(layer-setting {name} 0.5)")
-    tempered = tmp_path / "layers.rap"
-    tempered.write_text(text, encoding="utf-8")
+    # shipped: not set (every ring counts in full), only named in a comment
+    assert all(line.startswith(";") for line in text.splitlines() if "map-update" in line)
+    tempered = tmp_path / "layers.rap"  # the shipped rules, and the two settings
+    tempered.write_text(text + "(initial-memory (layer-setting map-update-distance 0.5)\n"
+                               "                (layer-setting map-update-turn 0.5))\n", encoding="utf-8")
 
     def stand_then_drive(rules):
         engine = MissionEngine(RunOptions(world=WORLD, seed=0, prior_map=False, layer_rules=rules))
