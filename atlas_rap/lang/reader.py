@@ -37,7 +37,6 @@ import re
 import sys
 import threading
 from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 from typing import Union
 
@@ -215,7 +214,9 @@ _READ_LOCK = threading.Lock()
 
 @lru_cache(maxsize=1)
 def _parser() -> Lark:
-    grammar = resources.files("atlas_rap.lang").joinpath("grammar.lark").read_text(encoding="utf-8")
+    # beside this module, as shipped.py finds the shipped folders (importlib.resources' first
+    # call costs 2 ms, as much as reading a small PDDL problem)
+    grammar = Path(__file__).with_name("grammar.lark").read_text(encoding="utf-8")
     # cache=True keeps the LALR tables in the temp folder: 1 ms to load instead of 13 ms
     # to build, at every start of the CLI (Lark rebuilds them if the file is unusable).
     return Lark(grammar, parser="lalr", lexer="basic", maybe_placeholders=False,

@@ -474,17 +474,16 @@ def _greedy_order(items: list[tuple[Compound, bool]], bound: set[Var]) -> list[i
     """The numbers of ``items`` (atom, is it static) in the order :func:`_join_order` says,
     with the variables ``bound`` bound from the start."""
     pending = list(range(len(items)))
+    atom_vars = [frozenset(variables(atom)) for atom, _ in items]
     bound = set(bound)
     order: list[int] = []
     while pending:
         def score(i: int) -> tuple[int, int, int, int]:
-            atom, is_static = items[i]
-            atom_vars = set(variables(atom))
-            return (-len(atom_vars & bound) if bound else 0, 0 if is_static else 1, len(atom_vars - bound), i)
+            return (-len(atom_vars[i] & bound) if bound else 0, 0 if items[i][1] else 1, len(atom_vars[i] - bound), i)
         best = min(pending, key=score)
         pending.remove(best)
         order.append(best)
-        bound |= set(variables(items[best][0]))
+        bound |= atom_vars[best]
     return order
 
 
