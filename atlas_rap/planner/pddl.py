@@ -227,6 +227,7 @@ def _unglued(datum):
     if type(datum) is not SList:
         return datum
     items, locs = [], []
+    changed = False  # a list with nothing glued in it is kept as it is, not built again
     for item, (line, column) in zip(datum.items, datum.locs):
         if type(item) is str and "?" in item[1:] and not item.startswith(("?", ":")):
             name, *names = item.split("?")
@@ -237,9 +238,14 @@ def _unglued(datum):
                 items.append(Var(var) if var else Var("_"))
                 locs.append((line, column))
                 column += len(var) + 1
+            changed = True
             continue
-        items.append(_unglued(item))
+        unglued = _unglued(item)
+        changed = changed or unglued is not item
+        items.append(unglued)
         locs.append((line, column))
+    if not changed:
+        return datum
     return SList(tuple(items), tuple(locs), datum.line, datum.column, datum.end_line, datum.end_column, datum.depth)
 
 
