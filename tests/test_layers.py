@@ -419,3 +419,24 @@ def test_the_repl_drives_with_the_layers_and_says_which_is_primary(tmp_path):
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 1 and ":layers needs a world" in done.stderr and "Traceback" not in done.stderr
 
+
+
+def test_a_block_met_while_every_route_is_cut_already_gives_the_drive_back_to_layer_iv():
+    # Layer IV drives because every route was cut: (no-route) holds. A block that stays makes Layer III
+    # assert (no-route) again, which changes nothing; Layer I must not hold the robot for ever.
+    from atlas_rap.logic import Compound, term_to_str
+
+    engine = MissionEngine(RunOptions(world=EXACT, seed=0, prior_map=False))
+    engine.start()
+    sequencer = engine.sequencer
+
+    def primary() -> list[str]:
+        return [term_to_str(f) for f in sequencer.memory if f.functor == "primary-layer"]
+
+    sequencer.change([("assert", Compound("no-route", ()))], "layer III")
+    assert primary() == ["(primary-layer iv)"], primary()  # every route cut: Layer IV drives
+    sequencer.change([("assert", Compound("obstacle", ("short-lived",)))], "layer I")
+    assert primary() == ["(primary-layer i)"], primary()  # something in the way: Layer I stops the robot
+    sequencer.change([("assert", Compound("no-route", ()))], "layer III")  # its assessment: nothing new
+    sequencer.change([("assert", Compound("obstacle", ("long-lived",)))], "layer I")
+    assert primary() == ["(primary-layer iv)"], primary()
