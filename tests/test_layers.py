@@ -420,7 +420,6 @@ def test_the_repl_drives_with_the_layers_and_says_which_is_primary(tmp_path):
     assert done.returncode == 1 and ":layers needs a world" in done.stderr and "Traceback" not in done.stderr
 
 
-
 def test_a_block_met_while_every_route_is_cut_already_gives_the_drive_back_to_layer_iv():
     # Layer IV drives because every route was cut: (no-route) holds. A block that stays makes Layer III
     # assert (no-route) again, which changes nothing; Layer I must not hold the robot for ever.
