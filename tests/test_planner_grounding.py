@@ -58,7 +58,8 @@ def test_the_joins_index_answers_as_memory_does_in_memorys_order() -> None:
     facts = list(dict.fromkeys(
         Compound(rng.choice(["p", "q"]), tuple(rng.choice(objects) for _ in range(3))) for _ in range(120)))
     facts += [Compound("r", ("a", Compound("room", (1,)))), Compound("r", ("b", Compound("room", (2,))))]
-    grown, memory = _Grown(facts), Memory(facts)
+    memory = Memory(facts)
+    grown = _Grown(memory)
     x, y, z = Var("x"), Var("y"), Var("z")
     atoms = [Compound("p", (x, y, z)), Compound("p", (x, x, z)), Compound("q", ("a", y, x)),
              Compound("q", (x, 2, x)), Compound("r", (x, Compound("room", (y,)))), Compound("r", (x, y))]

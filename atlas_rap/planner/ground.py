@@ -228,20 +228,20 @@ class _Probe:
 
 
 class _Grown:
-    """A growing set of facts in the order they came (reach's: the initial facts first), for the
-    joins: each fact's position, the facts of a predicate that came after a mark (semi-naive
-    joins), and the facts of a predicate with given values at given argument positions
-    (:meth:`answers`)."""
+    """The facts of a ``memory`` in the order they came (reach's: the initial facts first), indexed
+    for the joins: each fact's position, the facts of a predicate that came after a mark
+    (semi-naive joins), and the facts of a predicate with given values at given argument positions
+    (:meth:`answers`). Whoever asserts a fact into the memory gives it to :meth:`add` too."""
 
-    def __init__(self, facts) -> None:
+    def __init__(self, memory: Memory) -> None:
+        self.memory = memory  # the same facts, for atoms that are not flat
         self.facts: list[Compound] = []
         self.position: dict[Compound, int] = {}
         self.by_predicate: dict[tuple[str, int], list[int]] = {}
         self.of_predicate: dict[tuple[str, int], list[Compound]] = {}
         # (predicate, positions) -> [values at those positions -> facts in order, how many indexed]
         self._tables: dict[tuple[tuple[str, int], tuple[int, ...]], list] = {}
-        self._memory: Memory | None = None  # the same facts, for atoms that are not flat (made when needed)
-        for fact in facts:
+        for fact in memory:
             self.add(fact)
 
     def add(self, fact: Compound) -> None:
@@ -252,8 +252,6 @@ class _Grown:
         self.by_predicate.setdefault(key, []).append(len(self.facts))
         self.of_predicate.setdefault(key, []).append(fact)
         self.facts.append(fact)
-        if self._memory is not None:
-            self._memory.assert_fact(fact)
 
     def since(self, mark: int, predicate: tuple[str, int]) -> list[Compound]:
         """The facts of ``predicate`` that came at or after position ``mark``, in order."""
@@ -265,11 +263,9 @@ class _Grown:
         came: what :meth:`Memory.matches` gives on the same facts. ``probe`` (the atom's, for the
         variables ``s`` binds) looks them up by a hash index on the positions it has values for
         (built when first asked, and brought up to date as facts come), where Memory indexes the
-        first argument only; None (an atom with a compound argument) asks a Memory."""
+        first argument only; None (an atom with a compound argument) asks the memory."""
         if probe is None:
-            if self._memory is None:
-                self._memory = Memory(self.facts)
-            for answer in self._memory.matches(atom, s):
+            for answer in self.memory.matches(atom, s):
                 yield answer, substitute(atom, answer)  # type: ignore[misc]
             return
         facts = self.of_predicate.get(probe.key, ())
