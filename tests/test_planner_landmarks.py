@@ -131,9 +131,12 @@ def test_a_stuck_search_restarts_with_h_add_and_says_so(tmp_path: Path, monkeypa
 
     solve_module = importlib.import_module("atlas_rap.planner.solve")  # the module (the package exports solve())
     problem = load_pddl(*gripper_problem(tmp_path, balls=8))
-    assert "restarted_after" not in solve_module.solve(problem).stats
+    first = solve_module.solve(problem)
+    assert "restarted_after" not in first.stats and "reasonable_orderings" not in first.stats
     monkeypatch.setattr(solve_module, "STAGNATION", 0)
     restarted = solve_module.solve(problem)
     assert restarted.status == "solved" and restarted.stats["restarted_after"] >= 2
+    # the restart orders the landmarks with the mutexes too (a ball in room 1 before in room 2: they are mutex)
+    assert restarted.stats["reasonable_orderings"] > find_landmarks(ground(problem), RelaxedPlanHeuristic(ground(problem))).reasonable
     assert restarted.stats["evaluated"] > restarted.stats["restarted_after"]
     assert validate_plan(problem, restarted.sequence).ok

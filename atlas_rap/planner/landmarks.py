@@ -17,9 +17,18 @@ the goals in the delete relaxation, simplified:
   true at the start, none already a landmark), ordered the same way: in
   gripper, ``(carry ball1 left)`` or ``(carry ball1 right)`` before
   ``(at ball1 roomb)``;
-- **reasonable orderings** (``lm_reasonable_orders_hps``, simplified): a
-  landmark L is ordered before a goal G when every action that adds L deletes
-  G (reaching G first is wasted: G must be made true again after L).
+- **reasonable orderings** (``lm_reasonable_orders_hps``, Hoffmann, Porteous
+  and Sebastia 2004): L is ordered before L' when reaching L' first is
+  wasted, because reaching L then makes L' false and it must be made true
+  again. Without mutexes, only for a goal L' and an L every action adding
+  which deletes L'. Given the task's fact mutexes
+  (:mod:`~atlas_rap.planner.mutexes`), as Fast Downward approximates them:
+  L *interferes* with L' when L and L' are mutex, every action adding L
+  deletes L', an effect every action adding L shares is mutex with L', or
+  a landmark greedy-necessarily before L is mutex with L'; then L is
+  ordered before a goal L' it interferes with, and before a landmark L'
+  that is greedy-necessarily before some landmark M when L is another of
+  M's predecessors (or one of theirs) and interferes with L'.
 
 An ordering that would close a cycle is left out, so every landmark can be
 reached (Fast Downward breaks cycles too).
@@ -41,6 +50,7 @@ from dataclasses import dataclass, field
 from typing import Iterator
 
 from atlas_rap.planner.ground import GroundTask
+from atlas_rap.planner.mutexes import Mutexes
 from atlas_rap.planner.relaxation import RelaxedPlanHeuristic
 
 MAX_DISJUNCTION = 4  # facts in a disjunctive landmark, at most (as lm_rhw)
@@ -129,16 +139,18 @@ def _bits(mask: int) -> Iterator[int]:
         mask ^= low
 
 
-def find_landmarks(task: GroundTask, heuristic: RelaxedPlanHeuristic) -> LandmarkGraph:
-    """The landmark graph of ``task`` (module docstring)."""
-    return _Finder(task, heuristic).graph()
+def find_landmarks(task: GroundTask, heuristic: RelaxedPlanHeuristic,
+                   mutexes: Mutexes | None = None) -> LandmarkGraph:
+    """The landmark graph of ``task`` (module docstring), its reasonable orderings by ``mutexes``
+    when given."""
+    return _Finder(task, heuristic, mutexes).graph()
 
 
 class _Finder:
     """Back-chains from the goals (module docstring), one landmark at a time."""
 
-    def __init__(self, task: GroundTask, heuristic: RelaxedPlanHeuristic) -> None:
-        self.task, self.h = task, heuristic
+    def __init__(self, task: GroundTask, heuristic: RelaxedPlanHeuristic, mutexes: Mutexes | None) -> None:
+        self.task, self.h, self.mutexes = task, heuristic, mutexes
         self.achievers: dict[int, list[int]] = {}
         for a, adds in enumerate(heuristic.adds):
             for f in adds:
@@ -147,6 +159,8 @@ class _Finder:
         self.index: dict[int, int] = {}  # fact -> its landmark
         self.parents: list[set[int]] = []
         self.gn: list[tuple[int, int]] = []
+        self._gn_parents: dict[int, list[int]] = {}  # filled once the greedy-necessary orderings are all known
+        self._shared: dict[int, set[int]] = {}  # fact -> the effects every action adding it has, when asked
 
     def add(self, facts: frozenset[int]) -> int:
         """A new landmark of ``facts``; its number."""
@@ -240,18 +254,70 @@ class _Finder:
         return found
 
     def _reasonable_orderings(self, goals: list[int]) -> list[tuple[int, int]]:
-        """L before goal G when every action adding L deletes G (module docstring)."""
-        h, found = self.h, []
-        for g in goals:
-            goal_node = self.index[g]
-            for node, facts in enumerate(self.nodes):
-                if node == goal_node or len(facts) > 1:
-                    continue
-                (fact,) = facts
-                adders = self.achievers.get(fact, ())
-                if adders and all(g in h.deletes[a] for a in adders) and self.order(node, goal_node):
-                    found.append((node, goal_node))
+        """The reasonable orderings (module docstring), each added unless it closes a cycle."""
+        nodes = self.nodes
+        single = [node for node, facts in enumerate(nodes) if len(facts) == 1]
+        goal_nodes = {self.index[g] for g in goals}
+        if self.mutexes is None:
+            candidates = {goal: single for goal in sorted(goal_nodes)}
+        else:
+            candidates = self._candidates(single, goal_nodes)
+        for before, after in self.gn:
+            self._gn_parents.setdefault(after, []).append(before)
+        found = []
+        for later, earlier_ones in candidates.items():
+            for earlier in earlier_ones:
+                if earlier != later and self._interferes(earlier, later) and self.order(earlier, later):
+                    found.append((earlier, later))
         return found
+
+    def _candidates(self, single: list[int], goal_nodes: set[int]) -> dict[int, list[int]]:
+        """For each landmark L', the landmarks that may be reasonably ordered before it: every other
+        one for a goal; else the other predecessors of the landmarks L' is greedy-necessarily before,
+        and theirs (Fast Downward's ``approximate_reasonable_orders``)."""
+        natural = [set(parents) for parents in self.parents]  # before any reasonable ordering
+        children: dict[int, list[int]] = {}
+        for before, after in self.gn:
+            children.setdefault(before, []).append(after)
+        candidates = {}
+        for later in single:
+            if later in goal_nodes:
+                candidates[later] = single
+                continue
+            found: set[int] = set()
+            for child in children.get(later, ()):
+                stack = [p for p in natural[child] if p != later and p not in found]
+                found.update(stack)
+                while stack:
+                    for p in natural[stack.pop()]:
+                        if p not in found:
+                            found.add(p)
+                            stack.append(p)
+            candidates[later] = sorted(node for node in found if len(self.nodes[node]) == 1)
+        return candidates
+
+    def _interferes(self, earlier: int, later: int) -> bool:
+        """Whether reaching landmark ``later`` before ``earlier`` is wasted (module docstring)."""
+        (a,), (b,) = self.nodes[earlier], self.nodes[later]
+        if a == b:
+            return False
+        adders = self.achievers.get(a, ())
+        deletes = self.h.deletes
+        if adders and all(b in deletes[action] for action in adders):
+            return True
+        mutexes = self.mutexes
+        if mutexes is None:
+            return False
+        if mutexes.mutex(a, b):
+            return True
+        shared = self._shared.get(a)
+        if shared is None:
+            adds = self.h.add_sets
+            shared = set(adds[adders[0]]).intersection(*(adds[action] for action in adders[1:])) if adders else set()
+            self._shared[a] = shared
+        if any(e != a and e != b and mutexes.mutex(e, b) for e in shared):
+            return True
+        return any(mutexes.mutex(x, b) for before in self._gn_parents.get(earlier, ()) for x in self.nodes[before])
 
     def _packed(self, goals: list[int], reasonable: list[tuple[int, int]]) -> LandmarkGraph:
         count = len(self.nodes)
