@@ -137,6 +137,7 @@ def test_a_stuck_search_restarts_with_h_add_and_says_so(tmp_path: Path, monkeypa
     restarted = solve_module.solve(problem)
     assert restarted.status == "solved" and restarted.stats["restarted_after"] >= 2
     # the restart orders the landmarks with the mutexes too (a ball in room 1 before in room 2: they are mutex)
-    assert restarted.stats["reasonable_orderings"] > find_landmarks(ground(problem), RelaxedPlanHeuristic(ground(problem))).reasonable
+    task = ground(problem)
+    assert restarted.stats["reasonable_orderings"] > find_landmarks(task, RelaxedPlanHeuristic(task)).reasonable
     assert restarted.stats["evaluated"] > restarted.stats["restarted_after"]
     assert validate_plan(problem, restarted.sequence).ok
