@@ -275,7 +275,7 @@ class _Finder:
         """For each landmark L', the landmarks that may be reasonably ordered before it: every other
         one for a goal; else the other predecessors of the landmarks L' is greedy-necessarily before,
         and theirs (Fast Downward's ``approximate_reasonable_orders``)."""
-        natural = [set(parents) for parents in self.parents]  # before any reasonable ordering
+        parents = self.parents  # asked before any reasonable ordering is added: the greedy-necessary ones
         children: dict[int, list[int]] = {}
         for before, after in self.gn:
             children.setdefault(before, []).append(after)
@@ -286,10 +286,10 @@ class _Finder:
                 continue
             found: set[int] = set()
             for child in children.get(later, ()):
-                stack = [p for p in natural[child] if p != later and p not in found]
+                stack = [p for p in parents[child] if p != later and p not in found]
                 found.update(stack)
                 while stack:
-                    for p in natural[stack.pop()]:
+                    for p in parents[stack.pop()]:
                         if p not in found:
                             found.add(p)
                             stack.append(p)
