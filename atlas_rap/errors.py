@@ -206,6 +206,31 @@ class SkillBusError(AtlasError):
     (``TokenError``)."""
 
 
+def read_at_most(path: str | os.PathLike[str], limit: int) -> bytes:
+    """The bytes of the file ``path``, but no more than ``limit + 1`` of them: one past the limit
+    tells the caller the file is too large, and a device such as /dev/zero, which never ends, is
+    read no further. Raises the ``OSError`` of opening or reading it.
+
+    Read with ``os.read`` in one call of the file's size: ``open(...).read(limit + 1)`` would
+    build a buffered stream and first allocate the whole limit, three times as long in a new
+    process (0.2 ms for a 3 KB PDDL file, a tenth of what planning it takes)."""
+    descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
+    try:
+        parts = []
+        total = 0
+        wanted = min(os.fstat(descriptor).st_size, limit) + 1
+        while total <= limit:
+            part = os.read(descriptor, wanted)
+            if not part:
+                break
+            parts.append(part)
+            total += len(part)
+            wanted = min(limit + 1 - total, 1 << 16)  # it grew, or a device that says it is empty
+    finally:
+        os.close(descriptor)
+    return b"".join(parts)
+
+
 def decode_source(data: bytes, name: str, hint: str = "save the file as UTF-8",
                   error: type[SourceError] = SourceError) -> str:
     """Decode a source file's bytes as UTF-8 (a BOM is allowed); bytes that are not UTF-8 are an

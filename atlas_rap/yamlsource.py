@@ -20,8 +20,8 @@ import yaml
 from yaml.constructor import SafeConstructor
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
-from atlas_rap.errors import (Problem, SourceError, SourceLocation, decode_source, line_of, nearest, source_lines,
-                              suggestion)
+from atlas_rap.errors import (Problem, SourceError, SourceLocation, decode_source, line_of, nearest, read_at_most,
+                              source_lines, suggestion)
 
 MAX_YAML_BYTES = 4 * 1024 * 1024
 
@@ -63,8 +63,7 @@ class YamlSource:
         name = shown_as or str(path)
         where = SourceLocation(name, 1, 1)
         try:
-            with path.open("rb") as stream:  # at most the limit: a device such as /dev/zero never ends
-                data = stream.read(MAX_YAML_BYTES + 1)
+            data = read_at_most(path, MAX_YAML_BYTES)
             if len(data) > MAX_YAML_BYTES:
                 raise error_class(Problem(f"file is too large for a {what}", where))
         except IsADirectoryError:

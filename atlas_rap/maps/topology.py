@@ -54,7 +54,7 @@ from typing import Any
 import networkx as nx
 import numpy as np
 
-from atlas_rap.errors import MapError
+from atlas_rap.errors import MapError, read_at_most
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.outputs import write_text
 from atlas_rap.maps.rooms import RoomSettings, segment_rooms
@@ -723,8 +723,7 @@ class Topology:
     def from_json(cls, path: str | Path) -> Topology:
         """Read a topology written by :meth:`to_json`; anything else is a :class:`MapError` saying so."""
         try:
-            with open(path, "rb") as stream:  # at most the limit: a device such as /dev/zero never ends
-                text = stream.read(MAX_JSON_BYTES + 1)
+            text = read_at_most(path, MAX_JSON_BYTES)
             if len(text) > MAX_JSON_BYTES:
                 raise ValueError(f"larger than {MAX_JSON_BYTES // 2**20} MiB")
             data = json.loads(text.decode("utf-8"))
