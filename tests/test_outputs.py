@@ -90,6 +90,26 @@ def test_nothing_appears_at_the_path_until_the_file_is_complete(tmp_path):
     assert listing(tmp_path) == ["trace.jsonl"]
 
 
+def test_the_temporary_file_is_private_and_named_after_the_file_and_the_process(tmp_path):
+    target = tmp_path / "plan.txt"
+    file = AtomicFile(target, stream="t")
+    assert file.writing.name.startswith(f".plan.txt.{os.getpid()}-") and file.writing.name.endswith(".part")
+    assert stat.S_IMODE(file.writing.stat().st_mode) == 0o600
+    file.discard()
+
+
+def test_a_temporary_name_left_by_an_earlier_process_is_skipped_not_overwritten(tmp_path):
+    first = AtomicFile(tmp_path / "plan.txt", stream="t")
+    first.discard()
+    number = int(first.writing.name.split("-")[-1].removesuffix(".part"))
+    for ahead in range(1, 4):  # the next names the counter will give, left behind by someone
+        (tmp_path / f".plan.txt.{os.getpid()}-{number + ahead}.part").write_bytes(b"someone else's")
+    write_text(tmp_path / "plan.txt", "(go)\n")
+    assert (tmp_path / "plan.txt").read_text() == "(go)\n"
+    left = sorted(path.name for path in tmp_path.iterdir() if path.name.endswith(".part"))
+    assert len(left) == 3 and all((tmp_path / name).read_bytes() == b"someone else's" for name in left)
+
+
 def test_a_discarded_file_leaves_the_old_one(tmp_path):
     target = tmp_path / "run.mcap"
     target.write_bytes(OLD)
