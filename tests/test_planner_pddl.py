@@ -91,6 +91,20 @@ def test_a_glued_variable_keeps_its_column_for_errors() -> None:
     assert (problem.location.line, problem.location.column) == (5, line.index("(at?a") + 1)
 
 
+def test_a_file_with_nothing_glued_keeps_its_forms_and_a_glued_name_is_always_found() -> None:
+    from atlas_rap.lang.reader import read_text
+    from atlas_rap.planner import pddl
+
+    plain = GLUED_PROBLEM
+    forms = read_text(plain)
+    assert pddl._GLUED.search(plain) is None
+    assert pddl._Source("p.pddl", forms, plain).forms == list(forms)  # the very lists: no walk
+    for glued in ("(aircraft?a)", "(at?x ?c)", "(at?a?c1)", "(n-2?x)", "(x?)"):
+        (form,) = read_text(glued)
+        assert pddl._GLUED.search(glued), glued
+        assert pddl._unglued(form) is not form, glued
+
+
 def test_gripper_initial_state_goals_and_objects(tmp_path: Path) -> None:
     domain, prob = gripper_problem(tmp_path, balls=2, rooms=3)
     problem = load_pddl(domain, prob)

@@ -93,6 +93,7 @@ errors.
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 from atlas_rap.errors import PlanFileError, Problem, SourceLocation, did_you_mean, line_of, source_lines
@@ -204,7 +205,8 @@ class _Source:
 
     def __init__(self, name: str, forms: list, text: str) -> None:
         self.name = name
-        self.forms = [_unglued(form) for form in forms]
+        # most files glue nothing: one search of the text spares a walk over every list
+        self.forms = [_unglued(form) for form in forms] if _GLUED.search(text) else list(forms)
         self.locs = tuple(getattr(forms, "locs", ()))  # where each top-level form starts
         self.lines = source_lines(text)
 
@@ -218,6 +220,11 @@ class _Source:
 
     def error(self, message: str, where: Where, hint: str | None = None) -> PlanFileError:
         return PlanFileError(Problem(message, self.loc(where), line_of(self.lines, where[0]), hint))
+
+
+# what may be a name glued to a variable, ``aircraft?a``: a '?' inside an atom that does not start
+# with '?' or ':' (in a comment or a string too, where the walk then finds nothing to split)
+_GLUED = re.compile(r'[^\s()";?:][^\s()";?]*\?')
 
 
 def _unglued(datum):
