@@ -83,6 +83,7 @@ from bisect import bisect_left
 from dataclasses import dataclass
 from functools import cached_property
 from itertools import product
+from operator import itemgetter
 from typing import Callable, Iterator
 
 from atlas_rap.errors import Problem, SourceError
@@ -258,21 +259,24 @@ class _Grown:
         positions = self.by_predicate.get(predicate, ())
         return [self.facts[i] for i in positions[bisect_left(positions, mark):]]
 
-    def answers(self, atom: Compound, probe: _Probe | None, s: Subst) -> Iterator[tuple[Subst, Compound]]:
+    def answers(self, atom: Compound, probe: _Probe | None, s: Subst) -> list[tuple[Subst, Compound]]:
         """The answers of ``atom`` under ``s``, with the fact each matched, in the order the facts
         came: what :meth:`Memory.matches` gives on the same facts. ``probe`` (the atom's, for the
         variables ``s`` binds) looks them up by a hash index on the positions it has values for
         (built when first asked, and brought up to date as facts come), where Memory indexes the
-        first argument only; None (an atom with a compound argument) asks the memory."""
+        first argument only; None (an atom with a compound argument) asks the memory. An answer
+        that binds nothing new is ``s`` itself: nobody changes an answer once it is made."""
         if probe is None:
-            for answer in self.memory.matches(atom, s):
-                yield answer, substitute(atom, answer)  # type: ignore[misc]
-            return
+            return [(answer, substitute(atom, answer)) for answer in self.memory.matches(atom, s)]  # type: ignore[misc]
         facts = self.of_predicate.get(probe.key, ())
         if probe.positions:
             values = tuple([s[term] if type(term) is Var else term for term in probe.values])  # type: ignore[index]
             facts = self._table(probe.key, probe.positions).get(values, ())
-        free, repeated = probe.free, probe.repeated
+        free = probe.free
+        if not free:
+            return [(s, fact) for fact in facts]
+        found = []
+        repeated = probe.repeated
         for fact in facts:
             answer = s.copy()
             fact_args = fact.args
@@ -283,7 +287,8 @@ class _Grown:
                     continue
                 answer[var] = fact_args[i]
             else:
-                yield answer, fact
+                found.append((answer, fact))
+        return found
 
     def _table(self, key: tuple[str, int], positions: tuple[int, ...]) -> dict[tuple[Term, ...], list[Compound]]:
         entry = self._tables.get((key, positions))
@@ -326,12 +331,18 @@ class _OperatorGrounder:
         self.static_atoms = [a for a in positive if (a.functor, len(a.args)) in static]
         self.fluent_atoms = [a for a in positive if (a.functor, len(a.args)) not in static]
         self.reads = {(a.functor, len(a.args)) for a in self.fluent_atoms}
+        # each atom an action is built from, with how to read its arguments off a binding
+        self.fluent_args = [(atom, _args_getter(atom)) for atom in self.fluent_atoms]
+        self.effect_args = [(effect, _args_getter(effect.fact)) for effect in op.effects
+                            if type(effect) is ast.Effect]
         self.join_order = _join_order(self.static_atoms, self.fluent_atoms)
+        self.atom_variables = [frozenset(variables(atom)) for atom, _ in self.join_order]
         self.fluent_positions = [i for i, (_, is_static) in enumerate(self.join_order) if not is_static]
         self.probes = [probe for *_, probe in self._steps(list(range(len(self.join_order))), set())]  # the full join's
-        # the join round the k-th atom (matched first to a new fact): the others in their own
-        # greedy order from its variables (the joins found are sorted afterwards), with their probes
-        self.rounds = {k: self._round(k) for k in self.fluent_positions}
+        # the join round the k-th atom (matched first to a new fact), made when first needed:
+        # the others in their own greedy order from its variables (the joins found are sorted
+        # afterwards), with their probes
+        self.rounds: dict[int, list[tuple[int, Compound, bool, _Probe | None]]] = {}
         self.watermark = 0  # how many of reach's facts this operator's last join saw
         candidates = problem.uncontrolled if op.uncontrolled else problem.controlled
         self.agents = AgentProblem(variables=agent_variables(op, operator_purposes(problem)),
@@ -348,17 +359,31 @@ class _OperatorGrounder:
         for i in numbers:
             atom, is_static = self.join_order[i]
             steps.append((i, atom, is_static, _Probe.of(atom, bound)))
-            bound |= set(variables(atom))
+            bound |= self.atom_variables[i]
         return steps
 
     def _round(self, k: int) -> list[tuple[int, Compound, bool, _Probe | None]]:
         """The steps of every atom but the ``k``-th, in the order to join them once the ``k``-th is matched."""
-        others = [i for i in range(len(self.join_order)) if i != k]
-        matched = set(variables(self.join_order[k][0]))
-        return self._steps([others[j] for j in _greedy_order([self.join_order[i] for i in others], matched)], matched)
+        steps = self.rounds.get(k)
+        if steps is None:
+            others = [i for i in range(len(self.join_order)) if i != k]
+            matched = self.atom_variables[k]
+            order = _greedy_order([self.join_order[i][1] for i in others],
+                                  [self.atom_variables[i] for i in others], matched)
+            steps = self.rounds[k] = self._steps([others[j] for j in order], matched)
+        return steps
 
     def key(self, s: Subst) -> tuple[Term, ...]:
-        return tuple(s.get(v, v) for v in self.order)
+        return tuple([s.get(v, v) for v in self.order])
+
+    def added(self, bindings: list[Subst]) -> list[Compound]:
+        """The facts the plain (not conditional) positive effects of ``bindings`` add."""
+        made = []
+        effects = [(effect.fact, args) for effect, args in self.effect_args if effect.positive]
+        for binding in bindings:
+            for fact, args in effects:
+                made.append(_instance(fact, args, binding))
+        return made
 
     def new_bindings(self, reach: Memory, grown: _Grown | None = None) -> Iterator[Subst]:
         """Bindings not found before, in a deterministic order.
@@ -371,15 +396,17 @@ class _OperatorGrounder:
         by the positions of their facts, atom by atom. The bindings, and so the
         actions and the plans, are the same as with a full join each time."""
         if grown is None or self.watermark == 0 or not self.fluent_positions:
-            joins: Iterator[Subst] = self._join(grown if grown is not None else _Grown(reach), 0, {})
+            joins = self._join(grown if grown is not None else _Grown(reach), 0, {}, [])
         else:
-            joins = iter(self._joins_since(grown))
+            joins = self._joins_since(grown)
         if grown is not None:
             self.watermark = len(grown.facts)
         for s in joins:
             for full in self._complete(s):
-                key = tuple(full.get(v, v) for v in self.order)
+                key = tuple([full.get(v, v) for v in self.order])
                 if key not in self.seen:
+                    if any(type(value) is Var for value in full.values()):
+                        full = {var: substitute(value, full) for var, value in full.items()}  # no chains
                     self.seen[key] = full
                     yield full
 
@@ -395,17 +422,18 @@ class _OperatorGrounder:
                 if first is None:
                     continue
                 positions[k] = grown.position[fact]
-                for s in self._join_rest(grown, self.rounds[k], 0, first, k, mark, positions):
-                    found.setdefault(tuple(positions), s)
+                self._join_rest(grown, self._round(k), 0, first, k, mark, positions, found)
         return [found[key] for key in sorted(found)]
 
     def _join_rest(self, grown: _Grown, steps: list, j: int, s: Subst, k: int, mark: int,
-                   positions: list[int]) -> Iterator[Subst]:
+                   positions: list[int], found: dict[tuple[int, ...], Subst]) -> None:
         """The join of the round's ``steps`` from the ``j``-th, writing the position in ``grown`` of
-        each fact matched into ``positions``; the fluent atoms before the ``k``-th (in the join
-        order) only on facts older than ``mark``, so each join is made once."""
+        each fact matched into ``positions`` and each join into ``found`` under them (the first
+        one made, for positions met twice); the fluent atoms before the ``k``-th (in the join
+        order) only on facts older than ``mark``, so each join is made once. Recursion, not
+        generators: a generator would hand each join up through every level."""
         if j == len(steps):
-            yield s
+            found.setdefault(tuple(positions), s)
             return
         i, atom, is_static, probe = steps[j]
         older = not is_static and i < k
@@ -415,15 +443,17 @@ class _OperatorGrounder:
             if older and at >= mark:
                 continue
             positions[i] = at
-            yield from self._join_rest(grown, steps, j + 1, answer, k, mark, positions)
+            self._join_rest(grown, steps, j + 1, answer, k, mark, positions, found)
 
-    def _join(self, grown: _Grown, i: int, s: Subst) -> Iterator[Subst]:
+    def _join(self, grown: _Grown, i: int, s: Subst, found: list[Subst]) -> list[Subst]:
+        """Every join of the atoms from the ``i``-th, in order, appended to ``found``."""
         if i == len(self.join_order):
-            yield s
-            return
+            found.append(s)
+            return found
         atom, is_static = self.join_order[i]
         for answer, _ in (self.static if is_static else grown).answers(atom, self.probes[i], s):
-            yield from self._join(grown, i + 1, answer)
+            self._join(grown, i + 1, answer, found)
+        return found
 
     def _complete(self, s: Subst) -> Iterator[Subst]:
         op = self.op
@@ -463,23 +493,30 @@ def _join_order(static: list[Compound], fluent: list[Compound]) -> list[tuple[Co
     """Atoms in the order to join them: greedily the one with most bound variables,
     static before fluent, then fewest new variables, then as written."""
     items = [(a, True) for a in static] + [(a, False) for a in fluent]
-    return [items[i] for i in _greedy_order(items, set())]
+    order = _greedy_order([True] * len(static) + [False] * len(fluent),
+                          [frozenset(variables(atom)) for atom, _ in items], frozenset())
+    return [items[i] for i in order]
 
 
-def _greedy_order(items: list[tuple[Compound, bool]], bound: set[Var]) -> list[int]:
-    """The numbers of ``items`` (atom, is it static) in the order :func:`_join_order` says,
-    with the variables ``bound`` bound from the start."""
-    pending = list(range(len(items)))
-    atom_vars = [frozenset(variables(atom)) for atom, _ in items]
-    bound = set(bound)
+def _greedy_order(is_static: list[bool], atom_variables: list[frozenset[Var]], bound: frozenset[Var]) -> list[int]:
+    """The numbers of the atoms (whether each ``is_static``, the variables of each) in the order
+    :func:`_join_order` says, with the variables ``bound`` bound from the start."""
+    pending = list(range(len(is_static)))
     order: list[int] = []
+    # the score (most bound variables, static, fewest new variables) as one number
+    # (more bound scores lower): an atom has far fewer than `weight` variables
+    weight = 1 + max(map(len, atom_variables), default=0)
+    rank = [len(names) + (0 if static else weight) for names, static in zip(atom_variables, is_static)]
     while pending:
-        def score(i: int) -> tuple[int, int, int, int]:
-            return (-len(atom_vars[i] & bound) if bound else 0, 0 if items[i][1] else 1, len(atom_vars[i] - bound), i)
-        best = min(pending, key=score)
+        best, best_score = -1, 0
+        for i in pending:  # the first of the lowest scores
+            shared = len(atom_variables[i] & bound)
+            score = rank[i] - shared * (2 * weight + 1)
+            if best < 0 or score < best_score:
+                best, best_score = i, score
         pending.remove(best)
         order.append(best)
-        bound |= atom_vars[best]
+        bound = bound | atom_variables[best]
     return order
 
 
@@ -516,8 +553,7 @@ def ground(problem: PlanningProblem, stop: Callable[[], bool] | None = None, *, 
             dirty[g] = False
             bindings, conditional = _enabled(g, reach, None if naive else grown)
             found.extend((g, binding) for binding in bindings)
-            added = [substitute(effect.fact, binding) for binding in bindings for effect in g.op.effects
-                     if effect.positive and type(effect) is ast.Effect]
+            added = g.added(bindings)
             for fact in added + conditional:
                 if fact not in reach:
                     reach.assert_fact(fact)
@@ -583,11 +619,14 @@ class _ActionBuilder:
         # the same numbers by (functor, arguments): a flat atom's fact is found without building it
         self.key_ids = {(fact.functor, fact.args): i for fact, i in fact_ids.items() if type(fact) is Compound}
 
-    def _id(self, atom: Compound, s: Subst) -> int | None:
-        """The number of the fact ``substitute(atom, s)``, None if it is not one of the task's."""
-        key = _flat_key(atom, s)
-        if key is not None:
-            return self.key_ids.get(key)
+    def _id(self, atom: Compound, args: _ArgsGetter | None, s: Subst) -> int | None:
+        """The number of the fact ``substitute(atom, s)``, None if it is not one of the task's;
+        ``args`` is the atom's :func:`_args_getter`."""
+        if args is not None:
+            try:
+                return self.key_ids.get((atom.functor, args if type(args) is tuple else args(s)))
+            except KeyError:  # a variable s leaves free (a quantifier's, say): no fact has it
+                pass
         return self.fact_ids.get(substitute(atom, s))  # type: ignore[arg-type]
 
     def all(self, found: list[tuple[_OperatorGrounder, Subst]]) -> list[GroundAction]:
@@ -647,8 +686,8 @@ class _ActionBuilder:
         if cost is None:  # its cost is not given: PDDL cannot apply it
             return None
         pre: list[int] = []
-        for atom in g.fluent_atoms:
-            fact_id = self._id(atom, s)
+        for atom, args in g.fluent_args:
+            fact_id = self._id(atom, args, s)
             if fact_id is None:
                 raise KeyError(substitute(atom, s))  # reachable by construction: a grounding bug
             pre.append(fact_id)
@@ -662,35 +701,52 @@ class _ActionBuilder:
                 neg.append(ids[fact])  # type: ignore[index]
         add: list[int] = []
         delete: list[int] = []
-        for effect in g.op.effects:
-            if type(effect) is ast.ConditionalEffect:
-                continue  # compiled by variants()
-            fact_id = self._id(effect.fact, s)  # type: ignore[arg-type]
+        for effect, args in g.effect_args:  # conditional effects: compiled by variants()
+            fact_id = self._id(effect.fact, args, s)
             if fact_id is not None:
                 (add if effect.positive else delete).append(fact_id)
         add_set = set(add)
         agents = tuple(dict.fromkeys(str(s[v]) for v in g.agents.variables if v in s))
-        return GroundAction(index=index, operator=g.op, binding=s,
-                            args=tuple(s.get(v, v) for v in g.order),
+        return GroundAction(index=index, operator=g.op, binding=s, args=g.key(s),
                             pre=tuple(dict.fromkeys(pre)), neg=tuple(dict.fromkeys(neg)),
                             add=tuple(dict.fromkeys(add)),
                             delete=tuple(dict.fromkeys(d for d in delete if d not in add_set)),
                             agents=agents, cost=cost)
 
 
-def _flat_key(atom: Compound, s: Subst) -> tuple[str, tuple[Term, ...]] | None:
-    """``(functor, args)`` of ``substitute(atom, s)`` when each argument is a constant or a
-    variable ``s`` binds to one (PDDL's atoms, once bound), else None."""
-    values: list[Term] = []
-    for arg in atom.args:
-        kind = type(arg)
-        if kind is Var:
-            arg = s.get(arg, arg)  # type: ignore[call-overload]
-            kind = type(arg)
-        if kind is Var or kind is Compound:
-            return None
-        values.append(arg)
-    return atom.functor, tuple(values)
+# how to read an atom's arguments off a binding: a function of the binding, or the arguments
+# themselves when the atom has no variable
+_ArgsGetter = Callable[[Subst], tuple] | tuple
+
+
+def _args_getter(atom: Compound) -> _ArgsGetter | None:
+    """How to read the arguments of ``substitute(atom, s)`` for a binding ``s``
+    of every variable of the atom, the same but without building the fact: the bindings
+    grounding makes hold constants and no chains. None for an atom with a compound argument
+    (substitute it). Every ground action is numbered through these, so they are made once per
+    operator: an ``itemgetter`` when every argument is a variable."""
+    args = atom.args
+    if any(type(arg) is Compound for arg in args):
+        return None
+    if not any(type(arg) is Var for arg in args):
+        return args
+    if all(type(arg) is Var for arg in args):
+        if len(args) > 1:
+            return itemgetter(*args)
+        only = args[0]
+        return lambda s: (s[only],)
+    return lambda s: tuple([s[arg] if type(arg) is Var else arg for arg in args])
+
+
+def _instance(atom: Compound, args: _ArgsGetter | None, s: Subst) -> Compound:
+    """``substitute(atom, s)``, built from the arguments ``args`` (the atom's :func:`_args_getter`)
+    reads when it can."""
+    if args is not None:
+        try:
+            return atom if type(args) is tuple else Compound(atom.functor, args(s))
+        except KeyError:  # a variable s leaves free
+            pass
+    return substitute(atom, s)  # type: ignore[return-value]
 
 
 def _objects(problem: PlanningProblem) -> tuple[Term, ...]:
