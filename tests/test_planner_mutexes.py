@@ -73,3 +73,18 @@ def test_mutexes_order_a_tower_from_the_bottom_up() -> None:
     assert with_mutexes.parents[top] >> bottom & 1
     assert not with_mutexes.parents[bottom] >> top & 1
     assert not without.parents[top] >> bottom & 1 and with_mutexes.reasonable > without.reasonable
+
+
+def test_landmarks_back_chained_once_give_each_ordering_as_a_fresh_search_for_them() -> None:
+    """The restart orders the landmarks the first search found, with mutexes, without
+    back-chaining again: the same graph as finding them afresh with the mutexes."""
+    from atlas_rap.planner.landmarks import back_chain
+
+    task, heuristic = tower()
+    mutexes = fact_mutexes(task, heuristic)
+    chained = back_chain(task, heuristic)
+    first, then = chained.graph(), chained.graph(mutexes)
+    for reused, fresh in ((first, find_landmarks(task, heuristic)), (then, find_landmarks(task, heuristic, mutexes))):
+        assert (reused.nodes, reused.parents, reused.gn_children, reused.greedy_necessary, reused.reasonable) == \
+            (fresh.nodes, fresh.parents, fresh.gn_children, fresh.greedy_necessary, fresh.reasonable)
+    assert then.reasonable > first.reasonable

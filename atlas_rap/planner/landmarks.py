@@ -143,14 +143,25 @@ def find_landmarks(task: GroundTask, heuristic: RelaxedPlanHeuristic,
                    mutexes: Mutexes | None = None) -> LandmarkGraph:
     """The landmark graph of ``task`` (module docstring), its reasonable orderings by ``mutexes``
     when given."""
-    return _Finder(task, heuristic, mutexes).graph()
+    return back_chain(task, heuristic).graph(mutexes)
 
 
-class _Finder:
+def back_chain(task: GroundTask, heuristic: RelaxedPlanHeuristic) -> LandmarkFinder:
+    """The landmarks of ``task`` and their greedy-necessary orderings, back-chained from the goals
+    once: :meth:`LandmarkFinder.graph` adds the reasonable orderings, with or without mutexes, as
+    often as asked (the search's restart asks again, with them)."""
+    finder = LandmarkFinder(task, heuristic)
+    finder.back_chain()
+    return finder
+
+
+class LandmarkFinder:
     """Back-chains from the goals (module docstring), one landmark at a time."""
 
-    def __init__(self, task: GroundTask, heuristic: RelaxedPlanHeuristic, mutexes: Mutexes | None) -> None:
-        self.task, self.h, self.mutexes = task, heuristic, mutexes
+    def __init__(self, task: GroundTask, heuristic: RelaxedPlanHeuristic) -> None:
+        self.task, self.h = task, heuristic
+        self.mutexes: Mutexes | None = None
+        self.goals = sorted(set(task.goal))
         self.achievers: dict[int, list[int]] = {}
         for a, adds in enumerate(heuristic.adds):
             for f in adds:
@@ -160,6 +171,7 @@ class _Finder:
         self.parents: list[set[int]] = []
         self.gn: list[tuple[int, int]] = []
         self._gn_parents: dict[int, list[int]] = {}  # filled once the greedy-necessary orderings are all known
+        self.chained_parents: list[frozenset[int]] = []  # each landmark's greedy-necessary predecessors
         self._shared: dict[int, set[int]] = {}  # fact -> the effects every action adding it has, when asked
 
     def add(self, facts: frozenset[int]) -> int:
@@ -192,12 +204,21 @@ class _Finder:
                     stack.append(p)
         return False
 
-    def graph(self) -> LandmarkGraph:
-        """Every landmark back-chained from the goals, breadth first, then the reasonable orderings."""
+    def graph(self, mutexes: Mutexes | None = None) -> LandmarkGraph:
+        """The landmarks back-chained, with their reasonable orderings by ``mutexes`` (or, without,
+        only before the goals) added to the greedy-necessary ones."""
+        self.parents = [set(parents) for parents in self.chained_parents]
+        self.mutexes = mutexes
+        self._gn_parents = {}
+        reasonable = self._reasonable_orderings(self.goals)
+        return self._packed(self.goals, reasonable)
+
+    def back_chain(self) -> None:
+        """Every landmark back-chained from the goals, breadth first, and the greedy-necessary
+        orderings between them."""
         task, h = self.task, self.h
         init = task.init
-        goals = sorted(set(task.goal))
-        for g in goals:
+        for g in self.goals:
             self.add(frozenset((g,)))
         pending = deque(range(len(self.nodes)))
         while pending:
@@ -227,8 +248,7 @@ class _Finder:
                 pending.append(new)
                 if self.order(new, node):
                     self.gn.append((new, node))
-        reasonable = self._reasonable_orderings(goals)
-        return self._packed(goals, reasonable)
+        self.chained_parents = [frozenset(parents) for parents in self.parents]
 
     def _disjunctions(self, first: list[int], shared: set[int]) -> list[frozenset[int]]:
         """For each predicate every first achiever needs a fact of (not a shared one), the facts

@@ -64,7 +64,7 @@ from atlas_rap.planner.counterplan import (
 )
 from atlas_rap.planner.ground import ground
 from atlas_rap.planner.lama import lama_search
-from atlas_rap.planner.landmarks import find_landmarks
+from atlas_rap.planner.landmarks import back_chain
 from atlas_rap.planner.limits import LimitReached, Limits
 from atlas_rap.planner.mutexes import fact_mutexes
 from atlas_rap.planner.partial_order import check_every_linearisation, deorder
@@ -118,13 +118,14 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
         return _without_plan(limits, phase, stats, "before the search began")
     phase("search", "search")
     heuristic = relaxed_plan_heuristic(task)
-    landmarks = find_landmarks(task, heuristic)  # the task's, whichever hFF: the restart takes them too
+    chained = back_chain(task, heuristic)  # the task's landmarks, whichever hFF: the restart takes them too
+    landmarks = chained.graph()
     found = lama_search(task, heuristic, landmarks=landmarks, stop=limits.expired, stagnation=STAGNATION)
     if found.status == "stuck":  # restart with hFF by h_add's best supporters, landmarks ordered by mutexes
         first = found
         mutexes = fact_mutexes(task, heuristic, stop=limits.expired)
         if mutexes is not None:
-            landmarks = find_landmarks(task, heuristic, mutexes)
+            landmarks = chained.graph(mutexes)
             stats["reasonable_orderings"] = landmarks.reasonable
         found = lama_search(task, relaxed_plan_heuristic(task, additive=True), landmarks=landmarks,
                             stop=limits.expired)
