@@ -47,7 +47,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
-from typing import Iterator
+from typing import Iterable, Iterator
 
 from atlas_rap.planner.ground import GroundTask
 from atlas_rap.planner.mutexes import Mutexes
@@ -226,9 +226,9 @@ class LandmarkFinder:
             facts = self.nodes[node]
             if not facts.isdisjoint(init):
                 continue
-            reachable = _reachable_without(task, h, facts)
-            first = sorted({a for f in facts for a in self.achievers.get(f, ())
-                            if all(p in reachable for p in h.pres[a])})
+            adders = {a for f in facts for a in self.achievers.get(f, ())}
+            reachable = _reachable_without(task, h, adders)
+            first = sorted(a for a in adders if all(reachable[p] for p in h.pres[a]))
             if not first:
                 continue
             shared = set(h.pres[first[0]])
@@ -357,27 +357,32 @@ class LandmarkFinder:
         return graph
 
 
-def _reachable_without(task: GroundTask, heuristic: RelaxedPlanHeuristic, facts: frozenset[int]) -> set[int]:
-    """The facts reachable in the relaxation from the start without making any of ``facts`` true."""
+def _reachable_without(task: GroundTask, heuristic: RelaxedPlanHeuristic, forbidden: Iterable[int]) -> bytearray:
+    """Which facts are reachable in the relaxation from the start without the ``forbidden``
+    actions (those making a landmark's facts true): a flag for each fact. A forbidden action's
+    counter starts below zero, so it never fires and no action is asked about its effects."""
     counter = heuristic.pre_count[:]
-    reached = set(task.init)
-    frontier = list(reached)
-    add_sets, adds = heuristic.add_sets, heuristic.adds
-    for a in heuristic.no_pre:
+    for a in forbidden:
         counter[a] = -1
-        if add_sets[a].isdisjoint(facts):
-            frontier.extend(f for f in adds[a] if f not in reached)
-            reached.update(adds[a])
+    reached = bytearray(heuristic.n_facts)
+    frontier = list(task.init)
+    for f in frontier:
+        reached[f] = 1
+    adds = heuristic.adds
+    for a in heuristic.no_pre:
+        if counter[a] == 0:
+            for g in adds[a]:
+                if not reached[g]:
+                    reached[g] = 1
+                    frontier.append(g)
     pre_of = heuristic.pre_of
     while frontier:
-        f = frontier.pop()
-        for a in pre_of[f]:
-            counter[a] -= 1
-            if counter[a] == 0:
-                if not add_sets[a].isdisjoint(facts):
-                    continue
+        for a in pre_of[frontier.pop()]:
+            left = counter[a] - 1
+            counter[a] = left
+            if left == 0:
                 for g in adds[a]:
-                    if g not in reached:
-                        reached.add(g)
+                    if not reached[g]:
+                        reached[g] = 1
                         frontier.append(g)
     return reached
