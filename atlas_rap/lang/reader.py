@@ -243,7 +243,7 @@ class _Scanner(Lexer):
         """Yield the tokens of ``text``; raises Lark's ``UnexpectedCharacters`` where none matches."""
         match = self.pattern.match
         ignore = self.ignore
-        new_token = Token._future_new  # Token(...) without its deprecation checks
+        new_token = _NEW_TOKEN
         count, rfind = text.count, text.rfind
         pos, end = 0, len(text)
         line, line_start, counted = 1, 0, 0  # the text before `counted` is counted into `line`
@@ -262,6 +262,10 @@ class _Scanner(Lexer):
                 yield new_token(kind, found.group(), pos, line, pos - line_start + 1)
             pos = found.end()
 
+
+# Token(type, value, start_pos, line, column) without its check for a deprecated keyword (half the
+# cost of making a token); a Lark release without that private name gets the public constructor
+_NEW_TOKEN = getattr(Token, "_future_new", Token)
 
 # One parser and one builder per process; the lock gives each read its own atom state.
 _BUILDER = _Builder()
