@@ -335,6 +335,7 @@ class _OperatorGrounder:
         self.fluent_args = [(atom, _args_getter(atom)) for atom in self.fluent_atoms]
         self.effect_args = [(effect, _args_getter(effect.fact)) for effect in op.effects
                             if type(effect) is ast.Effect]
+        self.additions = [(effect.fact, args) for effect, args in self.effect_args if effect.positive]
         self.join_order = _join_order(self.static_atoms, self.fluent_atoms)
         self.atom_variables = [frozenset(variables(atom)) for atom, _ in self.join_order]
         self.fluent_positions = [i for i, (_, is_static) in enumerate(self.join_order) if not is_static]
@@ -379,9 +380,8 @@ class _OperatorGrounder:
     def added(self, bindings: list[Subst]) -> list[Compound]:
         """The facts the plain (not conditional) positive effects of ``bindings`` add."""
         made = []
-        effects = [(effect.fact, args) for effect, args in self.effect_args if effect.positive]
         for binding in bindings:
-            for fact, args in effects:
+            for fact, args in self.additions:
                 made.append(_instance(fact, args, binding))
         return made
 

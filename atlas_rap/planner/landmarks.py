@@ -170,8 +170,9 @@ class LandmarkFinder:
         self.index: dict[int, int] = {}  # fact -> its landmark
         self.parents: list[set[int]] = []
         self.gn: list[tuple[int, int]] = []
-        self._gn_parents: dict[int, list[int]] = {}  # filled once the greedy-necessary orderings are all known
-        self.chained_parents: list[frozenset[int]] = []  # each landmark's greedy-necessary predecessors
+        # once back-chained: each landmark's greedy-necessary predecessors, as sets and as lists
+        self.chained_parents: list[frozenset[int]] = []
+        self._gn_parents: dict[int, list[int]] = {}
         self._shared: dict[int, set[int]] = {}  # fact -> the effects every action adding it has, when asked
 
     def add(self, facts: frozenset[int]) -> int:
@@ -209,7 +210,6 @@ class LandmarkFinder:
         only before the goals) added to the greedy-necessary ones."""
         self.parents = [set(parents) for parents in self.chained_parents]
         self.mutexes = mutexes
-        self._gn_parents = {}
         reasonable = self._reasonable_orderings(self.goals)
         return self._packed(self.goals, reasonable)
 
@@ -249,6 +249,8 @@ class LandmarkFinder:
                 if self.order(new, node):
                     self.gn.append((new, node))
         self.chained_parents = [frozenset(parents) for parents in self.parents]
+        for before, after in self.gn:
+            self._gn_parents.setdefault(after, []).append(before)
 
     def _disjunctions(self, first: list[int], shared: set[int]) -> list[frozenset[int]]:
         """For each predicate every first achiever needs a fact of (not a shared one), the facts
@@ -282,8 +284,6 @@ class LandmarkFinder:
             candidates = {goal: single for goal in sorted(goal_nodes)}
         else:
             candidates = self._candidates(single, goal_nodes)
-        for before, after in self.gn:
-            self._gn_parents.setdefault(after, []).append(before)
         found = []
         for later, earlier_ones in candidates.items():
             for earlier in earlier_ones:
@@ -295,7 +295,7 @@ class LandmarkFinder:
         """For each landmark L', the landmarks that may be reasonably ordered before it: every other
         one for a goal; else the other predecessors of the landmarks L' is greedy-necessarily before,
         and theirs (Fast Downward's ``approximate_reasonable_orders``)."""
-        parents = self.parents  # asked before any reasonable ordering is added: the greedy-necessary ones
+        parents = self.chained_parents  # the greedy-necessary orderings only
         children: dict[int, list[int]] = {}
         for before, after in self.gn:
             children.setdefault(before, []).append(after)
