@@ -403,7 +403,7 @@ class _OperatorGrounder:
             self.watermark = len(grown.facts)
         for s in joins:
             for full in self._complete(s):
-                key = tuple([full.get(v, v) for v in self.order])
+                key = self.key(full)
                 if key not in self.seen:
                     if any(type(value) is Var for value in full.values()):
                         full = {var: substitute(value, full) for var, value in full.items()}  # no chains
