@@ -11,6 +11,7 @@ from pddl_problems import gripper_problem
 from atlas_rap.planner.ground import ground
 from atlas_rap.planner.lama import lama_search
 from atlas_rap.planner.landmarks import find_landmarks
+from atlas_rap.planner.mutexes import fact_mutexes
 from atlas_rap.planner.pddl import load_pddl, parse_pddl
 from atlas_rap.planner.plan_file import validate_plan
 from atlas_rap.planner.relaxation import RelaxedPlanHeuristic
@@ -141,3 +142,44 @@ def test_a_stuck_search_restarts_with_h_add_and_says_so(tmp_path: Path, monkeypa
     assert restarted.stats["reasonable_orderings"] > find_landmarks(task, RelaxedPlanHeuristic(task)).reasonable
     assert restarted.stats["evaluated"] > restarted.stats["restarted_after"]
     assert validate_plan(problem, restarted.sequence).ok
+
+
+PATIENCE_DOMAIN = """(define (domain patience)
+  (:requirements :strips)
+  (:predicates (on ?c ?b) (clear ?c) (incell ?c) (home ?c) (cellfree))
+  (:action home-from-column :parameters (?c ?b) :precondition (and (clear ?c) (on ?c ?b))
+    :effect (and (home ?c) (clear ?b) (not (on ?c ?b)) (not (clear ?c))))
+  (:action to-cell :parameters (?c ?b) :precondition (and (clear ?c) (on ?c ?b) (cellfree))
+    :effect (and (incell ?c) (clear ?b) (not (on ?c ?b)) (not (clear ?c)) (not (cellfree))))
+  (:action home-from-cell :parameters (?c) :precondition (incell ?c)
+    :effect (and (home ?c) (cellfree) (not (incell ?c)))))"""
+
+PATIENCE_PROBLEM = """(define (problem tidy) (:domain patience)
+  (:objects ace two table)
+  (:init (on two ace) (on ace table) (clear two) (cellfree))
+  (:goal (home ace)))"""
+
+
+def test_the_lookahead_finds_a_step_both_ways_pass_once_mutexes_are_known() -> None:
+    task = ground(parse_pddl(PATIENCE_DOMAIN, PATIENCE_PROBLEM))
+    h = RelaxedPlanHeuristic(task)
+    # the ace goes home from its column or through the cell: no way is a landmark, and the two
+    # ways share no precondition, yet both begin with the ace clear (the two taken off it)
+    plain = find_landmarks(task, h)
+    assert frozenset({"(clear ace)"}) not in node_names(task, plain)
+    graph = find_landmarks(task, h, fact_mutexes(task, h))
+    names = node_names(task, graph)
+    assert graph.natural >= 1
+    assert graph.parents[names[frozenset({"(home ace)"})]] >> names[frozenset({"(clear ace)"})] & 1
+    assert frozenset({"(incell ace)"}) not in names  # one of the two ways only
+
+
+def test_the_lookahead_takes_no_one_of_several_ways(tmp_path: Path) -> None:
+    task = ground(load_pddl(*gripper_problem(tmp_path, balls=2)))
+    h = RelaxedPlanHeuristic(task)
+    graph = find_landmarks(task, h, fact_mutexes(task, h))
+    names = node_names(task, graph)
+    # a ball is carried in the left or the right gripper: the choice stays a disjunction
+    assert frozenset({"(carry ball1 left)", "(carry ball1 right)"}) in names
+    assert frozenset({"(carry ball1 left)"}) not in names and frozenset({"(carry ball1 right)"}) not in names
+    assert graph.natural == 0

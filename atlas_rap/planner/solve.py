@@ -11,12 +11,14 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
    and boosts), hFF from the layered relaxed exploration; when neither
    heuristic has improved for STAGNATION evaluations in a row, a restart
    from the start with hFF by h_add's best supporters (Fast Downward's
-   ``ff()``) and the landmarks' reasonable orderings found with the task's
-   fact mutexes (:mod:`~atlas_rap.planner.mutexes`: LAMA's
-   ``lm_reasonable_orders_hps``), which a first search without them does not
-   pay for: they order towers of crates from the bottom up (depot), at the
-   cost of an h² fixpoint over every action (0.05-1 s on the shared
-   domains' p20s). The layered hFF is the cheaper to compute and guides as well
+   ``ff()``) and the landmarks found again with the task's fact mutexes
+   (:mod:`~atlas_rap.planner.mutexes`), which a first search without them
+   does not pay for: their reasonable orderings (LAMA's
+   ``lm_reasonable_orders_hps``) order towers of crates from the bottom up
+   (depot), and ``lm_rhw``'s lookahead on a variable's transition graph
+   adds landmarks such as freecell's "a card is clear before it goes home"
+   (:mod:`~atlas_rap.planner.landmarks`), at the cost of an h² fixpoint over
+   every action (0.05-1 s on the shared domains' p20s). The layered hFF is the cheaper to compute and guides as well
    on most domains; h_add's guides far better where the layered one sits on
    a plateau (mprime, large transport problems), at twice the cost per
    evaluation. (1,000 evaluations is the one value tried, chosen before
@@ -118,14 +120,13 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
         return _without_plan(limits, phase, stats, "before the search began")
     phase("search", "search")
     heuristic = relaxed_plan_heuristic(task)
-    chained = back_chain(task, heuristic)  # the task's landmarks, whichever hFF: the restart takes them too
-    landmarks = chained.graph()
+    landmarks = back_chain(task, heuristic).graph()
     found = lama_search(task, heuristic, landmarks=landmarks, stop=limits.expired, stagnation=STAGNATION)
     if found.status == "stuck":  # restart with hFF by h_add's best supporters, landmarks ordered by mutexes
         first = found
         mutexes = fact_mutexes(task, heuristic, stop=limits.expired)
-        if mutexes is not None:
-            landmarks = chained.graph(mutexes)
+        if mutexes is not None:  # back-chained again, with the lookahead only mutexes allow
+            landmarks = back_chain(task, heuristic, mutexes).graph(mutexes)
             stats["reasonable_orderings"] = landmarks.reasonable
         found = lama_search(task, relaxed_plan_heuristic(task, additive=True), landmarks=landmarks,
                             stop=limits.expired)
