@@ -73,7 +73,8 @@ def lama_search(task: GroundTask, heuristic: RelaxedPlanHeuristic | None = None,
     def result(status: str, goal_state: frozenset[int] | None = None) -> SearchResult:
         plan = _path_to(goal_state, parents, acts) if goal_state is not None else []
         return SearchResult(status, plan, expanded, evaluated, time.process_time() - started, heuristic,
-                            {"landmarks": len(graph), "landmark_orderings": graph.greedy_necessary + graph.natural + graph.reasonable})
+                            {"landmarks": len(graph),
+                             "landmark_orderings": graph.greedy_necessary + graph.natural + graph.reasonable})
 
     def push(state: frozenset[int], h_ff: float, h_lm: int, applicable: list[int], helpful: set[int],
              seen: int) -> None:

@@ -18,10 +18,10 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
    (depot), and ``lm_rhw``'s lookahead on a variable's transition graph
    adds landmarks such as freecell's "a card is clear before it goes home"
    (:mod:`~atlas_rap.planner.landmarks`), at the cost of an h² fixpoint over
-   every action (0.05-1 s on the shared domains' p20s). The layered hFF is the cheaper to compute and guides as well
-   on most domains; h_add's guides far better where the layered one sits on
-   a plateau (mprime, large transport problems), at twice the cost per
-   evaluation. (1,000 evaluations is the one value tried, chosen before
+   every action (0.05-1 s on the shared domains' p20s). The layered hFF is
+   the cheaper to compute and guides as well on most domains; h_add's
+   guides far better where the layered one sits on a plateau (mprime, large
+   transport problems), at twice the cost per evaluation. (1,000 evaluations is the one value tried, chosen before
    measuring: the thirteen IPC domains' p01-p20 gained six problems and lost
    none, 2026-12-05.) Redundant actions are dropped (greedy action
    elimination, cheap);
