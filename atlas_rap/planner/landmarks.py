@@ -168,7 +168,7 @@ def back_chain(task: GroundTask, heuristic: RelaxedPlanHeuristic, mutexes: Mutex
     """The landmarks of ``task`` and their greedy-necessary orderings, back-chained from the goals
     once (given ``mutexes``, the lookahead's too, with their natural orderings):
     :meth:`LandmarkFinder.graph` adds the reasonable orderings, with or without mutexes, as
-    often as asked (the search's restart asks again, with them)."""
+    often as asked."""
     finder = LandmarkFinder(task, heuristic)
     finder.back_chain(mutexes)
     return finder
@@ -317,11 +317,11 @@ class LandmarkFinder:
         variable = set(values)
         h = self.h
         frontier = [f for f in values if f in self.task.init]
-        for g in values[2:]:  # a value some action makes true whatever the variable's value was
+        for g in (landmark, *values[2:]):  # a value some action makes true whatever the variable's value was
             if any(variable.isdisjoint(h.pres[a]) for a in self.achievers.get(g, ())):
+                if g == landmark:
+                    return False
                 frontier.append(g)
-        if any(variable.isdisjoint(h.pres[a]) for a in self.achievers.get(landmark, ())):
-            return False
         seen = set(frontier)
         while frontier:
             for a in h.pre_of[frontier.pop()]:

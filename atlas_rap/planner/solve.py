@@ -21,9 +21,10 @@ Use :func:`solve` on a :class:`PlanningProblem` (from ``.ap`` files with
    every action (0.05-1 s on the shared domains' p20s). The layered hFF is
    the cheaper to compute and guides as well on most domains; h_add's
    guides far better where the layered one sits on a plateau (mprime, large
-   transport problems), at twice the cost per evaluation. (1,000 evaluations is the one value tried, chosen before
-   measuring: the thirteen IPC domains' p01-p20 gained six problems and lost
-   none, 2026-12-05.) Redundant actions are dropped (greedy action
+   transport problems), at twice the cost per evaluation. (1,000
+   evaluations is the one value tried, chosen before measuring: the
+   thirteen IPC domains' p01-p20 gained six problems and lost none,
+   2026-12-05.) Redundant actions are dropped (greedy action
    elimination, cheap);
    then, only with ``shorten=True`` (``atlas plan --shorten``), a lazy
    weighted-A* (weight SHORTEN_WEIGHT) restarted from the start searches for
@@ -66,7 +67,7 @@ from atlas_rap.planner.counterplan import (
 )
 from atlas_rap.planner.ground import ground
 from atlas_rap.planner.lama import lama_search
-from atlas_rap.planner.landmarks import back_chain
+from atlas_rap.planner.landmarks import find_landmarks
 from atlas_rap.planner.limits import LimitReached, Limits
 from atlas_rap.planner.mutexes import fact_mutexes
 from atlas_rap.planner.partial_order import check_every_linearisation, deorder
@@ -120,13 +121,13 @@ def solve(problem: PlanningProblem, timeout: float | None = DEFAULT_TIMEOUT, pro
         return _without_plan(limits, phase, stats, "before the search began")
     phase("search", "search")
     heuristic = relaxed_plan_heuristic(task)
-    landmarks = back_chain(task, heuristic).graph()
+    landmarks = find_landmarks(task, heuristic)
     found = lama_search(task, heuristic, landmarks=landmarks, stop=limits.expired, stagnation=STAGNATION)
     if found.status == "stuck":  # restart with hFF by h_add's best supporters, landmarks ordered by mutexes
         first = found
         mutexes = fact_mutexes(task, heuristic, stop=limits.expired)
         if mutexes is not None:  # back-chained again, with the lookahead only mutexes allow
-            landmarks = back_chain(task, heuristic, mutexes).graph(mutexes)
+            landmarks = find_landmarks(task, heuristic, mutexes)
             stats["reasonable_orderings"] = landmarks.reasonable
         found = lama_search(task, relaxed_plan_heuristic(task, additive=True), landmarks=landmarks,
                             stop=limits.expired)
