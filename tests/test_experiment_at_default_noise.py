@@ -37,8 +37,10 @@ def test_the_map_of_the_errands_area_does_not_get_worse_while_layer_iv_maps_and_
         for before, run in zip(qualities, one["runs"][1:]):
             if run["primary_s"]["IV"] > 0:  # mapping: the same area seen again
                 assert run["map_quality"] >= before - 0.005, (one["seed"], qualities)
-            else:  # mapping is over: the map is carried as it is
+            elif run["primary_s"]["III"] == 0:  # mapping is over: the map is carried as it is
                 assert run["map_quality"] == before, (one["seed"], qualities)
+            else:  # ... but for a block Layer III assessed and put on it (the world's visitor, lingering)
+                assert run["map_quality"] >= before - 0.01, (one["seed"], qualities)
         if all(run["primary_s"]["IV"] > 0 for run in one["runs"]):  # never good enough: still it rose
             assert qualities[-1] > qualities[0], (one["seed"], qualities)
 
@@ -49,7 +51,9 @@ def test_after_the_switch_layer_ii_drives_each_run_within_a_quarter_of_the_optim
         crossed = crossing_run(one)
         for run in one["runs"]:
             if crossed is not None and run["run"] > crossed:
-                assert run["primary_s"]["II"] > 0.95 * run["duration_s"], (one["seed"], run["primary_s"])
+                # Layer II drives; Layer I (and III) while something is in the way, and Layer IV for the
+                # seconds it takes to map again where a block Layer III put on the map lowered its quality
+                assert run["primary_s"]["II"] > 0.9 * run["duration_s"], (one["seed"], run["primary_s"])
                 assert run["duration_s"] < min(r["duration_s"] for r in one["runs"][:crossed]), one["seed"]
                 after.append(run["duration_s"] / run["optimal_s"])
     assert after, "no seed switched to Layer II"

@@ -62,7 +62,8 @@ from scipy import ndimage
 from atlas_rap.maps.frame import GridFrame
 from atlas_rap.maps.localisation import wrap
 
-__all__ = ["Match", "MatchSettings", "MapMatcher", "SettledMap", "correlative_match", "scan_points"]
+__all__ = ["Echoes", "Match", "MatchSettings", "MapMatcher", "SettledMap", "correlative_match", "scan_echoes",
+           "scan_points"]
 
 Pose = tuple[float, float, float]
 
@@ -176,23 +177,53 @@ class SettledMap:
         return v * self.width + u
 
 
+def _ring_echoes(rings: list[tuple[Pose, np.ndarray]], odometry: Pose, angles: np.ndarray, max_range: float):
+    """Each ring of ``rings`` with an echo, in the frame of the robot at ``odometry``: (x, y, the
+    bearings of its echoing beams, their ranges)."""
+    c0, s0 = math.cos(odometry[2]), math.sin(odometry[2])
+    for (x, y, heading), ranges in rings:
+        echo = ranges < max_range - 1e-6
+        if echo.any():
+            dx, dy = x - odometry[0], y - odometry[1]  # the ring's pose in the robot's frame now
+            yield dx * c0 + dy * s0, dy * c0 - dx * s0, angles[echo] + (heading - odometry[2]), ranges[echo]
+
+
 def scan_points(rings: list[tuple[Pose, np.ndarray]], odometry: Pose, angles: np.ndarray, robot_radius: float,
                 max_range: float, beam_width: float, rays: int) -> np.ndarray:
     """The ends of the echoes of ``rings`` ((odometry when read, ranges from the rim)), ``rays`` points
     across each beam's cone, in the frame of the robot at ``odometry``: an array (beams, rays, 2)."""
     offsets = np.linspace(-beam_width / 2, beam_width / 2, rays) if rays > 1 else np.zeros(1)
-    c0, s0 = math.cos(odometry[2]), math.sin(odometry[2])
     ends = []
-    for (x, y, heading), ranges in rings:
-        echo = ranges < max_range - 1e-6
-        if not echo.any():
-            continue
-        dx, dy = x - odometry[0], y - odometry[1]  # the ring's pose in the robot's frame now
-        rx, ry, turn = dx * c0 + dy * s0, dy * c0 - dx * s0, heading - odometry[2]
-        bearing = angles[echo][:, None] + offsets[None, :] + turn
-        reach = (ranges[echo] + robot_radius)[:, None]
+    for rx, ry, bearings, ranges in _ring_echoes(rings, odometry, angles, max_range):
+        bearing = bearings[:, None] + offsets[None, :]
+        reach = (ranges + robot_radius)[:, None]
         ends.append(np.stack([rx + reach * np.cos(bearing), ry + reach * np.sin(bearing)], axis=-1))
     return np.concatenate(ends) if ends else np.zeros((0, len(offsets), 2))
+
+
+@dataclass(frozen=True)
+class Echoes:
+    """The echoes of a local scan (:func:`scan_echoes`), in the frame of a robot: where each sonar sat
+    (``origins``, (N, 2)), the bearing of its beam's axis (``bearings``, radians) and its range
+    (``ranges``, metres from the sonar); ``half_width``: half the beam's cone (radians). What the wall
+    compass (:mod:`atlas_rap.maps.wall_compass`) reads."""
+
+    origins: np.ndarray
+    bearings: np.ndarray
+    ranges: np.ndarray
+    half_width: float
+
+
+def scan_echoes(rings: list[tuple[Pose, np.ndarray]], odometry: Pose, angles: np.ndarray, robot_radius: float,
+                max_range: float, beam_width: float) -> Echoes:
+    """The echoes of ``rings`` ((odometry when read, ranges from the rim)) as :class:`Echoes`, in the
+    frame of the robot at ``odometry``."""
+    parts = [(rx + robot_radius * np.cos(bearings), ry + robot_radius * np.sin(bearings), bearings, ranges)
+             for rx, ry, bearings, ranges in _ring_echoes(rings, odometry, angles, max_range)]
+    if not parts:
+        return Echoes(np.zeros((0, 2)), np.zeros(0), np.zeros(0), beam_width / 2)
+    x, y, bearings, ranges = (np.concatenate(column) for column in zip(*parts))
+    return Echoes(np.stack([x, y], axis=1), bearings, ranges, beam_width / 2)
 
 
 def correlative_match(reference: SettledMap, pose: Pose, points: np.ndarray, rings: int,
@@ -288,6 +319,7 @@ class MapMatcher:
         self._reference: SettledMap | None = None
         self._reference_of: tuple[float, float] | None = None  # the snapshots' times it was made from
         self.matches = 0  # matches made (a correction applied)
+        self.scan: Echoes | None = None  # the local scan of the last call of correct that was due
 
     def add_ring(self, odometry: Pose, ranges: np.ndarray) -> None:
         """A new sonar ring read at ``odometry``: kept for the local scan when the robot has moved enough."""
@@ -330,15 +362,20 @@ class MapMatcher:
 
     def correct(self, pose: Pose, odometry: Pose, now: float) -> Pose | None:
         """The pose corrected by a match of the local scan round ``pose`` (the robot at ``odometry``),
-        when one is due and the robot sees enough settled space; else None (keep the pose)."""
+        when one is due and the robot sees enough settled space; else None (keep the pose). When one
+        was due, :attr:`scan` holds the local scan's :class:`Echoes` in the frame of the robot at
+        ``odometry``, matched or not; else None."""
+        self.scan = None
         if not self.due(odometry):
             return None
         self._matched_at = (self.travelled, odometry[2])
+        rings = [(o, r) for o, r, _ in self.rings]
+        self.scan = scan_echoes(rings, odometry, self.angles, self.robot_radius, self.max_range, self.beam_width)
         reference = self._settled_map(now)
         if reference is None or not reference.walls:
             return None
-        points = scan_points([(o, r) for o, r, _ in self.rings], odometry, self.angles, self.robot_radius,
-                             self.max_range, self.beam_width, self.rays)
+        points = scan_points(rings, odometry, self.angles, self.robot_radius, self.max_range, self.beam_width,
+                             self.rays)
         match = correlative_match(reference, pose, points, len(self.rings), self.settings)
         if match is None:
             return None

@@ -39,7 +39,10 @@ How it knows where the robot is, in the manner of nav2's AMCL
   seconds ago, where it has settled, when the robot sees mostly settled
   space: when it comes back to where it has been, or drives on a map
   carried from an earlier run (``--map-in``), whose frame it keeps. Where
-  it explores, the pose is its odometry. Measured with ``deliver.rap
+  it explores, the position is its odometry's, and the heading is held to
+  the directions the building's walls run in, learnt from the same local
+  scans (:class:`~atlas_rap.maps.wall_compass.WallCompass`, the
+  :data:`WALL_COMPASS` settings). Measured with ``deliver.rap
   --no-prior-map`` at the default noise on 12 seeds and in the experiment
   (``benchmarks/bench_mapping_correction.py``; docs/how-to/localise.md has the table).
   The particle filter on the grid being built was measured first and made
@@ -78,12 +81,13 @@ from atlas_rap.maps.localisation import (LikelihoodField, ParticleFilter, SonarL
                                          wrap)
 from atlas_rap.maps.relocalisation import best_poses
 from atlas_rap.maps.scan_matching import MapMatcher
+from atlas_rap.maps.wall_compass import CompassSettings, WallCompass
 from atlas_rap.skills.beliefs import GRID, LOCALISATION, POSE, POSE_ESTIMATE, POSE_TRACK, SONAR, PoseEstimate
 from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.robot import Pose
 from atlas_rap.skills.skill import Skill
 
-__all__ = ["LOCALISED_HEADING", "LOCALISED_SPREAD", "Localiser", "UPDATE_ANGLE", "UPDATE_DISTANCE"]
+__all__ = ["LOCALISED_HEADING", "LOCALISED_SPREAD", "Localiser", "UPDATE_ANGLE", "UPDATE_DISTANCE", "WALL_COMPASS"]
 
 UPDATE_DISTANCE = 0.2
 """Metres the odometry must move between two updates (AMCL's ``update_min_d``, 0.25 m by default).
@@ -113,6 +117,10 @@ SEARCH_DISTANCE = 2.0
 """Metres it drives while lost before its rings are searched for, if it does not turn."""
 START_SPREAD = (0.1, 0.1, math.radians(5.0))
 """The initial belief's spread (x, y, heading) around the start pose."""
+WALL_COMPASS: CompassSettings | None = CompassSettings()
+"""Without a prior map: the settings of the wall compass that holds the heading to the walls'
+directions (:mod:`atlas_rap.maps.wall_compass`); None turns it off, as
+``benchmarks/bench_wall_compass.py`` does to compare."""
 
 
 @registered("localiser")
@@ -143,6 +151,7 @@ class Localiser(Skill):
         if not world.walls:  # no prior map: the odometry, corrected against the map being built
             self.matcher = MapMatcher(self._angles, world.robot.radius, world.sonar.max_range,
                                       world.sonar.beam_width, world.sonar.rays_per_beam)
+            self.compass = WallCompass(WALL_COMPASS) if WALL_COMPASS is not None else None
             self._anchor = ((self._odometry, None), self._odometry)
             return
         self._sensor = SonarLikelihood(beam_width=world.sonar.beam_width, rays=world.sonar.rays_per_beam)
@@ -188,7 +197,7 @@ class Localiser(Skill):
 
     def _corrected(self, odometry: Pose) -> Pose:
         """Without a prior map: the last correction moved as the odometry has since, corrected again by a
-        match against the grid when one is due."""
+        match against the grid when one is due, and its heading by the wall compass on the same local scan."""
         (estimate, _), at = self._anchor
         pose = compose(estimate, between(at, odometry))
         reading, grid = self.context.beliefs.get(SONAR), self.context.beliefs.get(GRID)
@@ -200,10 +209,15 @@ class Localiser(Skill):
         matcher.add_ring(odometry, reading[0])
         matcher.keep(now, grid)
         corrected = matcher.correct(pose, odometry, now)
-        if corrected is None:
-            return pose
-        self._anchor = ((corrected, None), odometry)
-        return corrected
+        if corrected is not None:
+            pose = corrected
+        if matcher.scan is not None and self.compass is not None:
+            turn = self.compass.correction(matcher.scan, pose[2])
+            if turn is not None:
+                pose = (pose[0], pose[1], wrap(pose[2] + turn))
+        if corrected is not None or matcher.scan is not None:
+            self._anchor = ((pose, None), odometry)
+        return pose
 
     def _update(self, odometry: Pose) -> tuple[Pose, np.ndarray] | None:
         """Move, weigh and resample the particles on a new ring, once the robot has moved enough since
