@@ -10,7 +10,8 @@
   ``map_render``).
 - ``rooms``: rooms and doorways; ``gridpath``: shortest paths on a grid.
 - ``localisation``: Monte Carlo localisation on a known map; ``scan_matching``: the
-  pose of a robot that maps, corrected against its map; ``agreement``: how well a
+  pose of a robot that maps, corrected against its map; ``wall_compass``: its heading held
+  to the directions its building's walls run in; ``agreement``: how well a
   built map agrees with the true walls.
 - ``rosmap``: ROS map_server files.
 

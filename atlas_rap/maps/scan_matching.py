@@ -28,7 +28,8 @@ to match against while it is being drawn, so each part is chosen for that
   least :attr:`~MatchSettings.coverage` of the scan's beams end in settled
   cells (free, or at a wall): when the robot comes back to a place it has
   mapped, or drives on a map carried from an earlier run (``--map-in``).
-  Where it explores, the pose is its odometry, as before.
+  Where it explores, the matcher leaves the pose alone (the localiser's
+  wall compass, :mod:`atlas_rap.maps.wall_compass`, holds its heading).
 - **The likelihood field of the settled walls**, each beam scored at its best
   fit across its cone (the sonar reads the nearest echo across its 15
   degrees), beams ending in unsettled or unknown cells scored as neither
