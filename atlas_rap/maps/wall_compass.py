@@ -163,7 +163,8 @@ class WallCompass:
     def correction(self, echoes: Echoes, heading: float) -> float | None:
         """The turn (radians) to add to the robot's ``heading`` so that the walls of the local scan
         ``echoes`` (in the robot's frame) run along a learnt direction, or None (no learnt direction
-        near, or no line that decides); the scan's vote is counted afterwards."""
+        near, or no line that decides). A scan whose walls no learnt direction accounts for then votes
+        for its sharpest direction, which may teach a new one."""
         s = self.settings
         if len(echoes.ranges) < s.min_support:
             return None
