@@ -134,7 +134,6 @@ class WallCompass:
         self._angles = np.arange(self._bins) * (math.pi / self._bins)
         self.votes = np.zeros(self._bins)
         self._learnt: list[float] = []
-        self.corrections = 0  # scans that turned the heading
 
     def directions(self) -> list[float]:
         """The learnt directions (radians in [0, pi)), in the order they were learnt."""
@@ -178,8 +177,6 @@ class WallCompass:
             if support[best] >= s.min_support:
                 self.votes[best] += 1.0
                 self._learn()
-        if turn is not None:
-            self.corrections += 1
         return turn
 
     def _turn(self, world: Echoes) -> tuple[float | None, bool]:
