@@ -64,6 +64,7 @@ def test_after_the_switch_layer_ii_drives_each_run_within_a_quarter_of_the_optim
 def test_the_runs_mapping_are_slower_for_the_speed_cap_and_the_figures_say_how_much(experiment):
     for one in experiment["per_seed"]:
         for run in one["runs"]:
-            assert run["path_at_top_speed_s"] == pytest.approx(run["path_m"] / 0.6, abs=0.01)
+            # both figures are rounded to 0.01: 0.005 of the time and 0.005 / 0.6 of the path apart at most
+            assert run["path_at_top_speed_s"] == pytest.approx(run["path_m"] / 0.6, abs=0.014)
             if run["primary_s"]["IV"] > 0.9 * run["duration_s"]:  # mapping at 0.6 of top speed
                 assert run["duration_s"] > 1.4 * run["path_at_top_speed_s"], (one["seed"], run)
