@@ -215,7 +215,7 @@ class Localiser(Skill):
             turn = self.compass.correction(matcher.scan, pose[2])
             if turn is not None:
                 pose = (pose[0], pose[1], wrap(pose[2] + turn))
-        if corrected is not None or matcher.scan is not None:
+        if matcher.scan is not None:  # a match was due (a correction is made only then)
             self._anchor = ((pose, None), odometry)
         return pose
 
