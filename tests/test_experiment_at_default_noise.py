@@ -51,9 +51,15 @@ def test_after_the_switch_layer_ii_drives_each_run_within_a_quarter_of_the_optim
         crossed = crossing_run(one)
         for run in one["runs"]:
             if crossed is not None and run["run"] > crossed:
-                # Layer II drives; Layer I (and III) while something is in the way, and Layer IV for the
-                # seconds it takes to map again where a block Layer III put on the map lowered its quality
-                assert run["primary_s"]["II"] > 0.9 * run["duration_s"], (one["seed"], run["primary_s"])
+                if run["timeline"][0]["layer"] == "IV":
+                    # the run before ended with the map under the threshold (a block Layer III assessed
+                    # lowered it): Layer IV maps again until it crosses, then Layer II drives
+                    assert run["timeline"][-1]["layer"] == "II", (one["seed"], run["timeline"])
+                    assert run["primary_s"]["IV"] < 0.6 * run["duration_s"], (one["seed"], run["primary_s"])
+                else:
+                    # Layer II drives; Layer I (and III) while something is in the way, and Layer IV for
+                    # the seconds it takes to map again where a block Layer III put on the map lowered it
+                    assert run["primary_s"]["II"] > 0.9 * run["duration_s"], (one["seed"], run["primary_s"])
                 assert run["duration_s"] < min(r["duration_s"] for r in one["runs"][:crossed]), one["seed"]
                 after.append(run["duration_s"] / run["optimal_s"])
     assert after, "no seed switched to Layer II"

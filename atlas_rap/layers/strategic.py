@@ -40,7 +40,21 @@ The slowest layer. At its period it
   robot is sent somewhere else.) When a block Layer III assessed cut every
   known way, Layer IV first remaps: it doubts the walls it remembers within
   sonar range but cannot see from where the robot is
-  (:meth:`StrategicLayer._remap`), plans through them and maps what it finds.
+  (:meth:`StrategicLayer._remap`), plans through them and maps what it finds;
+- **explores** in the runs after the first, while it maps an errand's
+  ``area`` and the map it began the run with is clearly short of the
+  rules' threshold (below threshold - hysteresis, the settings
+  ``map-quality-threshold`` and ``map-quality-hysteresis``): on its way to
+  each place the robot is sent to, it goes by the
+  reachable spot from which the sonar would learn most of the area the map
+  is still unsure of (:func:`~atlas_rap.maps.viewpoints.best_viewpoint`),
+  chosen once per place and forgotten once passed. The first run (no map
+  yet: the grid it began with had no cell seen) only finds the way; once
+  the robot has a map that is still poor, the runs after it look where it
+  is poor, so a map cannot stall under the threshold because the errand
+  always takes the same way (seed §5.2: in the initial runs the robot "had
+  to explore its surroundings while trying to find a path to the goal").
+  ``(layer-setting explore 0)`` turns it off.
 
 The grid can be carried from run to run (``atlas run --map-in/--map-out``).
 """
@@ -48,6 +62,7 @@ The grid can be carried from run to run (``atlas run --map-in/--map-out``).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -56,6 +71,9 @@ from atlas_rap.layers.route_geometry import distance_to_polyline, echo_points
 from atlas_rap.logic import Compound, Var
 from atlas_rap.model import Point
 from atlas_rap.skills.beliefs import GOAL, GRID, POSE, POSES, SONAR, SPEED_LIMIT, PlannedRoute
+
+if TYPE_CHECKING:
+    from atlas_rap.maps.gridpath import GridPath, GridPlanner
 
 
 class StrategicLayer(Layer):
@@ -73,6 +91,7 @@ class StrategicLayer(Layer):
         world = stack.world
         stack.beliefs[GRID] = grid if grid is not None else OccupancyGrid.covering(world.bounds, GRID_RESOLUTION)
         self.area = area
+        self.map_carried = bool(stack.beliefs[GRID].updated.any())  # a map from an earlier run (--map-in)
         if area is not None and area.shape != stack.beliefs[GRID].frame.shape:
             raise ValueError(f"the area is {area.shape} cells, the grid {stack.beliefs[GRID].frame.shape}")
         stack.beliefs.setdefault(POSES, [])
@@ -89,11 +108,16 @@ class StrategicLayer(Layer):
         self._last_ranges = None
         self._marked: Point | None = None  # where the last footprint was marked free
         self._last_ring: tuple[float, float, float] | None = None  # where the last ring fused was read
+        self.viewpoint: Point | None = None  # where the robot looks on its way (_viewpoint)
+        self.viewpoint_goal: str | None = None  # the goal it was chosen for
+        self.looked_from: list[Point] = []  # the viewpoints of this run so far
+        self.explores = False  # whether this run looks where the map is unsure (_explores)
         if stack.prior_map:
             stack.assert_fact(self, "mapping", "on")
         else:
             self.quality_at = 0.0
             self._measure()
+            self.explores = self._explores()
         stack.logging_rings = stack.holds("mapping", "on")
 
     def tick(self, now: float) -> None:
@@ -128,6 +152,9 @@ class StrategicLayer(Layer):
             self._measure()
         if stack.driver == self.name and echoes:
             self._watch_path(np.concatenate(echoes))
+        pose = beliefs.get(POSE)
+        if self.viewpoint is not None and pose is not None and math.dist(pose[:2], self.viewpoint) <= VIEWPOINT_REACHED:
+            self.viewpoint = None  # passed: a re-plan goes straight to the goal
 
     def _ring_weight(self, pose: tuple[float, float, float], distance: float, turn: float) -> float:
         """The share of a reading's evidence the ring read at ``pose`` counts for: by the motion since
@@ -197,12 +224,59 @@ class StrategicLayer(Layer):
                 stack.post(self, [("retract", Compound("no-route", ()))])
                 self.no_route_goal = None
         self.path_goal, self.path_version = goal, stack.grid_version
-        self.path = stack.grid_planner(unknown_passable=True).plan(start, stack.world.places[goal].point)
+        planner = stack.grid_planner(unknown_passable=True)
+        target = stack.world.places[goal].point
+        via = self._viewpoint(goal, start, planner)
+        self.path = planner.plan(start, target) if via is None else self._via(planner, start, via, target)
         if self.path is None:
             stack.assert_fact(self, "no-route")
             return (f"no way to {goal} on the occupancy grid, not even through its unknown part: "
                     f"every way is blocked")
         return PlannedRoute(self.path.waypoints, {}, self.name)
+
+    def _explores(self) -> bool:
+        """Whether this run explores (module docstring, "explores"): ``explore`` is not 0, the layer
+        has an errand's area, and the run began on a map carried from an earlier run that is clearly
+        short of the rules' threshold, below it by more than their hysteresis. (A map that crossed
+        the threshold and slipped a little, under a block Layer III put on it, is mapped on the way
+        as before: no detour for a few thousandths.)"""
+        stack = self.stack
+        if self.area is None or not self.map_carried or stack.setting("explore", 1.0) <= 0.0:
+            return False
+        short_of = stack.setting("map-quality-threshold", 0.9) - stack.setting("map-quality-hysteresis", 0.02)
+        return self.quality() < short_of
+
+    def _viewpoint(self, goal: str, start: Point, planner: GridPlanner) -> Point | None:
+        """Where to look on the way to ``goal`` (module docstring, "explores"): chosen once per
+        goal the robot is sent to, kept until the robot has passed it; None when the layer has no
+        area, is not mapping, is finding a way round a block, or does not explore this run."""
+        from atlas_rap.maps.viewpoints import best_viewpoint
+
+        stack = self.stack
+        if (not self.explores or not stack.holds("mapping", "on") or stack.holds("no-route")
+                or self.no_route_goal is not None):
+            self.viewpoint = None
+            return None
+        if goal != self.viewpoint_goal:
+            self.viewpoint_goal = goal
+            found = best_viewpoint(stack.beliefs[GRID], self.area, planner, start, looked_from=self.looked_from)
+            self.viewpoint = found[0] if found is not None else None
+            if self.viewpoint is not None:
+                self.looked_from.append(self.viewpoint)
+        return self.viewpoint
+
+    def _via(self, planner: GridPlanner, start: Point, via: Point, target: Point) -> GridPath | None:
+        """The path from ``start`` to ``target`` by way of ``via``; the straight one when
+        ``via`` cannot be reached or left."""
+        from atlas_rap.maps.gridpath import GridPath
+
+        there, on = planner.plan(start, via), planner.plan(via, target)
+        if there is None or on is None:
+            self.viewpoint = None
+            return planner.plan(start, target)
+        length = there.length + on.length
+        share = (there.unknown_share * there.length + on.unknown_share * on.length) / length if length > 0 else 0.0
+        return GridPath(there.waypoints + on.waypoints[1:], length, share)
 
     def _remap(self) -> None:
         """Every known way cut by a block Layer III assessed (``(route-blocked A B)``): the map is out
@@ -229,6 +303,9 @@ OCCUPIED_LOG_ODDS = math.log(0.6 / 0.4)
 
 FOOTPRINT_SPACING = 0.1
 """Metres the robot moves between the footprints it marks free (the disc under it)."""
+
+VIEWPOINT_REACHED = 0.5
+"""Metres from its viewpoint within which the robot has passed it."""
 
 NEAR_PATH = 0.15
 """Metres beyond the robot's radius from the path within which an echo may block it."""

@@ -245,6 +245,15 @@ class GridPlanner:
         share = float((fraction * legs).sum() / length) if length > 0 else float(fraction[0])
         return GridPath(waypoints, length, share)
 
+    def costs_from(self, start: Point) -> np.ndarray | None:
+        """The cost of the cheapest path from ``start`` to every planning cell (inf where none),
+        or None when ``start`` is nowhere near a passable cell."""
+        snapped = self._snap(start)
+        if snapped is None:
+            return None
+        cumulative, _ = self._mcp.find_costs([snapped[1]])
+        return cumulative
+
     def plan_along(self, start: Point, goal: Point, polyline: tuple[Point, ...] | list[Point],
                    width: float = 1.5) -> GridPath | None:
         """The cheapest path from ``start`` to ``goal`` that keeps within ``width`` metres of
