@@ -21,16 +21,19 @@ SEED = 10  # its errand goes by the storeroom both ways and never sees the corri
 
 @pytest.fixture(scope="module")
 def two_runs(tmp_path_factory):
-    """Two errands on seed 10, with the shipped rules and with exploring turned off."""
+    """Two errands on seed 10, with the shipped rules (exploring) and with exploring turned off."""
     text = RULES.read_text(encoding="utf-8")
-    assert "(layer-setting explore 1)" in text
+    # shipped: not set (so on), only named in a comment
+    assert all(line.startswith(";") for line in text.splitlines() if "explore " in line)
     out: dict[int, tuple[dict, Path]] = {}
     for explore in (1, 0):
         folder = tmp_path_factory.mktemp(f"explore-{explore}")
-        rules = folder / "layers.rap"
-        rules.write_text(text.replace("(layer-setting explore 1)", f"(layer-setting explore {explore})"),
-                         encoding="utf-8")
-        data = skill_acquisition(folder / "out", Settings(runs=2, seed=SEED, obstacles=None, layer_rules=str(rules)))
+        rules = None
+        if not explore:
+            rules = folder / "layers.rap"
+            rules.write_text(text + "(initial-memory (layer-setting explore 0))\n", encoding="utf-8")
+        data = skill_acquisition(folder / "out", Settings(runs=2, seed=SEED, obstacles=None,
+                                                         layer_rules=str(rules) if rules else None))
         out[explore] = data, folder / "out"
     return out
 
