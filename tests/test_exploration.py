@@ -63,3 +63,4 @@ def test_the_second_errand_goes_to_see_what_the_first_left_unseen(two_runs):
     assert unseen(folder, 2) < unseen(folder, 1) / 2, table
     assert unseen(plain_folder, 2) > 2 * unseen(plain_folder, 1) / 3, table  # the same way again sees little new
     assert explored["runs"][1]["map_quality"] >= 0.9 > plain["runs"][1]["map_quality"], table
+

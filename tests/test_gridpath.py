@@ -263,3 +263,21 @@ def test_shortest_route_length_is_inf_when_the_goal_cannot_be_reached(world) -> 
     cut = replace(world, walls=world.walls + (Segment((9.0, -1.0), (9.0, 11.0)),))
     assert shortest_route_length(cut, LAB_START, OFFICE) == math.inf
     assert math.isfinite(shortest_route_length(cut, LAB_START, (4.0, 2.0)))
+
+
+def test_a_track_the_robot_drove_is_passable_though_the_map_closed_it() -> None:
+    # A wall across a 5 m square with a 0.3 m gap, narrower than the robot: no way, until the
+    # robot's own track through the gap is given (a sonar map can close a doorway behind it).
+    frame = GridFrame(100, 100, 0.05)
+    p_occ = np.zeros(frame.shape)
+    col = frame.world_to_cell(2.5, 0.0)[1]
+    p_occ[:, col] = 1.0
+    p_occ[50:56, col] = 0.0
+    start, goal = (1.0, 2.3), (4.0, 2.3)
+    assert plan_path(p_occ, frame, start, goal, 0.2) is None
+    track = [(1.5, 2.35), (2.5, 2.35), (3.5, 2.35)]
+    path = GridPlanner(p_occ, frame, 0.2, tracks=[track]).plan(start, goal)
+    assert path is not None
+    assert [2.0 < y < 2.7 for y in crossings(path, 0, 2.5)] == [True]  # through the gap, once
+    elsewhere = [(0.5, 4.0), (2.0, 4.0)]  # a track that never went through the wall opens nothing
+    assert GridPlanner(p_occ, frame, 0.2, tracks=[elsewhere]).plan(start, goal) is None

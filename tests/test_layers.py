@@ -34,7 +34,7 @@ from atlas_rap.views.experiment import (
 from atlas_rap.views.experiment_seeds import skill_acquisition_seeds
 from atlas_rap.sequencer import Trace
 from atlas_rap.shipped import shipped_root
-from atlas_rap.skills.beliefs import GRID, Belief, Beliefs
+from atlas_rap.skills.beliefs import GRID, POSE, POSE_TRACK, Belief, Beliefs, PlannedRoute
 
 REPO = Path(__file__).resolve().parents[1]
 RULES = shipped_root("rap_library") / "layers.rap"
@@ -438,3 +438,27 @@ def test_a_block_met_while_every_route_is_cut_already_gives_the_drive_back_to_la
     sequencer.change([("assert", Compound("no-route", ()))], "layer III")  # its assessment: nothing new
     sequencer.change([("assert", Compound("obstacle", ("long-lived",)))], "layer I")
     assert primary() == ["(primary-layer iv)"], primary()
+
+
+def test_with_no_way_on_its_map_layer_iv_goes_back_the_way_the_robot_came_but_not_through_a_block():
+    # A sonar map can close a doorway behind the robot. Here a wall closes the whole building at
+    # x = 5 m on a grid otherwise known free; the robot's believed track of this run crosses it.
+    engine = MissionEngine(RunOptions(world="lab-corridor-office", seed=0, prior_map=False))
+    engine.run(0.1)  # the layers started
+    stack = engine.stack
+    grid = stack.beliefs[GRID]
+    grid.log_odds = np.full(grid.frame.shape, -5.0, dtype=np.float32)
+    grid.updated[...] = True
+    col = grid.frame.world_to_cell(5.0, 0.0)[1]
+    grid.log_odds[:, col:col + 2] = 8.0
+    stack.grid_version += 1
+    stack.beliefs[POSE] = (1.5, 1.5, 0.0)
+    layer = stack.layers["IV"]
+    assert isinstance(layer.route("office", (1.5, 1.5), set()), str)  # no way at all: it says so
+    stack.beliefs[POSE_TRACK] = [(0.1 * i, 1.5 + 0.1 * i, 1.5, 0.0) for i in range(70)]  # x 1.5 -> 8.4
+    route = layer.route("office", (1.5, 1.5), set())
+    assert isinstance(route, PlannedRoute)
+    crossing = [(p, q) for p, q in zip(route.waypoints, route.waypoints[1:]) if (p[0] - 5.0) * (q[0] - 5.0) < 0]
+    assert len(crossing) == 1 and all(abs(y - 1.5) < 0.3 for p, q in crossing for y in (p[1], q[1]))
+    stack.blocks.append((5.0, 1.5))  # a block Layer III assessed on that way: the track does not pass it
+    assert isinstance(layer.route("office", (1.5, 1.5), set()), str)

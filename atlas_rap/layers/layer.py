@@ -30,6 +30,7 @@ above it) drives instead, and the trace says so.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -257,14 +258,22 @@ class LayerStack:
         """The layer whose routes the robot follows now."""
         return self._driving_layer()
 
-    def grid_planner(self, *, unknown_passable: bool):
+    def grid_planner(self, *, unknown_passable: bool, track: Sequence[Point] = ()):
         """A path planner on the grid as it is now (cached while the grid and the robot's cell stay).
 
         The blocked points are obstacles; the disc round the robot is free (it
         stands there, whatever the sonar saw). With ``unknown_passable`` False
         (Layers II and III, which do not explore) unknown cells are obstacles.
+        ``track`` (points the robot drove, in order; not cached) is passable
+        but where it comes within reach of a blocked point
+        (:class:`~atlas_rap.maps.gridpath.GridPlanner`'s ``tracks``).
         """
         from atlas_rap.maps.gridpath import GridPlanner
+
+        if track:
+            p_occ, known = self._planning_grid(unknown_passable)
+            return GridPlanner(p_occ, self.beliefs[GRID].frame, self.robot_radius, known=known,
+                               tracks=self._track_pieces(track))
 
         grid = self.beliefs[GRID]
         frame = grid.frame
@@ -274,6 +283,17 @@ class LayerStack:
         cached = self._planners.get(unknown_passable)
         if cached is not None and cached[0] == key:
             return cached[1]
+        p_occ, known = self._planning_grid(unknown_passable)
+        planner = GridPlanner(p_occ, frame, self.robot_radius, known=known)
+        self._planners[unknown_passable] = (key, planner)
+        return planner
+
+    def _planning_grid(self, unknown_passable: bool) -> tuple[np.ndarray, np.ndarray]:
+        """P(occ) and the known cells for :meth:`grid_planner`: the grid, the disc round the robot
+        free, the blocked points occupied."""
+        grid = self.beliefs[GRID]
+        frame = grid.frame
+        pose = self.beliefs.get(POSE)
         p_occ = grid.probabilities()
         known = grid.updated.copy() if unknown_passable else np.ones(p_occ.shape, dtype=bool)
         if not unknown_passable:
@@ -287,9 +307,19 @@ class LayerStack:
             found = frame.disc(x, y, BLOCK_RADIUS)
             if found is not None:
                 p_occ[found[0]][found[1]], known[found[0]][found[1]] = 1.0, True
-        planner = GridPlanner(p_occ, frame, self.robot_radius, known=known)
-        self._planners[unknown_passable] = (key, planner)
-        return planner
+        return p_occ, known
+
+    def _track_pieces(self, track: Sequence[Point]) -> list[list[Point]]:
+        """``track`` cut where it comes within the robot's radius of a blocked point's disc."""
+        reach = BLOCK_RADIUS + self.robot_radius
+        pieces: list[list[Point]] = [[]]
+        for point in track:
+            if any(math.dist(point, block) < reach for block in self.blocks):
+                if pieces[-1]:
+                    pieces.append([])
+            else:
+                pieces[-1].append(point)
+        return [piece for piece in pieces if piece]
 
     def replanned(self) -> None:
         """A layer has a better route than the one being driven (``navigate-to`` asks again)."""

@@ -34,7 +34,10 @@ The slowest layer. At its period it
   ``skimage.graph.MCP`` (:class:`~atlas_rap.maps.gridpath.GridPlanner`),
   unknown cells passable at a cost (optimistic planning), re-planned as
   soon as the grid shows the path blocked. No path at all, even through the
-  unknown: ``(no-route)`` and a reason that says so. (When Layer II or III
+  unknown, and none either along the way the robot came this run (its
+  believed track taken as passable: a sonar map can close a doorway behind
+  the robot, the arcs of echoes off its jambs): ``(no-route)`` and a reason
+  that says so. (When Layer II or III
   has no route on the known map, the stack asserts ``(no-route)`` too, and
   the rules hand the drive to Layer IV, which explores; it holds until the
   robot is sent somewhere else.) When a block Layer III assessed cut every
@@ -70,7 +73,7 @@ from atlas_rap.layers.layer import Layer, LayerStack
 from atlas_rap.layers.route_geometry import distance_to_polyline, echo_points
 from atlas_rap.logic import Compound, Var
 from atlas_rap.model import Point
-from atlas_rap.skills.beliefs import GOAL, GRID, POSE, POSES, SONAR, SPEED_LIMIT, PlannedRoute
+from atlas_rap.skills.beliefs import GOAL, GRID, POSE, POSE_TRACK, POSES, SONAR, SPEED_LIMIT, PlannedRoute
 
 if TYPE_CHECKING:
     from atlas_rap.maps.gridpath import GridPath, GridPlanner
@@ -229,10 +232,26 @@ class StrategicLayer(Layer):
         via = self._viewpoint(goal, start, planner)
         self.path = planner.plan(start, target) if via is None else self._via(planner, start, via, target)
         if self.path is None:
+            self.path = self._along_own_track(start, target)
+        if self.path is None:
             stack.assert_fact(self, "no-route")
             return (f"no way to {goal} on the occupancy grid, not even through its unknown part: "
                     f"every way is blocked")
         return PlannedRoute(self.path.waypoints, {}, self.name)
+
+    def _along_own_track(self, start: Point, target: Point) -> GridPath | None:
+        """No way at all, not even through the unknown; yet the robot got where it is, so the way
+        it came this run may be the way back (module docstring, "plans"): the cheapest path with
+        the robot's believed track of this run passable (:meth:`LayerStack.grid_planner`'s
+        ``track``). None when there is still none."""
+        track = self.stack.beliefs.get(POSE_TRACK)
+        if not track:
+            return None
+        points: list[Point] = []
+        for _, x, y, _ in track:
+            if not points or math.dist(points[-1], (x, y)) >= FOOTPRINT_SPACING:
+                points.append((float(x), float(y)))
+        return self.stack.grid_planner(unknown_passable=True, track=points).plan(start, target)
 
     def _explores(self) -> bool:
         """Whether this run explores (module docstring, "explores"): ``explore`` is not 0, the layer

@@ -28,6 +28,13 @@ hand. The choices:
   closer than ``clearance`` (0.35 m) to an impassable cell (``d`` from the
   distance transform of the passable cells, in metres), so paths keep off
   walls and go through the middle of doorways.
+* **Tracks the robot drove** (``tracks``, polylines of world points in the
+  order driven) are passable whatever the grid says: the planning cells on
+  the straight legs between their points are taken out of the impassable
+  ones.
+  The robot's body was there, so a path along its centre line fits; a
+  sonar map can still close a doorway behind the robot (the arcs of echoes
+  off its jambs) or narrow it under the robot's width plus inflation.
 * **Start and goal** on an impassable cell are moved to the nearest passable
   cell's centre (the feature transform of ``distance_transform_edt``) if it
   is within :data:`SNAP_DISTANCE` (0.6 m); otherwise there is no path. The
@@ -54,6 +61,7 @@ reference length of the shortest route on it.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -113,7 +121,8 @@ class GridPlanner:
 
     def __init__(self, p_occ: np.ndarray, frame: GridFrame, robot_radius: float, *,
                  known: np.ndarray | None = None, resolution: float = 0.1, occupied: float = 0.6,
-                 unknown_cost: float = 2.5, clearance: float = 0.35, clearance_cost: float = 2.0) -> None:
+                 unknown_cost: float = 2.5, clearance: float = 0.35, clearance_cost: float = 2.0,
+                 tracks: Sequence[Sequence[Point]] = ()) -> None:
         p = np.asarray(p_occ, dtype=np.float64)
         if p.shape != frame.shape:
             raise ValueError(f"p_occ has shape {p.shape}, but the frame is {frame.height} x {frame.width}")
@@ -130,6 +139,8 @@ class GridPlanner:
             impassable = ndimage.distance_transform_edt(~obstacle) <= robot_radius / res + 0.5
         else:
             impassable = np.zeros(obstacle.shape, dtype=bool)
+        for track in tracks:
+            impassable &= ~self._cells_along(track)
         costs = np.where(unknown, float(unknown_cost), 1.0)
         if impassable.any() and clearance > 0 and clearance_cost > 0:
             d = ndimage.distance_transform_edt(~impassable) * res
@@ -140,6 +151,20 @@ class GridPlanner:
         self.unknown = unknown
         self._mcp = MCP_Geometric(costs, fully_connected=True)
         self._nearest: np.ndarray | None = None  # feature transform to the nearest passable cell, made when needed
+
+    def _cells_along(self, track: Sequence[Point]) -> np.ndarray:
+        """The planning cells on the straight legs between the points of ``track`` (a mask)."""
+        xy = np.asarray(track, dtype=float).reshape(-1, 2)
+        rows, cols = (np.asarray(v) for v in self.frame.world_to_cell(xy[:, 0], xy[:, 1]))
+        height, width = self.frame.shape
+        mask = np.zeros((height, width), dtype=bool)
+        for r0, c0, r1, c1 in zip(rows, cols, rows[1:], cols[1:]):
+            rr, cc = line(int(r0), int(c0), int(r1), int(c1))
+            on = (rr >= 0) & (rr < height) & (cc >= 0) & (cc < width)
+            mask[rr[on], cc[on]] = True
+        if len(rows) == 1 and 0 <= rows[0] < height and 0 <= cols[0] < width:
+            mask[rows[0], cols[0]] = True
+        return mask
 
     @classmethod
     def from_grid(cls, grid: OccupancyGrid, robot_radius: float, **settings: Any) -> GridPlanner:
