@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from atlas_rap.maps.errand_area import errand_area
+from atlas_rap.layers.strategic import explores_this_run
 from atlas_rap.maps.grid import OccupancyGrid
 from atlas_rap.shipped import shipped_root
 from atlas_rap.sim.world import load_world
@@ -64,3 +65,56 @@ def test_the_second_errand_goes_to_see_what_the_first_left_unseen(two_runs):
     assert unseen(plain_folder, 2) > 2 * unseen(plain_folder, 1) / 3, table  # the same way again sees little new
     assert explored["runs"][1]["map_quality"] >= 0.9 > plain["runs"][1]["map_quality"], table
 
+
+
+@pytest.mark.parametrize("quality, earlier, stalled, explores", [
+    (0.84, [], False, True),  # the default: clearly short of 0.9, whatever came before
+    (0.89, [0.0, 0.84], False, False),  # within the hysteresis: mapped on the way, no detour
+    (0.0, [], True, False),  # when stalled: no run before it to judge by
+    (0.874, [0.0, 0.841], True, False),  # the run before added 0.033: going the same way still pays
+    (0.882, [0.0, 0.841, 0.874], True, True),  # it added 0.008: stalled, so look elsewhere
+    (0.895, [0.0, 0.85, 0.89], True, True),  # stalled and under the threshold by any amount
+    (0.899, [0.0, 0.85, 0.9], True, False),  # it reached the threshold once: a slip is no reason to explore
+    (0.9, [0.0, 0.85, 0.899], True, False),  # at the threshold: nothing to explore for
+])
+def test_a_run_explores_when_the_map_is_clearly_short_or_once_repeating_the_way_stops_paying(
+        quality, earlier, stalled, explores):
+    assert explores_this_run(quality, earlier, 0.9, 0.02, when_stalled=stalled) is explores
+
+
+STALL_SEED = 1  # with rings counted by gmapping's 1.0 m, its third errand adds under 0.02
+
+
+@pytest.fixture(scope="module")
+def stalled_runs(tmp_path_factory):
+    """Four errands on seed 1, rings counted by motion (gmapping's linearUpdate 1.0 m and
+    angularUpdate 0.5 rad), exploring once repetition stalls, and with exploring off."""
+    text = RULES.read_text(encoding="utf-8")
+    out: dict[str, tuple[dict, Path]] = {}
+    for name, explore in (("stalled", "(layer-setting explore-when-stalled 1)"), ("off", "(layer-setting explore 0)")):
+        folder = tmp_path_factory.mktemp(name)
+        rules = folder / "layers.rap"
+        rules.write_text(text + "(initial-memory (layer-setting map-update-distance 1.0) "
+                         f"(layer-setting map-update-turn 0.5) {explore})\n", encoding="utf-8")
+        data = skill_acquisition(folder / "out", Settings(runs=4, seed=STALL_SEED, obstacles=None,
+                                                         layer_rules=str(rules)))
+        out[name] = data, folder / "out"
+    return out
+
+
+def test_exploring_when_stalled_waits_for_a_run_that_adds_little_then_looks_elsewhere(stalled_runs):
+    (stalled, folder), (off, off_folder) = stalled_runs["stalled"], stalled_runs["off"]
+    qualities = [run["map_quality"] for run in stalled["runs"]]
+    table = f"stalled: {qualities}; off: {[run['map_quality'] for run in off['runs']]}"
+    print(table)
+    assert all(run["ok"] for run in stalled["runs"] + off["runs"]), table
+    # every run noted the quality it began with, in the grid it carried on
+    assert OccupancyGrid.load_npz(folder / "map-run4.npz").run_qualities == [0.0, *qualities[:3]], table
+    # runs 2 and 3 each added 0.02 or more to the run before: the same errand as with exploring off
+    assert qualities[1] - qualities[0] >= 0.02 and qualities[2] - qualities[1] < 0.02, table
+    for run in (1, 2, 3):
+        grids = [OccupancyGrid.load_npz(f / f"map-run{run}.npz") for f in (folder, off_folder)]
+        assert np.array_equal(grids[0].log_odds, grids[1].log_odds), (run, table)
+    # run 3 added under 0.02, so run 4 went to look where the map is unsure
+    assert unseen(folder, 4) < unseen(off_folder, 4), table
+    assert stalled["runs"][3]["map_quality"] > off["runs"][3]["map_quality"], table

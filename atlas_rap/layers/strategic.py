@@ -57,7 +57,11 @@ The slowest layer. At its period it
   is poor, so a map cannot stall under the threshold because the errand
   always takes the same way (seed §5.2: in the initial runs the robot "had
   to explore its surroundings while trying to find a path to the goal").
-  ``(layer-setting explore 0)`` turns it off.
+  ``(layer-setting explore 0)`` turns it off; with ``(layer-setting
+  explore-when-stalled 1)`` a run explores only once the errand's way taken
+  again has stopped paying (the run before added less than the hysteresis
+  to the quality) while the map has never reached the threshold
+  (:meth:`StrategicLayer._explores`).
 
 The grid can be carried from run to run (``atlas run --map-in/--map-out``).
 """
@@ -255,15 +259,19 @@ class StrategicLayer(Layer):
 
     def _explores(self) -> bool:
         """Whether this run explores (module docstring, "explores"): ``explore`` is not 0, the layer
-        has an errand's area, and the run began on a map carried from an earlier run that is clearly
-        short of the rules' threshold, below it by more than their hysteresis. (A map that crossed
-        the threshold and slipped a little, under a block Layer III put on it, is mapped on the way
-        as before: no detour for a few thousandths.)"""
+        has an errand's area, the run began on a map carried from an earlier run, and
+        :func:`explores_this_run` says so of its quality and the earlier runs' (the rules' threshold,
+        hysteresis and ``explore-when-stalled``). Every run notes the quality it begins with in
+        the grid's ``run_qualities``, whether it explores or not."""
         stack = self.stack
+        grid = stack.beliefs[GRID]
+        quality, earlier = self.quality(), list(grid.run_qualities)
+        grid.run_qualities.append(quality)
         if self.area is None or not self.map_carried or stack.setting("explore", 1.0) <= 0.0:
             return False
-        short_of = stack.setting("map-quality-threshold", 0.9) - stack.setting("map-quality-hysteresis", 0.02)
-        return self.quality() < short_of
+        return explores_this_run(quality, earlier, stack.setting("map-quality-threshold", 0.9),
+                                 stack.setting("map-quality-hysteresis", 0.02),
+                                 when_stalled=stack.setting("explore-when-stalled", 0.0) > 0.0)
 
     def _viewpoint(self, goal: str, start: Point, planner: GridPlanner) -> Point | None:
         """Where to look on the way to ``goal`` (module docstring, "explores"): chosen once per
@@ -322,6 +330,21 @@ OCCUPIED_LOG_ODDS = math.log(0.6 / 0.4)
 
 FOOTPRINT_SPACING = 0.1
 """Metres the robot moves between the footprints it marks free (the disc under it)."""
+
+def explores_this_run(quality: float, earlier: list[float], threshold: float, hysteresis: float, *,
+                      when_stalled: bool = False) -> bool:
+    """Whether a run that maps an errand's area on a carried map explores (the module docstring,
+    "explores"), from the map quality it begins with and those the earlier runs began with.
+
+    By default, while the map is clearly short of the threshold: under it by more than the
+    hysteresis. ``when_stalled``: only once the errand's way taken again has stopped paying
+    (the run before added less than the hysteresis), while the map is under the threshold by
+    any amount and never reached it in an earlier run (a map that slipped under a block Layer
+    III put on it is mapped on the way, with no detour)."""
+    if not when_stalled:
+        return quality < threshold - hysteresis
+    return bool(earlier) and quality - earlier[-1] < hysteresis and quality < threshold and max(earlier) < threshold
+
 
 VIEWPOINT_REACHED = 0.5
 """Metres from its viewpoint within which the robot has passed it."""

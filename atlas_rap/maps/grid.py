@@ -332,6 +332,9 @@ class OccupancyGrid:
     marks the cells any reading has touched (the default region of
     :meth:`quality`); ``cells_updated`` counts the cell updates made so
     far. ``model`` is the :class:`SonarModel` of :meth:`update_sonar`.
+    ``run_qualities`` is the map quality each run that carried the grid
+    measured as it began (Layer IV keeps it: ``atlas run --map-in/--map-out``
+    carries it in the file), so a run can tell what the one before it added.
 
     Both arrays are views into buffers with a hidden margin as wide as a
     sonar cone reaches (see the module docstring). They stay the grid's
@@ -348,6 +351,7 @@ class OccupancyGrid:
         self._log_odds = self._buffer
         self._updated = self._seen
         self.cells_updated = 0  # cell updates by update_sonar so far (a cell updated twice counts twice)
+        self.run_qualities: list[float] = []
         # room for the default sonar's cones; a longer-ranged sonar grows it (and moves the views)
         self._pad(self._required_margin(SonarConfig()))
 
@@ -615,7 +619,8 @@ class OccupancyGrid:
         (float32 probabilities, for readers that want only those), ``frame``
         = [height, width, resolution, origin x, origin y, origin yaw] (the
         layout of the abstraction levels' ``grid.npz``, so ``atlas map
-        render`` draws either) and ``model`` (the :class:`SonarModel` as JSON).
+        render`` draws either), ``model`` (the :class:`SonarModel` as JSON)
+        and ``run_qualities`` (float64; an older file without it loads with none).
         Written whole or not at all (``atlas_rap.outputs``).
         """
         path = Path(path)
@@ -625,7 +630,8 @@ class OccupancyGrid:
             np.savez_compressed(stream, log_odds=np.ascontiguousarray(self._log_odds),
                                 updated=np.ascontiguousarray(self._updated), p_occ=self.probabilities(),
                                 frame=self.frame.to_array(),
-                                model=np.array(json.dumps(asdict(self.model))))
+                                model=np.array(json.dumps(asdict(self.model))),
+                                run_qualities=np.array(self.run_qualities, dtype=np.float64))
         return path
 
     @classmethod
@@ -650,6 +656,8 @@ class OccupancyGrid:
                     grid.updated[...] = data["updated"]
                 else:
                     grid._set_probabilities(data["p_occ"])
+                if "run_qualities" in data:
+                    grid.run_qualities = [float(q) for q in np.ravel(data["run_qualities"])]
             except (KeyError, TypeError) as exc:
                 raise ValueError(str(exc).strip("'\"")) from None
         return grid
