@@ -281,3 +281,14 @@ def test_a_track_the_robot_drove_is_passable_though_the_map_closed_it() -> None:
     assert [2.0 < y < 2.7 for y in crossings(path, 0, 2.5)] == [True]  # through the gap, once
     elsewhere = [(0.5, 4.0), (2.0, 4.0)]  # a track that never went through the wall opens nothing
     assert GridPlanner(p_occ, frame, 0.2, tracks=[elsewhere]).plan(start, goal) is None
+    # the cells an earlier run's centre passed over (OccupancyGrid.driven) open the gap the same way
+    driven = np.zeros(frame.shape, dtype=bool)
+    row = frame.world_to_cell(0.0, 2.35)[0]
+    driven[row - 2:row + 3, col - 20:col + 21] = True
+    path = GridPlanner(p_occ, frame, 0.2, driven=driven).plan(start, goal)
+    assert path is not None and [2.0 < y < 2.7 for y in crossings(path, 0, 2.5)] == [True]
+    short_of_the_wall = np.zeros(frame.shape, dtype=bool)
+    short_of_the_wall[row - 2:row + 3, col - 20:col - 5] = True
+    assert GridPlanner(p_occ, frame, 0.2, driven=short_of_the_wall).plan(start, goal) is None
+    with pytest.raises(ValueError, match="driven has shape"):
+        GridPlanner(p_occ, frame, 0.2, driven=driven[1:])

@@ -462,3 +462,38 @@ def test_with_no_way_on_its_map_layer_iv_goes_back_the_way_the_robot_came_but_no
     assert len(crossing) == 1 and all(abs(y - 1.5) < 0.3 for p, q in crossing for y in (p[1], q[1]))
     stack.blocks.append((5.0, 1.5))  # a block Layer III assessed on that way: the track does not pass it
     assert isinstance(layer.route("office", (1.5, 1.5), set()), str)
+
+
+def test_a_carried_map_that_closed_a_doorway_lets_layer_iv_through_where_earlier_runs_drove(tmp_path):
+    # The wall at x = 5 m again, in a map carried from an earlier run: this run has no track yet,
+    # but the grid remembers where the robot's centre went before (OccupancyGrid.driven, in the file).
+    engine = MissionEngine(RunOptions(world="lab-corridor-office", seed=0, prior_map=False))
+    engine.run(0.1)
+    grid = engine.stack.beliefs[GRID]
+    grid.log_odds = np.full(grid.frame.shape, -5.0, dtype=np.float32)
+    grid.updated[...] = True
+    col = grid.frame.world_to_cell(5.0, 0.0)[1]
+    grid.log_odds[:, col:col + 2] = 8.0
+    for i in range(70):  # an earlier run drove x 1.5 -> 8.4 along y = 1.5
+        grid.mark_driven(1.5 + 0.1 * i, 1.5, 0.1)
+    carried = grid.save_npz(tmp_path / "carried.npz")
+
+    engine = MissionEngine(RunOptions(world="lab-corridor-office", seed=0, prior_map=False, map_in=carried))
+    engine.run(0.1)
+    stack = engine.stack
+    grid = stack.beliefs[GRID]
+    assert grid.driven[grid.frame.world_to_cell(5.0, 1.5)]  # the earlier run's way came with the map
+    grid.log_odds[:, col:col + 2] = 8.0  # the wall as the file has it, whatever this run's first rings saw
+    stack.grid_version += 1
+    stack.beliefs[POSE], stack.beliefs[POSE_TRACK] = (1.5, 1.5, 0.0), []
+    layer = stack.layers["IV"]
+    driven = grid.driven.copy()
+    grid.driven[...] = False
+    assert isinstance(layer.route("office", (1.5, 1.5), set()), str)  # without it: no way at all
+    grid.driven[...] = driven
+    route = layer.route("office", (1.5, 1.5), set())
+    assert isinstance(route, PlannedRoute), route
+    crossing = [(p, q) for p, q in zip(route.waypoints, route.waypoints[1:]) if (p[0] - 5.0) * (q[0] - 5.0) < 0]
+    assert len(crossing) == 1 and all(abs(y - 1.5) < 0.3 for p, q in crossing for y in (p[1], q[1]))
+    stack.blocks.append((5.0, 1.5))  # a block assessed on that way: the old way does not pass it
+    assert isinstance(layer.route("office", (1.5, 1.5), set()), str)

@@ -180,6 +180,11 @@ def test_npz_round_trip(tmp_path) -> None:
     assert np.array_equal(back.updated, grid.updated)
     assert back.quality() == grid.quality()
     assert back.run_qualities == [] == grid.run_qualities
+    assert not back.driven.any()
+    grid.mark_driven(1.0, 1.0, 0.1)  # the robot's centre passed (1, 1): a disc of 0.1 m round it
+    row, col = grid.frame.world_to_cell(1.0, 1.0)
+    assert grid.driven[row, col] and grid.driven[row, col + 2] and not grid.driven[row, col + 3]
+    assert np.array_equal(OccupancyGrid.load_npz(grid.save_npz(tmp_path / "driven.npz")).driven, grid.driven)
     grid.run_qualities = [0.0, 0.841, 0.874]  # what the runs that carried it measured as they began
     assert OccupancyGrid.load_npz(grid.save_npz(tmp_path / "carried.npz")).run_qualities == [0.0, 0.841, 0.874]
     # the abstraction levels' layout: frame and p_occ (what `atlas map render` reads)
@@ -187,7 +192,7 @@ def test_npz_round_trip(tmp_path) -> None:
         assert data["frame"].tolist() == [grid.frame.height, grid.frame.width, 0.05, -1.0, -0.5, 0.0]
         np.savez_compressed(tmp_path / "levels.npz", frame=data["frame"], p_occ=data["p_occ"])
     levels = OccupancyGrid.load_npz(tmp_path / "levels.npz")
-    assert levels.run_qualities == []  # a file without them
+    assert levels.run_qualities == [] and not levels.driven.any()  # a file without them
     assert np.allclose(levels.probabilities(), grid.probabilities(), atol=1e-6)
     assert np.array_equal(levels.labels(), grid.labels())
 

@@ -34,9 +34,12 @@ The slowest layer. At its period it
   ``skimage.graph.MCP`` (:class:`~atlas_rap.maps.gridpath.GridPlanner`),
   unknown cells passable at a cost (optimistic planning), re-planned as
   soon as the grid shows the path blocked. No path at all, even through the
-  unknown, and none either along the way the robot came this run (its
-  believed track taken as passable: a sonar map can close a doorway behind
-  the robot, the arcs of echoes off its jambs): ``(no-route)`` and a reason
+  unknown, and none either along the ways the robot has driven (its
+  believed track of this run, and the cells its centre passed in the runs
+  that carried the grid, ``OccupancyGrid.driven``, taken as passable but
+  near a block: a sonar map can close a doorway behind the robot, the arcs
+  of echoes off its jambs, and a map carried to the next run keeps it
+  closed): ``(no-route)`` and a reason
   that says so. (When Layer II or III
   has no route on the known map, the stack asserts ``(no-route)`` too, and
   the rules hand the drive to Layer IV, which explores; it holds until the
@@ -144,6 +147,7 @@ class StrategicLayer(Layer):
                                       self.sonar, weight)
                 if self._marked is None or math.dist(self._marked, (x, y)) >= FOOTPRINT_SPACING:
                     grid.mark_free(float(x), float(y), stack.robot_radius)
+                    grid.mark_driven(float(x), float(y), DRIVEN_RADIUS)
                     self._marked = (float(x), float(y))
                 poses.append((float(x), float(y), float(heading)))
                 if driving:
@@ -244,18 +248,17 @@ class StrategicLayer(Layer):
         return PlannedRoute(self.path.waypoints, {}, self.name)
 
     def _along_own_track(self, start: Point, target: Point) -> GridPath | None:
-        """No way at all, not even through the unknown; yet the robot got where it is, so the way
-        it came this run may be the way back (module docstring, "plans"): the cheapest path with
-        the robot's believed track of this run passable (:meth:`LayerStack.grid_planner`'s
-        ``track``). None when there is still none."""
-        track = self.stack.beliefs.get(POSE_TRACK)
-        if not track:
-            return None
+        """No way at all, not even through the unknown; yet the robot got where it is, so a way it
+        has driven may be the way on (module docstring, "plans"): the cheapest path with the
+        robot's believed track of this run and the grid's driven cells passable
+        (:meth:`LayerStack.grid_planner`'s ``track`` and ``driven``). None when there is still none."""
         points: list[Point] = []
-        for _, x, y, _ in track:
+        for _, x, y, _ in self.stack.beliefs.get(POSE_TRACK) or ():
             if not points or math.dist(points[-1], (x, y)) >= FOOTPRINT_SPACING:
                 points.append((float(x), float(y)))
-        return self.stack.grid_planner(unknown_passable=True, track=points).plan(start, target)
+        if not points and not self.stack.beliefs[GRID].driven.any():
+            return None
+        return self.stack.grid_planner(unknown_passable=True, track=points, driven=True).plan(start, target)
 
     def _explores(self) -> bool:
         """Whether this run explores (module docstring, "explores"): ``explore`` is not 0, the layer
@@ -330,6 +333,11 @@ OCCUPIED_LOG_ODDS = math.log(0.6 / 0.4)
 
 FOOTPRINT_SPACING = 0.1
 """Metres the robot moves between the footprints it marks free (the disc under it)."""
+
+DRIVEN_RADIUS = FOOTPRINT_SPACING
+"""Metres round each footprint's centre that Layer IV marks driven: as far as the next footprint, so
+the marks of a way driven join up."""
+
 
 def explores_this_run(quality: float, earlier: list[float], threshold: float, hysteresis: float, *,
                       when_stalled: bool = False) -> bool:

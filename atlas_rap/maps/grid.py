@@ -335,6 +335,11 @@ class OccupancyGrid:
     ``run_qualities`` is the map quality each run that carried the grid
     measured as it began (Layer IV keeps it: ``atlas run --map-in/--map-out``
     carries it in the file), so a run can tell what the one before it added.
+    ``driven`` (boolean, the frame's shape) marks the cells the robot's
+    centre has passed over, as it believed (:meth:`mark_driven`; Layer IV
+    marks them while it maps), in this run and the runs that carried the
+    grid: the ways it is known to fit through, whatever the sonar later
+    made of them.
 
     Both arrays are views into buffers with a hidden margin as wide as a
     sonar cone reaches (see the module docstring). They stay the grid's
@@ -352,6 +357,7 @@ class OccupancyGrid:
         self._updated = self._seen
         self.cells_updated = 0  # cell updates by update_sonar so far (a cell updated twice counts twice)
         self.run_qualities: list[float] = []
+        self.driven = np.zeros(frame.shape, dtype=bool)
         # room for the default sonar's cones; a longer-ranged sonar grows it (and moves the views)
         self._pad(self._required_margin(SonarConfig()))
 
@@ -525,6 +531,12 @@ class OccupancyGrid:
         cells[disc] = np.minimum(cells[disc], cap)
         self._updated[window] |= disc
 
+    def mark_driven(self, x: float, y: float, radius: float) -> None:
+        """The robot's centre passed (x, y): the cells within ``radius`` of it are :attr:`driven`."""
+        found = self.frame.disc(x, y, radius)
+        if found is not None:
+            self.driven[found[0]] |= found[1]
+
     def doubt_walls(self, x: float, y: float, radius: float, p: float = 0.55,
                     keep: np.ndarray | None = None) -> int:
         """The cells within ``radius`` of (x, y) that the grid believes occupied, but for those
@@ -620,7 +632,8 @@ class OccupancyGrid:
         = [height, width, resolution, origin x, origin y, origin yaw] (the
         layout of the abstraction levels' ``grid.npz``, so ``atlas map
         render`` draws either), ``model`` (the :class:`SonarModel` as JSON)
-        and ``run_qualities`` (float64; an older file without it loads with none).
+        ``run_qualities`` (float64) and ``driven`` (bool); an older file without
+        these loads with none.
         Written whole or not at all (``atlas_rap.outputs``).
         """
         path = Path(path)
@@ -631,7 +644,8 @@ class OccupancyGrid:
                                 updated=np.ascontiguousarray(self._updated), p_occ=self.probabilities(),
                                 frame=self.frame.to_array(),
                                 model=np.array(json.dumps(asdict(self.model))),
-                                run_qualities=np.array(self.run_qualities, dtype=np.float64))
+                                run_qualities=np.array(self.run_qualities, dtype=np.float64),
+                                driven=np.ascontiguousarray(self.driven))
         return path
 
     @classmethod
@@ -646,6 +660,7 @@ class OccupancyGrid:
             try:
                 frame = GridFrame.from_array(data["frame"])
                 arrays = ("log_odds", "updated") if "log_odds" in data else ("p_occ",)
+                arrays += ("driven",) if "driven" in data else ()
                 for name in arrays:
                     if data[name].shape != frame.shape:
                         raise ValueError(f"{name} has shape {data[name].shape}, not the frame's {frame.shape}")
@@ -656,6 +671,8 @@ class OccupancyGrid:
                     grid.updated[...] = data["updated"]
                 else:
                     grid._set_probabilities(data["p_occ"])
+                if "driven" in data:
+                    grid.driven[...] = data["driven"]
                 if "run_qualities" in data:
                     grid.run_qualities = [float(q) for q in np.ravel(data["run_qualities"])]
             except (KeyError, TypeError) as exc:

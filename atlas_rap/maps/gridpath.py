@@ -31,7 +31,9 @@ hand. The choices:
 * **Tracks the robot drove** (``tracks``, polylines of world points in the
   order driven) are passable whatever the grid says: the planning cells on
   the straight legs between their points are taken out of the impassable
-  ones.
+  ones; so are the cells of ``driven`` (a mask on the grid's frame, such as
+  :attr:`~atlas_rap.maps.grid.OccupancyGrid.driven`), a planning cell
+  wherever any of its cells is.
   The robot's body was there, so a path along its centre line fits; a
   sonar map can still close a doorway behind the robot (the arcs of echoes
   off its jambs) or narrow it under the robot's width plus inflation.
@@ -122,7 +124,7 @@ class GridPlanner:
     def __init__(self, p_occ: np.ndarray, frame: GridFrame, robot_radius: float, *,
                  known: np.ndarray | None = None, resolution: float = 0.1, occupied: float = 0.6,
                  unknown_cost: float = 2.5, clearance: float = 0.35, clearance_cost: float = 2.0,
-                 tracks: Sequence[Sequence[Point]] = ()) -> None:
+                 tracks: Sequence[Sequence[Point]] = (), driven: np.ndarray | None = None) -> None:
         p = np.asarray(p_occ, dtype=np.float64)
         if p.shape != frame.shape:
             raise ValueError(f"p_occ has shape {p.shape}, but the frame is {frame.height} x {frame.width}")
@@ -141,6 +143,11 @@ class GridPlanner:
             impassable = np.zeros(obstacle.shape, dtype=bool)
         for track in tracks:
             impassable &= ~self._cells_along(track)
+        if driven is not None:
+            driven = np.asarray(driven, dtype=bool)
+            if driven.shape != frame.shape:
+                raise ValueError(f"driven has shape {driven.shape}, but the frame is {frame.height} x {frame.width}")
+            impassable &= _downsample(np.zeros(frame.shape), driven, frame, resolution)[1]  # no cell driven
         costs = np.where(unknown, float(unknown_cost), 1.0)
         if impassable.any() and clearance > 0 and clearance_cost > 0:
             d = ndimage.distance_transform_edt(~impassable) * res
