@@ -497,3 +497,8 @@ def test_a_carried_map_that_closed_a_doorway_lets_layer_iv_through_where_earlier
     assert len(crossing) == 1 and all(abs(y - 1.5) < 0.3 for p, q in crossing for y in (p[1], q[1]))
     stack.blocks.append((5.0, 1.5))  # a block assessed on that way: the old way does not pass it
     assert isinstance(layer.route("office", (1.5, 1.5), set()), str)
+    stack.blocks.clear()
+    assert isinstance(layer.route("office", (1.5, 1.5), set()), PlannedRoute)
+    grid.log_odds[:, col:col + 2] = 9.0  # this run's sonar sees the wall, surer than the old map did
+    stack.grid_version += 1
+    assert isinstance(layer.route("office", (1.5, 1.5), set()), str)  # what it sees now overrules the memory

@@ -258,7 +258,8 @@ class LayerStack:
         """The layer whose routes the robot follows now."""
         return self._driving_layer()
 
-    def grid_planner(self, *, unknown_passable: bool, track: Sequence[Point] = (), driven: bool = False):
+    def grid_planner(self, *, unknown_passable: bool, track: Sequence[Point] = (),
+                     driven: np.ndarray | None = None):
         """A path planner on the grid as it is now (cached while the grid and the robot's cell stay).
 
         The blocked points are obstacles; the disc round the robot is free (it
@@ -266,17 +267,18 @@ class LayerStack:
         (Layers II and III, which do not explore) unknown cells are obstacles.
         ``track`` (points the robot drove, in order) is passable but where it
         comes within reach of a blocked point
-        (:class:`~atlas_rap.maps.gridpath.GridPlanner`'s ``tracks``); with
-        ``driven``, so are the grid's driven cells (``OccupancyGrid.driven``,
-        the earlier runs' ways too) but those within that reach. Neither is cached.
+        (:class:`~atlas_rap.maps.gridpath.GridPlanner`'s ``tracks``); so are
+        the cells of ``driven`` (a mask on the grid's frame: cells the robot
+        drove in earlier runs, ``OccupancyGrid.driven``) but those within
+        that reach. Neither is cached.
         """
         from atlas_rap.maps.gridpath import GridPlanner
 
-        if track or driven:
+        if track or driven is not None:
             p_occ, known = self._planning_grid(unknown_passable)
             return GridPlanner(p_occ, self.beliefs[GRID].frame, self.robot_radius, known=known,
                                tracks=self._track_pieces(track),
-                               driven=self._driven_clear_of_blocks() if driven else None)
+                               driven=self._clear_of_blocks(driven) if driven is not None else None)
 
         grid = self.beliefs[GRID]
         frame = grid.frame
@@ -312,12 +314,13 @@ class LayerStack:
                 p_occ[found[0]][found[1]], known[found[0]][found[1]] = 1.0, True
         return p_occ, known
 
-    def _driven_clear_of_blocks(self) -> np.ndarray:
-        """The grid's driven cells, but those within the robot's radius of a blocked point's disc."""
-        grid = self.beliefs[GRID]
-        driven = grid.driven.copy()
+    def _clear_of_blocks(self, cells: np.ndarray) -> np.ndarray:
+        """A copy of the mask ``cells`` (the grid's frame) without those within the robot's radius of
+        a blocked point's disc."""
+        frame = self.beliefs[GRID].frame
+        driven = np.array(cells, dtype=bool)
         for x, y in self.blocks:
-            found = grid.frame.disc(x, y, BLOCK_RADIUS + self.robot_radius)
+            found = frame.disc(x, y, BLOCK_RADIUS + self.robot_radius)
             if found is not None:
                 driven[found[0]] &= ~found[1]
         return driven

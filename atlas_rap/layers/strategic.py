@@ -37,8 +37,9 @@ The slowest layer. At its period it
   unknown, and none either along the ways the robot has driven (its
   believed track of this run, and the cells its centre passed in the runs
   that carried the grid, ``OccupancyGrid.driven``, taken as passable but
-  near a block: a sonar map can close a doorway behind the robot, the arcs
-  of echoes off its jambs, and a map carried to the next run keeps it
+  near a block and where this run's sonar has made the cells surer
+  occupied: a sonar map can close a doorway behind the robot, the arcs of
+  echoes off its jambs, and a map carried to the next run keeps it
   closed): ``(no-route)`` and a reason
   that says so. (When Layer II or III
   has no route on the known map, the stack asserts ``(no-route)`` too, and
@@ -117,6 +118,7 @@ class StrategicLayer(Layer):
         self.path_version = -1
         self._last_ranges = None
         self._marked: Point | None = None  # where the last footprint was marked free
+        self._carried = stack.beliefs[GRID].log_odds.copy()  # the map as this run found it (_along_own_track)
         self._last_ring: tuple[float, float, float] | None = None  # where the last ring fused was read
         self.viewpoint: Point | None = None  # where the robot looks on its way (_viewpoint)
         self.viewpoint_goal: str | None = None  # the goal it was chosen for
@@ -250,15 +252,18 @@ class StrategicLayer(Layer):
     def _along_own_track(self, start: Point, target: Point) -> GridPath | None:
         """No way at all, not even through the unknown; yet the robot got where it is, so a way it
         has driven may be the way on (module docstring, "plans"): the cheapest path with the
-        robot's believed track of this run and the grid's driven cells passable
+        robot's believed track of this run passable, and the grid's driven cells but those this
+        run's sonar has made surer are occupied (a wall seen now is not the map's old mistake)
         (:meth:`LayerStack.grid_planner`'s ``track`` and ``driven``). None when there is still none."""
         points: list[Point] = []
         for _, x, y, _ in self.stack.beliefs.get(POSE_TRACK) or ():
             if not points or math.dist(points[-1], (x, y)) >= FOOTPRINT_SPACING:
                 points.append((float(x), float(y)))
-        if not points and not self.stack.beliefs[GRID].driven.any():
+        grid = self.stack.beliefs[GRID]
+        driven = grid.driven & (grid.log_odds <= self._carried)  # this run's echoes overrule the memory
+        if not points and not driven.any():
             return None
-        return self.stack.grid_planner(unknown_passable=True, track=points, driven=True).plan(start, target)
+        return self.stack.grid_planner(unknown_passable=True, track=points, driven=driven).plan(start, target)
 
     def _explores(self) -> bool:
         """Whether this run explores (module docstring, "explores"): ``explore`` is not 0, the layer
