@@ -631,9 +631,9 @@ class OccupancyGrid:
         (float32 probabilities, for readers that want only those), ``frame``
         = [height, width, resolution, origin x, origin y, origin yaw] (the
         layout of the abstraction levels' ``grid.npz``, so ``atlas map
-        render`` draws either), ``model`` (the :class:`SonarModel` as JSON)
+        render`` draws either), ``model`` (the :class:`SonarModel` as JSON),
         ``run_qualities`` (float64) and ``driven`` (bool); an older file without
-        these loads with none.
+        the last two loads with none.
         Written whole or not at all (``atlas_rap.outputs``).
         """
         path = Path(path)
