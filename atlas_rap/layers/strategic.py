@@ -118,7 +118,7 @@ class StrategicLayer(Layer):
         self.path_version = -1
         self._last_ranges = None
         self._marked: Point | None = None  # where the last footprint was marked free
-        self._carried = stack.beliefs[GRID].log_odds.copy()  # the map as this run found it (_along_own_track)
+        self._carried = stack.beliefs[GRID].log_odds.copy()  # the map as this run found it (_along_driven_ways)
         self._last_ring: tuple[float, float, float] | None = None  # where the last ring fused was read
         self.viewpoint: Point | None = None  # where the robot looks on its way (_viewpoint)
         self.viewpoint_goal: str | None = None  # the goal it was chosen for
@@ -128,8 +128,11 @@ class StrategicLayer(Layer):
             stack.assert_fact(self, "mapping", "on")
         else:
             self.quality_at = 0.0
-            self._measure()
-            self.explores = self._explores()
+            quality = self._measure()
+            qualities = stack.beliefs[GRID].run_qualities  # what the runs that carried the grid began with
+            earlier = list(qualities)
+            qualities.append(quality)
+            self.explores = self._explores(quality, earlier)
         stack.logging_rings = stack.holds("mapping", "on")
 
     def tick(self, now: float) -> None:
@@ -203,8 +206,11 @@ class StrategicLayer(Layer):
             self.goals.append(goal.point)
         return round(explored_quality(self.stack.beliefs[GRID], goals=self.goals), 3)
 
-    def _measure(self) -> None:
-        self.stack.assert_fact(self, "map-quality", self.quality())
+    def _measure(self) -> float:
+        """Tell memory the map quality, ``(map-quality Q)``; return Q."""
+        quality = self.quality()
+        self.stack.assert_fact(self, "map-quality", quality)
+        return quality
 
     def _watch_path(self, echoes: np.ndarray) -> None:
         """Re-plan when the grid shows the path blocked: an echo within the robot's reach of
@@ -242,14 +248,14 @@ class StrategicLayer(Layer):
         via = self._viewpoint(goal, start, planner)
         self.path = planner.plan(start, target) if via is None else self._via(planner, start, via, target)
         if self.path is None:
-            self.path = self._along_own_track(start, target)
+            self.path = self._along_driven_ways(start, target)
         if self.path is None:
             stack.assert_fact(self, "no-route")
             return (f"no way to {goal} on the occupancy grid, not even through its unknown part: "
                     f"every way is blocked")
         return PlannedRoute(self.path.waypoints, {}, self.name)
 
-    def _along_own_track(self, start: Point, target: Point) -> GridPath | None:
+    def _along_driven_ways(self, start: Point, target: Point) -> GridPath | None:
         """No way at all, not even through the unknown; yet the robot got where it is, so a way it
         has driven may be the way on (module docstring, "plans"): the cheapest path with the
         robot's believed track of this run passable, and the grid's driven cells but those this
@@ -265,16 +271,12 @@ class StrategicLayer(Layer):
             return None
         return self.stack.grid_planner(unknown_passable=True, track=points, driven=driven).plan(start, target)
 
-    def _explores(self) -> bool:
+    def _explores(self, quality: float, earlier: list[float]) -> bool:
         """Whether this run explores (module docstring, "explores"): ``explore`` is not 0, the layer
         has an errand's area, the run began on a map carried from an earlier run, and
-        :func:`explores_this_run` says so of its quality and the earlier runs' (the rules' threshold,
-        hysteresis and ``explore-when-stalled``). Every run notes the quality it begins with in
-        the grid's ``run_qualities``, whether it explores or not."""
+        :func:`explores_this_run` says so of the ``quality`` it began with and those the ``earlier``
+        runs began with (the rules' threshold, hysteresis and ``explore-when-stalled``)."""
         stack = self.stack
-        grid = stack.beliefs[GRID]
-        quality, earlier = self.quality(), list(grid.run_qualities)
-        grid.run_qualities.append(quality)
         if self.area is None or not self.map_carried or stack.setting("explore", 1.0) <= 0.0:
             return False
         return explores_this_run(quality, earlier, stack.setting("map-quality-threshold", 0.9),
