@@ -34,7 +34,7 @@ from atlas_rap.views.experiment import (
 from atlas_rap.views.experiment_seeds import skill_acquisition_seeds
 from atlas_rap.sequencer import Trace
 from atlas_rap.shipped import shipped_root
-from atlas_rap.skills.beliefs import GRID, POSE, POSE_TRACK, Belief, Beliefs, PlannedRoute
+from atlas_rap.skills.beliefs import BUMP, GRID, POSE, POSE_TRACK, Belief, Beliefs, PlannedRoute
 
 REPO = Path(__file__).resolve().parents[1]
 RULES = shipped_root("rap_library") / "layers.rap"
@@ -462,6 +462,55 @@ def test_with_no_way_on_its_map_layer_iv_goes_back_the_way_the_robot_came_but_no
     assert len(crossing) == 1 and all(abs(y - 1.5) < 0.3 for p, q in crossing for y in (p[1], q[1]))
     stack.blocks.append((5.0, 1.5))  # a block Layer III assessed on that way: the track does not pass it
     assert isinstance(layer.route("office", (1.5, 1.5), set()), str)
+
+
+def test_where_the_bumper_touched_something_layer_iv_marks_it_and_plans_round_it_even_beside_the_robot():
+    # A door jamb met edge-on, a wall the beams graze: sonar can miss what the body then touches.
+    # The grid is known free everywhere; the robot, standing at its start, feels a contact in front.
+    engine = MissionEngine(RunOptions(world="lab-corridor-office", seed=0, prior_map=False))
+    engine.advance(0.1)
+    stack = engine.stack
+    grid = stack.beliefs[GRID]
+    grid.log_odds = np.full(grid.frame.shape, -5.0, dtype=np.float32)
+    grid.updated[...] = True
+    stack.grid_version += 1
+    x, y, heading = stack.beliefs[POSE]
+    ahead = (x + 1.5 * math.cos(heading), y + 1.5 * math.sin(heading))
+    assert stack.holds("mapping", "on")
+    assert len(stack.grid_planner(unknown_passable=True).plan((x, y), ahead).waypoints) == 2  # straight on
+    revision = stack.revision
+    stack.beliefs[BUMP] = (engine.now(), 0.0)  # body-frame angle 0: its front
+    engine.advance(0.6)  # Layer I logs the contact, Layer IV's next tick marks it
+    contact = (x + stack.robot_radius * math.cos(heading), y + stack.robot_radius * math.sin(heading))
+    assert stack.contacts == [pytest.approx(contact)]
+    assert grid.log_odds[grid.frame.world_to_cell(*contact)] == grid.model.clamp
+    assert stack.revision > revision  # the route being driven is asked for again
+    # felt, not seen: the disc round the robot, which the planner otherwise takes as free, keeps it
+    planner = stack.grid_planner(unknown_passable=True)
+    assert planner.impassable[planner.frame.world_to_cell(*contact)]
+    path = planner.plan((x, y), ahead)
+    legs = list(zip(path.waypoints, path.waypoints[1:]))
+    assert len(legs) > 1 and min(_distance_to_segment(contact, p, q) for p, q in legs) > stack.robot_radius
+
+
+def _distance_to_segment(point, p, q) -> float:
+    a, b, c = np.asarray(point), np.asarray(p), np.asarray(q)
+    t = np.clip(np.dot(a - b, c - b) / max(np.dot(c - b, c - b), 1e-12), 0.0, 1.0)
+    return float(np.linalg.norm(a - (b + t * (c - b))))
+
+
+def test_a_robot_that_rubs_on_the_lab_door_jamb_its_sonar_missed_gets_through_at_once(tmp_path):
+    # Seed 6's first run (no map, the default noise): the lab door's east jamb, met from the
+    # south-west, returns no echo (specular). Before the contacts were marked, the robot pressed
+    # on it for 80 s: 30 bumps and five navigate-to failures ("no progress"), run 1 200.7 s.
+    engine, result, records = traced_run("lab-corridor-office", tmp_path, None, seed=6, errand=("office", "lab"))
+    assert result.ok, result
+    failures = [r for r in records if r["event"] == "step-outcome" and r["outcome"] == ":fail"]
+    assert failures == [], failures
+    assert len(asserted(records, "(bumped robot)")) <= 2
+    assert result.time < 130.0  # the other seeds' first runs: 87-115 s
+    jamb = [c for c in engine.stack.contacts if math.dist(c, (7.0, 4.0)) < 0.35]
+    assert jamb, engine.stack.contacts
 
 
 def test_a_carried_map_that_closed_a_doorway_lets_layer_iv_through_where_earlier_runs_drove(tmp_path):

@@ -197,6 +197,17 @@ def test_npz_round_trip(tmp_path) -> None:
     assert np.array_equal(levels.labels(), grid.labels())
 
 
+def test_a_contact_is_marked_occupied_as_surely_as_the_clamp_allows() -> None:
+    grid = sample_grid()
+    row, col = grid.frame.world_to_cell(1.0, 1.0)
+    grid.mark_contact(1.0, 1.0)
+    assert grid.log_odds[row, col] == grid.model.clamp and grid.updated[row, col]
+    assert grid.log_odds[row, col + 1] < grid.model.clamp  # the one cell the body touched
+    before = grid.log_odds.copy()
+    grid.mark_contact(-50.0, -50.0)  # off the map: nothing
+    assert np.array_equal(grid.log_odds, before)
+
+
 def test_ros_map_round_trip_gives_the_same_labels(tmp_path) -> None:
     grid = sample_grid()
     labels = grid.labels()

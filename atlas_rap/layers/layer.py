@@ -105,6 +105,7 @@ class LayerStack:
         self.world = world
         self.prior_map = prior_map
         self.blocks: list[Point] = []  # points found blocked (Layer III); grid routes leave them out
+        self.contacts: list[Point] = []  # where the bumper touched something (Layer IV); grid routes keep off
         self.blocked_doors: set[str] = set()  # doors found blocked (Layer III); prior-map routes leave them out
         self.grid_version = 0  # grows each time Layer IV changes the grid
         self._planners: dict[bool, tuple[tuple[Any, ...], Any]] = {}
@@ -263,7 +264,8 @@ class LayerStack:
         """A path planner on the grid as it is now (cached while the grid and the robot's cell stay).
 
         The blocked points are obstacles; the disc round the robot is free (it
-        stands there, whatever the sonar saw). With ``unknown_passable`` False
+        stands there, whatever the sonar saw), but for the ``contacts``, where
+        the bumper touched something (felt, not seen: Layer IV). With ``unknown_passable`` False
         (Layers II and III, which do not explore) unknown cells are obstacles.
         ``track`` (points the robot drove, in order) is passable but where it
         comes within reach of a blocked point
@@ -284,7 +286,7 @@ class LayerStack:
         frame = grid.frame
         pose = self.beliefs.get(POSE)
         here = frame.world_to_cell(*pose[:2]) if pose is not None else None
-        key = (self.grid_version, len(self.blocks), here)
+        key = (self.grid_version, len(self.blocks), len(self.contacts), here)
         cached = self._planners.get(unknown_passable)
         if cached is not None and cached[0] == key:
             return cached[1]
@@ -295,7 +297,7 @@ class LayerStack:
 
     def _planning_grid(self, unknown_passable: bool) -> tuple[np.ndarray, np.ndarray]:
         """P(occ) and the known cells for :meth:`grid_planner`: the grid, the disc round the robot
-        free, the blocked points occupied."""
+        free, the blocked points and the contacts occupied."""
         grid = self.beliefs[GRID]
         frame = grid.frame
         pose = self.beliefs.get(POSE)
@@ -310,6 +312,10 @@ class LayerStack:
             known[window][disc] = True
         for x, y in self.blocks:
             found = frame.disc(x, y, BLOCK_RADIUS)
+            if found is not None:
+                p_occ[found[0]][found[1]], known[found[0]][found[1]] = 1.0, True
+        for x, y in self.contacts:  # felt, not seen: kept even in the disc round the robot
+            found = frame.disc(x, y, frame.resolution)
             if found is not None:
                 p_occ[found[0]][found[1]], known[found[0]][found[1]] = 1.0, True
         return p_occ, known

@@ -6,6 +6,9 @@ Always active and the highest priority. At the skills' rate it
   with Layer I not enabled they are off, see ``skills/safety.py``);
 - logs every new sonar ring with its pose, for Layer IV to fuse at its
   own, slower period (and keeps the last few for Layer III's assessment);
+  while it logs rings, it also logs where the bumper touched something
+  (the :data:`~atlas_rap.skills.beliefs.BUMP` belief: the point on the
+  robot's rim, at the pose it believed it had), for Layer IV to mark;
 - watches the way ahead: an echo in the strip the robot will sweep on its
   way to the route's next waypoint, nearer than the waypoint and within
   :data:`LOOK_AHEAD` metres,
@@ -32,7 +35,7 @@ from atlas_rap.layers.layer import Layer
 from atlas_rap.layers.route_geometry import distance_to_polyline, echo_points, route_ahead
 from atlas_rap.logic import Compound
 from atlas_rap.model import Point
-from atlas_rap.skills.beliefs import GRID, OBSTACLE, POSE, REFLEXES, ROUTE, SONAR, PlannedRoute
+from atlas_rap.skills.beliefs import BUMP, GRID, OBSTACLE, POSE, REFLEXES, ROUTE, SONAR, PlannedRoute
 
 RECENT_RINGS = 30
 """Rings kept for Layer III's assessment of an obstacle (3 s of a 10 Hz sonar)."""
@@ -62,6 +65,8 @@ class MonitoringLayer(Layer):
         self.ring_log: list[tuple[tuple[float, float, float], np.ndarray, np.ndarray]] = []
         self.recent: deque[tuple[tuple[float, float, float], np.ndarray, np.ndarray]] = deque(maxlen=RECENT_RINGS)
         self._last_ranges = None
+        self.contacts: list[tuple[float, float]] = []
+        self._last_bump = None
         self._echo: Point | None = None
         self.state = "none"
         self.seen_since: float | None = None
@@ -74,6 +79,13 @@ class MonitoringLayer(Layer):
         if pose is None or reading is None:
             return
         ranges, angles = reading
+        bump = beliefs.get(BUMP)
+        if bump is not None and bump is not self._last_bump:  # a new contact: where the body touched
+            self._last_bump = bump
+            if self.stack.logging_rings:
+                reach = self.stack.robot_radius
+                self.contacts.append((pose[0] + reach * math.cos(pose[2] + bump[1]),
+                                      pose[1] + reach * math.sin(pose[2] + bump[1])))
         if ranges is not self._last_ranges:  # a new ring (the sonar's 10 Hz): look again
             self._last_ranges = ranges
             self.recent.append((pose, ranges, angles))
@@ -150,6 +162,11 @@ class MonitoringLayer(Layer):
         """The rings logged since the last call (Layer IV fuses them)."""
         rings, self.ring_log = self.ring_log, []
         return rings
+
+    def drain_contacts(self) -> list[tuple[float, float]]:
+        """Where the bumper touched something since the last call (Layer IV marks them)."""
+        contacts, self.contacts = self.contacts, []
+        return contacts
 
     def route(self, goal: str, start: Point, closed: set[str]) -> PlannedRoute | str | None:
         """Alone, Layer I heads straight for the goal; the reflexes keep it safe."""

@@ -531,6 +531,15 @@ class OccupancyGrid:
         cells[disc] = np.minimum(cells[disc], cap)
         self._updated[window] |= disc
 
+    def mark_contact(self, x: float, y: float) -> None:
+        """The robot's body touched something at (x, y): the cell there is occupied, as sure as
+        the clamp allows (Layer IV marks the bumper's contacts: what the sonar missed, such as
+        a door jamb met edge-on)."""
+        row, col = self.frame.world_to_cell(x, y)
+        if self.frame.contains_cell(row, col):
+            self._log_odds[row, col] = self.model.clamp
+            self._updated[row, col] = True
+
     def mark_driven(self, x: float, y: float, radius: float) -> None:
         """The robot's centre passed (x, y): the cells within ``radius`` of it are :attr:`driven`."""
         found = self.frame.disc(x, y, radius)

@@ -206,6 +206,7 @@ LOCALISATION: Belief[str] = Belief("localisation", str, "how the localiser knows
                                                         "reckoning; atlas run --localisation)")
 POSE_TRACK: Belief[list] = Belief("pose-track", list, "the believed poses (t, x, y, heading) so far, every period of the localiser")
 SONAR: Belief[tuple] = Belief("sonar", tuple, "the latest sonar ring: (ranges from the rim, body-frame angles)")
+BUMP: Belief[tuple] = Belief("bump", tuple, "the latest contact the bumper felt: (time, body-frame angle)")
 CLOSED_DOORS: Belief[set] = Belief("closed-doors", set, "door names seen closed (door monitor); routes avoid them")
 GRID: Belief[Any] = Belief("grid", "atlas_rap.maps.grid:OccupancyGrid", "the occupancy grid built from sonar (Layer IV)")
 POSES: Belief[list] = Belief("poses", list, "the believed poses the grid was built from")

@@ -14,7 +14,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from atlas_rap.skills.beliefs import SONAR
+from atlas_rap.skills.beliefs import BUMP, SONAR
 from atlas_rap.skills.catalog import registered
 from atlas_rap.skills.skill import Skill
 
@@ -38,13 +38,17 @@ class SonarSensor(Skill):
 
 @registered("bumper")
 class Bumper(Skill):
-    """The bumper: ``bump`` = the body-frame angle of a contact this period, or None."""
+    """The bumper: ``bump`` = the body-frame angle of a contact this period, or None; a contact is
+    also the :data:`~atlas_rap.skills.beliefs.BUMP` belief, (time, angle), for the layers' map."""
 
     outputs = ("bump",)
 
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
         robot = self.context.robot
-        return {"bump": robot.bump_angle if robot.bumped else None}
+        angle = robot.bump_angle if robot.bumped else None
+        if angle is not None:
+            self.context.beliefs[BUMP] = (self.context.now(), float(angle))
+        return {"bump": angle}
 
 
 @registered("drive")
