@@ -513,6 +513,34 @@ def test_a_robot_that_rubs_on_the_lab_door_jamb_its_sonar_missed_gets_through_at
     assert jamb, engine.stack.contacts
 
 
+def test_a_doorway_the_sonar_closed_on_the_map_is_looked_at_again_and_the_robot_gets_out(tmp_path):
+    # A building we did not tune on: office-building, no prior map, the robot starting in office-1
+    # facing its 1 m door. Echoes off the jambs, met at a slant, spread occupied arcs across the
+    # doorway (seed 2): no way out on Layer IV's map, and the robot used to give up where it stood.
+    # navigation.rap's go-to then turns once on the spot (spin-once), and beams straight through
+    # the doorway clear the arcs.
+    world = (REPO / "worlds" / "office-building.yaml").read_text(encoding="utf-8")
+    assert "start: [27.5, 8.5, 180]" in world
+    (tmp_path / "from-office-1.yaml").write_text(world.replace("start: [27.5, 8.5, 180]", "start: [3, 3.5, 90]"),
+                                                 encoding="utf-8")
+    mission = tmp_path / "out.rap"
+    mission.write_text(f'(include "{shipped_root("rap_library") / "navigation.rap"}")\n(post (go-to office-4))\n',
+                       encoding="utf-8")
+    records: list[dict] = []
+    trace = Trace()
+    trace.add_sink(lambda record: records.append(record))
+    engine = MissionEngine(RunOptions(world=str(tmp_path / "from-office-1.yaml"), seed=2, prior_map=False), trace=trace)
+    engine.load_file(mission, require_post=True)
+    result = engine.run_mission(400)
+    assert result.ok, result
+    steps = [r for r in records if r["event"] in ("step-outcome", "method-selected")]
+    no_way = next(i for i, r in enumerate(steps) if "no way to office-4" in r.get("reason", ""))
+    then = steps[no_way + 1:]
+    assert then[0]["event"] == "method-selected" and then[0]["method"] == "look-again", then[:3]
+    assert then[1]["step"] == "step t1 (spin-once)" and then[1]["outcome"] == ":succeed", then[:3]
+    assert then[2]["step"] == "step t2 (navigate-to office-4)" and then[2]["outcome"] == ":succeed", then[:3]
+
+
 def test_a_carried_map_that_closed_a_doorway_lets_layer_iv_through_where_earlier_runs_drove(tmp_path):
     # The wall at x = 5 m again, in a map carried from an earlier run: this run has no track yet,
     # but the grid remembers where the robot's centre went before (OccupancyGrid.driven, in the file).
