@@ -517,7 +517,7 @@ def test_a_doorway_the_sonar_closed_on_the_map_is_looked_at_again_and_the_robot_
     # A building we did not tune on: office-building, no prior map, the robot starting in office-1
     # facing its 1 m door. Echoes off the jambs, met at a slant, spread occupied arcs across the
     # doorway (seed 2): no way out on Layer IV's map, and the robot used to give up where it stood.
-    # navigation.rap's go-to then turns once on the spot (spin-once), and beams straight through
+    # navigation.rap's go-to then turns once on the spot (look-around), and beams straight through
     # the doorway clear the arcs.
     world = (REPO / "worlds" / "office-building.yaml").read_text(encoding="utf-8")
     assert "start: [27.5, 8.5, 180]" in world
@@ -537,7 +537,7 @@ def test_a_doorway_the_sonar_closed_on_the_map_is_looked_at_again_and_the_robot_
     no_way = next(i for i, r in enumerate(steps) if "no way to office-4" in r.get("reason", ""))
     then = steps[no_way + 1:]
     assert then[0]["event"] == "method-selected" and then[0]["method"] == "look-again", then[:3]
-    assert then[1]["step"] == "step t1 (spin-once)" and then[1]["outcome"] == ":succeed", then[:3]
+    assert then[1]["step"] == "step t1 (look-around)" and then[1]["outcome"] == ":succeed", then[:3]
     assert then[2]["step"] == "step t2 (navigate-to office-4)" and then[2]["outcome"] == ":succeed", then[:3]
 
 

@@ -63,13 +63,13 @@ def turned(path) -> float:
     return sum(abs(math.remainder(b[3] - a[3], 2 * math.pi)) for a, b in zip(path, path[1:]))
 
 
-def test_spin_once_turns_on_the_spot_once_all_the_way_round_each_time_it_is_enabled(tmp_path):
-    run = run_in_world(mission(tmp_path, "(task-net (spin-once))"))
+def test_look_around_turns_on_the_spot_once_all_the_way_round_each_time_it_is_enabled(tmp_path):
+    run = run_in_world(mission(tmp_path, "(task-net (look-around))"))
     assert run.result.ok, run.explain()
     sim = run.mission.simulation
     assert 2 * math.pi - 0.1 <= turned(sim.path) < 2 * math.pi + 0.5  # to within a period's turn (0.1 rad)
     assert math.dist(sim.path[0][1:3], sim.pose[:2]) < 0.05  # on the spot
-    run = run_in_world(mission(tmp_path, "(task-net (sequence (t1 (spin-once)) (t2 (spin-once))))"))
+    run = run_in_world(mission(tmp_path, "(task-net (sequence (t1 (look-around)) (t2 (look-around))))"))
     assert run.result.ok, run.explain()
     assert 4 * math.pi - 0.2 <= turned(run.mission.simulation.path) < 4 * math.pi + 1.0  # a full turn again
 

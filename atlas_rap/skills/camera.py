@@ -116,7 +116,9 @@ class ColourCamera(Skill):
 
 @registered("look-around")
 class LookAround(Skill):
-    """``(look-around)``: turn on the spot once all the way round, so the camera sees the whole place."""
+    """``(look-around)``: turn on the spot once all the way round, so the camera sees the whole place,
+    and the sonar ring, whose beams leave gaps between them, has had a beam in every direction
+    (``go-to``'s look-again in ``rap_library/navigation.rap``: nav2's Spin recovery)."""
 
     inputs = ("pose",)
     outputs = ("command",)

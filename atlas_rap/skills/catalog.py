@@ -120,7 +120,6 @@ STOCK: tuple[SkillSpec, ...] = (
     SkillSpec("wander", f"{_MOTION}:Wander"),
     SkillSpec("wall-follow", f"{_MOTION}:WallFollow", params("side: symbol")),
     SkillSpec("spin", f"{_MOTION}:Spin"),
-    SkillSpec("spin-once", f"{_MOTION}:SpinOnce"),
     SkillSpec("stop", f"{_MOTION}:Stop"),
     SkillSpec("navigate-to", f"{_NAVIGATION}:NavigateTo", params("place: symbol"), ("blocked",)),
     SkillSpec("open-door", f"{_NAVIGATION}:OpenDoor", params("door: symbol"), ("door-open",)),

@@ -1,11 +1,11 @@
-"""Motion skills that RAPs enable: move-to, follow-route, turn-to, spin, spin-once, wander, wall-follow, stop.
+"""Motion skills that RAPs enable: move-to, follow-route, turn-to, spin, wander, wall-follow, stop.
 
 Each writes ``command`` = (v, ω) for the safety reflex and the wheels, and
 finishes with ``(done (SKILL ARG ...) :succeed)`` when it has got where it
 was told, or ``:fail`` with a reason, after asserting ``(blocked robot
 SKILL)``, when it makes no progress for ``patience`` seconds (an obstacle
-it cannot get round). Spin, wander and wall-follow never finish on their own;
-spin-once finishes after a full turn.
+it cannot get round). Spin, wander and wall-follow never finish on their own
+(``look-around``, in :mod:`atlas_rap.skills.camera`, turns once and finishes).
 """
 
 from __future__ import annotations
@@ -158,35 +158,6 @@ class Spin(Skill):
     def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
         turn = self.context.world.robot.max_turn_rate if self.context.world is not None else 1.5
         return {"command": (0.0, 0.5 * turn)}
-
-
-@registered("spin-once")
-class SpinOnce(Spin):
-    """``(spin-once)``: turn on the spot once all the way round, counter-clockwise at half the top
-    turn rate, then finish (nav2's Spin recovery with a target of a full turn). The sonar ring's
-    beams leave gaps between them; a robot that turns once has had every direction in a beam, so
-    Layer IV's map sees again what it last saw from one side only (the arcs an echo off a door
-    jamb spreads across the doorway, cleared by beams straight through it)."""
-
-    inputs = ("pose",)
-    outputs = ("command",)
-
-    def enable(self, args: tuple[Any, ...]) -> None:
-        super().enable(args)
-        self.turned = 0.0
-        self.last: float | None = None
-
-    def transform(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
-        pose = inputs["pose"]
-        if pose is None:
-            return {}
-        if self.last is not None:
-            self.turned += abs(angle_difference(pose[2], self.last))
-        self.last = pose[2]
-        if self.turned >= 2.0 * math.pi:
-            self.context.finish(self)
-            return {"command": (0.0, 0.0)}
-        return super().transform(inputs)
 
 
 @registered("stop")
