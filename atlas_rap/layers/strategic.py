@@ -28,8 +28,8 @@ The slowest layer. At its period it
   even in the disc round the robot they otherwise take as free, and the
   route being driven is planned again. Sonar misses what it meets at a
   grazing angle: a door jamb met edge-on returns no echo, and a robot whose
-  path hugged it pressed on it again and again (seed 6's first run: 30
-  bumps and 80 s at the lab door). ROS does the like with a bumper's
+  path hugged it pressed on it again and again (seed 6's first run: 21
+  bumps and 87 s at the lab door). ROS does the like with a bumper's
   contacts in the costmap (kobuki's ``bumper2pc``);
 - **measures the map** every ``quality-every`` seconds in a run without a
   prior map: ``(map-quality Q)``, one minus the mean entropy of a region
