@@ -310,12 +310,11 @@ class LayerStack:
             window, disc = robot
             p_occ[window][disc] = np.minimum(p_occ[window][disc], 0.3)
             known[window][disc] = True
-        for x, y in self.blocks:
-            found = frame.disc(x, y, BLOCK_RADIUS)
-            if found is not None:
-                p_occ[found[0]][found[1]], known[found[0]][found[1]] = 1.0, True
-        for x, y in self.contacts:  # felt, not seen: kept even in the disc round the robot
-            found = frame.disc(x, y, frame.resolution)
+        # the contacts are felt, not seen: kept even in the disc round the robot
+        occupied = [(point, BLOCK_RADIUS) for point in self.blocks]
+        occupied += [(point, frame.resolution) for point in self.contacts]
+        for (x, y), radius in occupied:
+            found = frame.disc(x, y, radius)
             if found is not None:
                 p_occ[found[0]][found[1]], known[found[0]][found[1]] = 1.0, True
         return p_occ, known

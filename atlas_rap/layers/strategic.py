@@ -200,15 +200,20 @@ class StrategicLayer(Layer):
         turned = abs(math.remainder(pose[2] - last[2], math.tau)) / turn if turn > 0.0 else 0.0
         return min(1.0, max(moved, turned))
 
+    def _monitor(self):
+        """Layer I, whose logs of rings and contacts this layer drains; None when it is not running."""
+        monitor = self.stack.layers.get("I")
+        return monitor if monitor is not None and "I" in self.stack.enabled else None
+
     def _contacts(self) -> list[tuple[float, float]]:
         """Where the bumper touched something since the last tick (Layer I's log)."""
-        monitor = self.stack.layers.get("I")
-        return monitor.drain_contacts() if monitor is not None and "I" in self.stack.enabled else []
+        monitor = self._monitor()
+        return monitor.drain_contacts() if monitor is not None else []
 
     def _rings(self):
         """The rings to fuse: Layer I's log, or the latest ring when Layer I is not running."""
-        monitor = self.stack.layers.get("I")
-        if monitor is not None and "I" in self.stack.enabled:
+        monitor = self._monitor()
+        if monitor is not None:
             return monitor.drain()
         reading, pose = self.stack.beliefs.get(SONAR), self.stack.beliefs.get(POSE)
         if reading is None or pose is None or reading[0] is self._last_ranges:
