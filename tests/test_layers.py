@@ -440,15 +440,22 @@ def test_a_block_met_while_every_route_is_cut_already_gives_the_drive_back_to_la
     assert primary() == ["(primary-layer iv)"], primary()
 
 
-def test_with_no_way_on_its_map_layer_iv_goes_back_the_way_the_robot_came_but_not_through_a_block():
-    # A sonar map can close a doorway behind the robot. Here a wall closes the whole building at
-    # x = 5 m on a grid otherwise known free; the robot's believed track of this run crosses it.
+def _layers_on_a_known_free_grid():
+    """A run on lab-corridor-office without a prior map, its layers started, and Layer IV's grid
+    known free everywhere: the engine, its stack and the grid, for a test to draw walls on."""
     engine = MissionEngine(RunOptions(world="lab-corridor-office", seed=0, prior_map=False))
-    engine.run(0.1)  # the layers started
+    engine.advance(0.1)  # the layers started
     stack = engine.stack
     grid = stack.beliefs[GRID]
     grid.log_odds = np.full(grid.frame.shape, -5.0, dtype=np.float32)
     grid.updated[...] = True
+    return engine, stack, grid
+
+
+def test_with_no_way_on_its_map_layer_iv_goes_back_the_way_the_robot_came_but_not_through_a_block():
+    # A sonar map can close a doorway behind the robot. Here a wall closes the whole building at
+    # x = 5 m on a grid otherwise known free; the robot's believed track of this run crosses it.
+    _, stack, grid = _layers_on_a_known_free_grid()
     col = grid.frame.world_to_cell(5.0, 0.0)[1]
     grid.log_odds[:, col:col + 2] = 8.0
     stack.grid_version += 1
@@ -467,12 +474,7 @@ def test_with_no_way_on_its_map_layer_iv_goes_back_the_way_the_robot_came_but_no
 def test_where_the_bumper_touched_something_layer_iv_marks_it_and_plans_round_it_even_beside_the_robot():
     # A door jamb met edge-on, a wall the beams graze: sonar can miss what the body then touches.
     # The grid is known free everywhere; the robot, standing at its start, feels a contact in front.
-    engine = MissionEngine(RunOptions(world="lab-corridor-office", seed=0, prior_map=False))
-    engine.advance(0.1)
-    stack = engine.stack
-    grid = stack.beliefs[GRID]
-    grid.log_odds = np.full(grid.frame.shape, -5.0, dtype=np.float32)
-    grid.updated[...] = True
+    engine, stack, grid = _layers_on_a_known_free_grid()
     stack.grid_version += 1
     x, y, heading = stack.beliefs[POSE]
     ahead = (x + 1.5 * math.cos(heading), y + 1.5 * math.sin(heading))
@@ -513,12 +515,15 @@ def test_a_robot_that_rubs_on_the_lab_door_jamb_its_sonar_missed_gets_through_at
     assert jamb, engine.stack.contacts
 
 
-def test_a_doorway_the_sonar_closed_on_the_map_is_looked_at_again_and_the_robot_gets_out(tmp_path):
+@pytest.mark.parametrize("seed", [2, 9])
+def test_a_doorway_the_sonar_closed_on_the_map_is_looked_at_again_and_the_robot_gets_out(tmp_path, seed):
     # A building we did not tune on: office-building, no prior map, the robot starting in office-1
     # facing its 1 m door. Echoes off the jambs, met at a slant, spread occupied arcs across the
-    # doorway (seed 2): no way out on Layer IV's map, and the robot used to give up where it stood.
-    # navigation.rap's go-to then turns once on the spot (look-around), and beams straight through
-    # the doorway clear the arcs.
+    # doorway: no way out on Layer IV's map, and the robot used to give up where it stood.
+    # navigation.rap's go-to then turns once on the spot (look-around). Seed 2: beams straight
+    # through the doorway clear the arcs. Seed 9 stands 5 m from the door, where the sonar's reach
+    # ends, and the arcs stay; Layer IV's last try takes the faintly occupied cells for unknown,
+    # and its way leads the robot near enough for the sonar to see through.
     world = (REPO / "worlds" / "office-building.yaml").read_text(encoding="utf-8")
     assert "start: [27.5, 8.5, 180]" in world
     (tmp_path / "from-office-1.yaml").write_text(world.replace("start: [27.5, 8.5, 180]", "start: [3, 3.5, 90]"),
@@ -529,7 +534,8 @@ def test_a_doorway_the_sonar_closed_on_the_map_is_looked_at_again_and_the_robot_
     records: list[dict] = []
     trace = Trace()
     trace.add_sink(lambda record: records.append(record))
-    engine = MissionEngine(RunOptions(world=str(tmp_path / "from-office-1.yaml"), seed=2, prior_map=False), trace=trace)
+    engine = MissionEngine(RunOptions(world=str(tmp_path / "from-office-1.yaml"), seed=seed, prior_map=False),
+                           trace=trace)
     engine.load_file(mission, require_post=True)
     result = engine.run_mission(400)
     assert result.ok, result
@@ -539,6 +545,32 @@ def test_a_doorway_the_sonar_closed_on_the_map_is_looked_at_again_and_the_robot_
     assert then[0]["event"] == "method-selected" and then[0]["method"] == "look-again", then[:3]
     assert then[1]["step"] == "step t1 (look-around)" and then[1]["outcome"] == ":succeed", then[:3]
     assert then[2]["step"] == "step t2 (navigate-to office-4)" and then[2]["outcome"] == ":succeed", then[:3]
+
+
+def test_layer_iv_s_last_try_takes_faintly_occupied_cells_for_unknown_once_no_way_was_said(tmp_path):
+    # A wall across the lab at x = 5 m, sure everywhere but a doorway's width of faint cells
+    # (P 0.82): no way on the first asking; once (no-route) holds for the goal, the last try
+    # goes through the faint cells, and only there. A sure wall stays shut.
+    _, stack, grid = _layers_on_a_known_free_grid()
+    col = grid.frame.world_to_cell(5.0, 0.0)[1]
+    grid.log_odds[:, col:col + 3] = 8.0
+    door = [grid.frame.world_to_cell(5.0, y)[0] for y in (2.5, 1.5)]
+    grid.log_odds[door[0]:door[1], col:col + 3] = 1.5
+    stack.grid_version += 1
+    stack.beliefs[POSE], stack.beliefs[POSE_TRACK] = (1.5, 1.5, 0.0), []
+    layer = stack.layers["IV"]
+    reason = layer.route("office", (1.5, 1.5), set())
+    assert isinstance(reason, str) and "faintly" not in reason, reason
+    assert stack.holds("no-route")
+    route = layer.route("office", (1.5, 1.5), set())
+    assert isinstance(route, PlannedRoute), route
+    crossing = [p[1] + (q[1] - p[1]) * (5.0 - p[0]) / (q[0] - p[0])  # where each leg crosses x = 5 m
+                for p, q in zip(route.waypoints, route.waypoints[1:]) if (p[0] - 5.0) * (q[0] - 5.0) < 0]
+    assert len(crossing) == 1 and 1.5 + stack.robot_radius <= crossing[0] <= 2.5 - stack.robot_radius, route
+    grid.log_odds[door[0]:door[1], col:col + 3] = 3.0  # the sonar has made the doorway's cells sure
+    stack.grid_version += 1
+    reason = layer.route("office", (1.5, 1.5), set())
+    assert isinstance(reason, str) and "nor where it is only faintly occupied" in reason, reason
 
 
 def test_a_carried_map_that_closed_a_doorway_lets_layer_iv_through_where_earlier_runs_drove(tmp_path):

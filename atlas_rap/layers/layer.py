@@ -260,7 +260,7 @@ class LayerStack:
         return self._driving_layer()
 
     def grid_planner(self, *, unknown_passable: bool, track: Sequence[Point] = (),
-                     driven: np.ndarray | None = None):
+                     driven: np.ndarray | None = None, faint_below: float | None = None):
         """A path planner on the grid as it is now (cached while the grid and the robot's cell stay).
 
         The blocked points are obstacles; the disc round the robot is free (it
@@ -272,12 +272,13 @@ class LayerStack:
         (:class:`~atlas_rap.maps.gridpath.GridPlanner`'s ``tracks``); so are
         the cells of ``driven`` (a mask on the grid's frame: cells the robot
         drove in earlier runs, ``OccupancyGrid.driven``) but those within
-        that reach. Neither is cached.
+        that reach. Neither is cached. ``faint_below`` (a P(occ)): the cells the grid holds
+        occupied with less than it count as unknown, passable at its price (not cached either).
         """
         from atlas_rap.maps.gridpath import GridPlanner
 
-        if track or driven is not None:
-            p_occ, known = self._planning_grid(unknown_passable)
+        if track or driven is not None or faint_below is not None:
+            p_occ, known = self._planning_grid(unknown_passable, faint_below)
             return GridPlanner(p_occ, self.beliefs[GRID].frame, self.robot_radius, known=known,
                                tracks=self._track_pieces(track),
                                driven=self._clear_of_blocks(driven) if driven is not None else None)
@@ -295,14 +296,18 @@ class LayerStack:
         self._planners[unknown_passable] = (key, planner)
         return planner
 
-    def _planning_grid(self, unknown_passable: bool) -> tuple[np.ndarray, np.ndarray]:
-        """P(occ) and the known cells for :meth:`grid_planner`: the grid, the disc round the robot
-        free, the blocked points and the contacts occupied."""
+    def _planning_grid(self, unknown_passable: bool,
+                       faint_below: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """P(occ) and the known cells for :meth:`grid_planner`: the grid (the cells occupied with
+        P under ``faint_below`` unknown), the disc round the robot free, the blocked points and the
+        contacts occupied."""
         grid = self.beliefs[GRID]
         frame = grid.frame
         pose = self.beliefs.get(POSE)
         p_occ = grid.probabilities()
         known = grid.updated.copy() if unknown_passable else np.ones(p_occ.shape, dtype=bool)
+        if faint_below is not None:
+            known &= (p_occ <= 0.5) | (p_occ >= faint_below)
         if not unknown_passable:
             p_occ[~grid.updated] = 1.0
         robot = frame.disc(*pose[:2], self.robot_radius + 0.35) if pose is not None else None
