@@ -378,6 +378,25 @@ def test_bad_layer_options_are_refused_clearly(tmp_path):
     done = atlas("experiment", "skill-acquisition", "--world", "maze", "--out", "out", cwd=tmp_path)
     assert done.returncode == 1 and "world maze has no place named lab" in done.stderr
     assert "Traceback" not in done.stderr
+    (tmp_path / "other-building.yaml").write_text(  # lab and office, but a wall the corridor lacks
+        f"base: {json.dumps((REPO / 'worlds' / 'lab-corridor-office.yaml').as_posix())}\n"
+        "walls:\n  - [18, 4, 18, 5]\n", encoding="utf-8")
+    done = atlas("experiment", "skill-acquisition", "--world", "other-building.yaml", "--out", "out", cwd=tmp_path)
+    assert done.returncode == 1, done.stdout + done.stderr
+    assert "world other-building.yaml is not that building as shipped (it differs in its walls)" in done.stderr
+    assert "--obstacles none" in done.stderr and "Traceback" not in done.stderr
+    assert not (tmp_path / "out" / "figures.json").exists()
+
+
+def test_the_obstacle_cases_take_the_odometry_of_the_runs_world(tmp_path):
+    # Runs with exact odometry: the person's case (a world of its own, a variant of the shipped
+    # building) runs with exact odometry too, not the noise the shipped case world gives the robot.
+    data = skill_acquisition(tmp_path, Settings(world=EXACT, runs=1, obstacles=("person",)))
+    assert data["runs"][0]["pose_rmse_m"] == 0.0
+    (case,) = data["obstacles"]
+    assert case["ok"] and case["world"] == "lab-corridor-office-person", case
+    assert case["pose_rmse_m"] == 0.0, case  # the shipped case world's noise would leave an error
+    assert (tmp_path / "world-lab-corridor-office-person.yaml").is_file()
 
 
 def test_the_experiment_command_writes_its_figures_json_csv_and_pngs(tmp_path):

@@ -64,7 +64,8 @@ def experiment_group() -> None:
                    "process).  [default: the number of CPUs]")
 @click.option("--world", "world", default="lab-corridor-office", show_default=True, metavar="W",
               help="The world of the runs: a shipped world's name or a world file, with places named lab and "
-                   "office.")
+                   "office. The obstacle scenario needs lab-corridor-office's building; its robot may err "
+                   "otherwise (odometry noise), and the cases then take that noise.")
 @click.option("--obstacles", "obstacles", type=ObstacleCases(), default="all", show_default=True, metavar="CASES",
               help="The cases of the obstacle scenario (Fig. 13b) run on the last run's map, each from it: "
                    "person, corridor-box and full-block ('all'), some of them comma-separated, or 'none'.")

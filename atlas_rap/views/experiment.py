@@ -39,7 +39,7 @@ import csv
 import json
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -68,6 +68,10 @@ ERRAND = """;;; The seed's errand: from the lab to the office, and back (atlas e
         (t2 (go-to {home}))))))
 (post (errand))
 """
+
+CASES_BUILDING = "lab-corridor-office"
+"""The building the obstacle cases' worlds are variants of: the runs' world must be it, with its own
+odometry noise if it likes (the cases then take that noise: :func:`case_world`)."""
 
 PERSON_WORLD = "lab-corridor-office-person"
 """Fig. 13(b), short-lived: a person crosses the corridor just past the lab door as the robot comes."""
@@ -123,7 +127,7 @@ OBSTACLE_CASE_KEYS = tuple(case.key for case in OBSTACLE_CASES)
 RUN_LIMIT = 900.0
 """Simulated seconds one run may take."""
 
-RESULT_FILES = ("errand.rap", "figures.json", "runs.csv", "map-run*.npz",
+RESULT_FILES = ("errand.rap", "figures.json", "runs.csv", "map-run*.npz", "world-*.yaml",
                 *(f"map-{key}.npz" for key in OBSTACLE_CASE_KEYS), *FIGURE_FILES.values())
 """The files the experiment writes in its folder (glob patterns)."""
 
@@ -248,7 +252,7 @@ def obstacle_case(mission: Path, settings: Settings, case: ObstacleCase, places:
     from atlas_rap.sim.world import load_world
 
     name = case.world_for(places, settings.goal)
-    run, _ = one_run(mission, name, settings.seed, map_in, out / f"map-{case.key}.npz",
+    run, _ = one_run(mission, case_world(out, settings, name), settings.seed, map_in, out / f"map-{case.key}.npz",
                      settings.layer_rules, settings.localisation, (settings.goal, settings.home))
     world = load_world(name)
     events = [{"t": d.start, "what": f"{'a person starts to cross' if d.kind == 'person' else 'a box is put down'}"
@@ -256,6 +260,24 @@ def obstacle_case(mission: Path, settings: Settings, case: ObstacleCase, places:
     seen = layer_order(run)
     return {"case": case.key, "title": case.title, "world": name, "expected": list(case.expected), "seen": seen,
             "as_expected": seen == list(case.expected), **run, "optimal_s": optimal, "events": events}
+
+
+def case_world(out: Path, settings: Settings, name: str) -> str:
+    """The world an obstacle case runs in: the case's world ``name`` as shipped; or, when the runs'
+    world gives the robot other odometry noise (``tests/worlds/lab-corridor-office-exact.yaml``), a
+    variant of it with that noise, written into ``out`` as ``world-NAME.yaml`` (its path), so the
+    case's robot errs as the runs' robot did."""
+    from atlas_rap.sim.world import load_world, world_path
+
+    noise = load_world(settings.world).robot.odometry_noise
+    if noise == load_world(name).robot.odometry_noise:
+        return name
+    alphas = "off" if noise.off else "{" + ", ".join(
+        f"alpha{i}: {getattr(noise, f'alpha{i}')!r}" for i in range(1, 5)) + "}"
+    return str(write_text(out / f"world-{name}.yaml",
+                          f"# {name} with the odometry of the runs' world, {settings.world} (atlas experiment)\n"
+                          f"base: {json.dumps(world_path(name).resolve().as_posix())}\n"
+                          f"name: {name}\nrobot: {{odometry_noise: {alphas}}}\n"))
 
 
 def layer_order(run: Mapping[str, Any]) -> list[str]:
@@ -323,7 +345,8 @@ def check_worlds(settings: Settings) -> None:
     from atlas_rap.sim.world import load_world
 
     worlds = [settings.world]
-    for case in _cases(settings.obstacles):
+    cases = _cases(settings.obstacles)
+    for case in cases:
         worlds += [case.world, *(world for _, world in case.detours)]
     for name in worlds:
         if name == "none":
@@ -334,6 +357,16 @@ def check_worlds(settings: Settings) -> None:
             raise RunError(f"world {world.name} has no place named {' or '.join(missing)}: the errand goes "
                              f"from {settings.home} to {settings.goal} and back "
                              f"(its places: {', '.join(world.places) or 'none'})")
+    if cases:
+        runs, building = load_world(settings.world), load_world(CASES_BUILDING)
+        differ = [what for what, a, b in (
+            ("walls", runs.walls, building.walls), ("places", runs.places, building.places),
+            ("doors", runs.doors, building.doors), ("sonar", runs.sonar, building.sonar),
+            ("robot", replace(runs.robot, odometry_noise=building.robot.odometry_noise), building.robot)) if a != b]
+        if differ:
+            raise RunError(f"the obstacle scenario puts its person, box and block in {CASES_BUILDING}'s corridor, "
+                           f"and world {settings.world} is not that building as shipped (it differs in its "
+                           f"{', '.join(differ)}): run it with --obstacles none")
 
 
 def _places_passed(engine: MissionEngine) -> list[str]:
