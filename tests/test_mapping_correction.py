@@ -14,18 +14,19 @@ from atlas_rap.views.experiment import Settings, skill_acquisition
 from atlas_rap.views.pose_error import pose_errors
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_the_experiment_maps_agree_better_with_the_pose_correction_than_without(tmp_path, seed):
-    runs = {mode: skill_acquisition(tmp_path / mode, Settings(runs=7, seed=seed, obstacles=None,
+@pytest.mark.parametrize(("seed", "errands"), [(0, 7), (1, 1)])
+def test_the_experiment_maps_agree_better_with_the_pose_correction_than_without(tmp_path, seed, errands):
+    # Seed 1's first errand only: by dead reckoning its second wanders until the run's limit (900 s
+    # simulated), a minute of the test suite's time.
+    runs = {mode: skill_acquisition(tmp_path / mode, Settings(runs=errands, seed=seed, obstacles=None,
                                                               localisation=mode))["runs"]
             for mode in ("mcl", "odometry")}
     table = "\n".join(f"{mode:9s} agreement {[run['map_agreement'] for run in runs[mode]]} "
                       f"RMSE {[run['pose_rmse_m'] for run in runs[mode]]}" for mode in runs)
     print(table)
     assert all(run["ok"] for run in runs["mcl"]), table
-    # the corrected map agrees with the true walls better than dead reckoning's, run after run; on a
-    # seed whose map never reaches the threshold (seed 1) Layer IV maps all seven runs and the
-    # drift still wears both down, the corrected one less (docs/how-to/localise.md)
+    # the corrected map agrees with the true walls better than dead reckoning's, run after run
+    # (docs/how-to/localise.md)
     assert runs["mcl"][0]["map_agreement"] >= 0.9, table
     for corrected, reckoned in zip(runs["mcl"], runs["odometry"]):
         assert corrected["map_agreement"] > reckoned["map_agreement"], table
