@@ -49,8 +49,9 @@ The slowest layer. At its period it
   near a block and where this run's sonar has made the cells surer
   occupied: a sonar map can close a doorway behind the robot, the arcs of
   echoes off its jambs, and a map carried to the next run keeps it
-  closed), and, once ``(no-route)`` already holds for the goal (go-to's
-  ``look-again`` has turned the robot on the spot since), none either where
+  closed), and, once ``(no-route)`` already holds for the goal (asked
+  again: navigation.rap's ``go-to`` first turns the robot on the spot,
+  ``look-again``), none either where
   the grid holds the cells occupied with P under ``FAINT_OCCUPIED`` (0.9),
   taken as unknown (the last try: the arcs of one or two slanting echoes
   off a doorway's jambs, shared out among cells nothing else has seen, can

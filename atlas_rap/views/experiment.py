@@ -340,7 +340,8 @@ def _cases(keys: tuple[str, ...] | None) -> list[ObstacleCase]:
 
 def check_worlds(settings: Settings) -> None:
     """The worlds of the runs and of the obstacle cases exist and have the errand's places (a RunError
-    that says which is missing); the obstacle cases are known."""
+    that says which is missing); the obstacle cases are known, and when there are any, the runs'
+    world is :data:`CASES_BUILDING` but perhaps for its odometry noise (a RunError says what differs)."""
     from atlas_rap.errors import RunError
     from atlas_rap.sim.world import load_world
 
