@@ -592,6 +592,33 @@ def test_layer_iv_s_last_try_takes_faintly_occupied_cells_for_unknown_once_no_wa
     assert isinstance(reason, str) and "nor where it is only faintly occupied" in reason, reason
 
 
+def test_layer_iv_s_last_try_doubts_the_walls_it_cannot_see_when_nothing_else_opens_a_way():
+    # Every way cut, and no block Layer III assessed (Layer IV drives, so none is): a sure wall
+    # across the building at x = 11 m, the robot in the corridor west of it at (10, 5). The wall
+    # between lab and corridor (y = 4 m, its door at x 6-7 m) hides the wall's stretch south of
+    # y = 4 m; the last try doubts that stretch, and the way goes back through the lab and on east.
+    _, stack, grid = _layers_on_a_known_free_grid()
+    frame = grid.frame
+    col = frame.world_to_cell(11.0, 0.0)[1]
+    grid.log_odds[:, col:col + 3] = 8.0
+    row = frame.world_to_cell(0.0, 4.0)[0]
+    for x0, x1 in ((0.0, 6.0), (7.0, 10.9)):
+        grid.log_odds[row - 1:row + 2, frame.world_to_cell(x0, 4.0)[1]:frame.world_to_cell(x1, 4.0)[1]] = 8.0
+    stack.grid_version += 1
+    stack.beliefs[POSE], stack.beliefs[POSE_TRACK] = (10.0, 5.0, 0.0), []
+    layer = stack.layers["IV"]
+    hidden = frame.world_to_cell(11.0, 2.0)
+    assert isinstance(layer.route("office", (10.0, 5.0), set()), str)
+    assert grid.log_odds[hidden] == 8.0  # the first asking doubts nothing
+    route = layer.route("office", (10.0, 5.0), set())
+    assert isinstance(route, PlannedRoute), route
+    assert grid.log_odds[hidden] < 1.0  # doubted
+    assert grid.log_odds[frame.world_to_cell(11.0, 6.0)] == 8.0  # in sight: as sure as it was
+    crossing = [p[1] + (q[1] - p[1]) * (11.0 - p[0]) / (q[0] - p[0])
+                for p, q in zip(route.waypoints, route.waypoints[1:]) if (p[0] - 11.0) * (q[0] - 11.0) < 0]
+    assert crossing and all(y < 4.0 for y in crossing), route
+
+
 def test_a_carried_map_that_closed_a_doorway_lets_layer_iv_through_where_earlier_runs_drove(tmp_path):
     # The wall at x = 5 m again, in a map carried from an earlier run: this run has no track yet,
     # but the grid remembers where the robot's centre went before (OccupancyGrid.driven, in the file).

@@ -57,7 +57,10 @@ The slowest layer. At its period it
   off a doorway's jambs, shared out among cells nothing else has seen, can
   close a doorway the robot is too far away to see through, 5 m on
   office-building, where its sonar's reach ends; the planner's way leads it
-  near, and the sonar says what is there): ``(no-route)`` and a reason
+  near, and the sonar says what is there), nor, that failing, once it has
+  doubted the walls it remembers but cannot see from where the robot is
+  (as it remaps for a block, below: a robot that meets a block while Layer
+  IV drives has no block assessed by Layer III): ``(no-route)`` and a reason
   that says so. (When Layer II or III
   has no route on the known map, the stack asserts ``(no-route)`` too, and
   the rules hand the drive to Layer IV, which explores; it holds until the
@@ -287,6 +290,9 @@ class StrategicLayer(Layer):
         last_try = self.no_route_goal == goal  # (no-route) already holds for this goal
         if self.path is None and last_try:
             self.path = self._along_driven_ways(start, target, faint_below=FAINT_OCCUPIED)
+            if self.path is None and self._doubt_unseen_walls():  # not along the driven ways: a doubted
+                # cell behind a wall seen now would free the driven planning cell it shares with the wall
+                self.path = stack.grid_planner(unknown_passable=True, faint_below=FAINT_OCCUPIED).plan(start, target)
         if self.path is None:
             stack.assert_fact(self, "no-route")
             return (f"no way to {goal} on the occupancy grid, not even through its unknown part"
@@ -363,15 +369,24 @@ class StrategicLayer(Layer):
         within sonar range that the robot cannot see from where it is become doubtful
         (:func:`~atlas_rap.maps.inference.doubt_unseen_walls`): the planner tries the ways they may
         leave, and the sonar decides as the robot goes (Layer IV maps)."""
+        blocked = Compound("route-blocked", (Var("a"), Var("b")))
+        if next(self.stack.sequencer.memory.facts(blocked), None) is not None:
+            self._doubt_unseen_walls()
+
+    def _doubt_unseen_walls(self) -> bool:
+        """The walls the grid remembers within sonar range that the robot cannot see from where it
+        is become doubtful (:func:`~atlas_rap.maps.inference.doubt_unseen_walls`); whether any did
+        (none with a prior map, which is not Layer IV's to doubt, nor without a pose)."""
         from atlas_rap.maps.inference import doubt_unseen_walls
 
         stack = self.stack
         pose = stack.beliefs.get(POSE)
-        blocked = Compound("route-blocked", (Var("a"), Var("b")))
-        if stack.prior_map or pose is None or next(stack.sequencer.memory.facts(blocked), None) is None:
-            return
-        doubt_unseen_walls(stack.beliefs[GRID], pose[:2], stack.robot_radius, self.sonar.max_range)
+        if stack.prior_map or pose is None:
+            return False
+        if not doubt_unseen_walls(stack.beliefs[GRID], pose[:2], stack.robot_radius, self.sonar.max_range):
+            return False
         stack.grid_version += 1
+        return True
 
 
 GRID_RESOLUTION = 0.05
