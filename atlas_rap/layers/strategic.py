@@ -133,6 +133,7 @@ class StrategicLayer(Layer):
         self.quality_at = -math.inf
         self.goals: list[Point] = []  # where the robot has been sent: part of the region the quality is of
         self.no_route_goal: str | None = None  # the goal (no-route) was said of
+        self.doubted_for: str | None = None  # the goal the last try has doubted the unseen walls for
         self.path = None
         self.path_goal: str | None = None
         self.path_version = -1
@@ -279,7 +280,7 @@ class StrategicLayer(Layer):
                 self._remap()
             elif goal != self.no_route_goal:  # sent somewhere else: the way there is not known to be cut
                 stack.post(self, [("retract", Compound("no-route", ()))])
-                self.no_route_goal = None
+                self.no_route_goal = self.doubted_for = None
         self.path_goal, self.path_version = goal, stack.grid_version
         planner = stack.grid_planner(unknown_passable=True)
         target = stack.world.places[goal].point
@@ -290,8 +291,11 @@ class StrategicLayer(Layer):
         last_try = self.no_route_goal == goal  # (no-route) already holds for this goal
         if self.path is None and last_try:
             self.path = self._along_driven_ways(start, target, faint_below=FAINT_OCCUPIED)
-            if self.path is None and self._doubt_unseen_walls():  # not along the driven ways: a doubted
-                # cell behind a wall seen now would free the driven planning cell it shares with the wall
+            if self.path is None and self.doubted_for != goal and self._doubt_unseen_walls():
+                # once while no way is said of this goal: where every way is cut, the robot gives up;
+                # not along the driven ways: a doubted cell behind a wall seen now would free the
+                # driven planning cell it shares with that wall
+                self.doubted_for = goal
                 self.path = stack.grid_planner(unknown_passable=True, faint_below=FAINT_OCCUPIED).plan(start, target)
         if self.path is None:
             stack.assert_fact(self, "no-route")
