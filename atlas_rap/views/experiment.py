@@ -54,6 +54,7 @@ from atlas_rap.views.figures import (
     plot_run_layers,
 )
 from atlas_rap.maps.agreement import map_agreement
+from atlas_rap.model import World
 from atlas_rap.outputs import atomic_write, write_text
 from atlas_rap.views.pose_error import pose_errors
 from atlas_rap.shipped import shipped_root
@@ -252,9 +253,10 @@ def obstacle_case(mission: Path, settings: Settings, case: ObstacleCase, places:
     from atlas_rap.sim.world import load_world
 
     name = case.world_for(places, settings.goal)
-    run, _ = one_run(mission, case_world(out, settings, name), settings.seed, map_in, out / f"map-{case.key}.npz",
-                     settings.layer_rules, settings.localisation, (settings.goal, settings.home))
     world = load_world(name)
+    run, _ = one_run(mission, case_world(out, settings, name, world), settings.seed, map_in,
+                     out / f"map-{case.key}.npz", settings.layer_rules, settings.localisation,
+                     (settings.goal, settings.home))
     events = [{"t": d.start, "what": f"{'a person starts to cross' if d.kind == 'person' else 'a box is put down'}"
                                     f" ({d.name})"} for d in world.disturbances]
     seen = layer_order(run)
@@ -262,15 +264,15 @@ def obstacle_case(mission: Path, settings: Settings, case: ObstacleCase, places:
             "as_expected": seen == list(case.expected), **run, "optimal_s": optimal, "events": events}
 
 
-def case_world(out: Path, settings: Settings, name: str) -> str:
-    """The world an obstacle case runs in: the case's world ``name`` as shipped; or, when the runs'
-    world gives the robot other odometry noise (``tests/worlds/lab-corridor-office-exact.yaml``), a
-    variant of it with that noise, written into ``out`` as ``world-NAME.yaml`` (its path), so the
-    case's robot errs as the runs' robot did."""
+def case_world(out: Path, settings: Settings, name: str, world: World) -> str:
+    """The world an obstacle case runs in: the case's world ``name`` (read: ``world``) as shipped;
+    or, when the runs' world gives the robot other odometry noise
+    (``tests/worlds/lab-corridor-office-exact.yaml``), a variant of it with that noise, written into
+    ``out`` as ``world-NAME.yaml`` (its path), so the case's robot errs as the runs' robot did."""
     from atlas_rap.sim.world import load_world, world_path
 
     noise = load_world(settings.world).robot.odometry_noise
-    if noise == load_world(name).robot.odometry_noise:
+    if noise == world.robot.odometry_noise:
         return name
     alphas = "off" if noise.off else "{" + ", ".join(
         f"alpha{i}: {getattr(noise, f'alpha{i}')!r}" for i in range(1, 5)) + "}"
@@ -345,11 +347,12 @@ def check_worlds(settings: Settings) -> None:
     from atlas_rap.errors import RunError
     from atlas_rap.sim.world import load_world
 
-    worlds = [settings.world]
+    names = [settings.world]
     cases = _cases(settings.obstacles)
     for case in cases:
-        worlds += [case.world, *(world for _, world in case.detours)]
-    for name in worlds:
+        names += [case.world, *(world for _, world in case.detours)]
+    worlds = []
+    for name in names:
         if name == "none":
             raise RunError("the experiment needs a world to drive in, not 'none'")
         world = load_world(name)
@@ -358,8 +361,9 @@ def check_worlds(settings: Settings) -> None:
             raise RunError(f"world {world.name} has no place named {' or '.join(missing)}: the errand goes "
                              f"from {settings.home} to {settings.goal} and back "
                              f"(its places: {', '.join(world.places) or 'none'})")
+        worlds.append(world)
     if cases:
-        runs, building = load_world(settings.world), load_world(CASES_BUILDING)
+        runs, building = worlds[0], load_world(CASES_BUILDING)
         differ = [what for what, a, b in (
             ("walls", runs.walls, building.walls), ("places", runs.places, building.places),
             ("doors", runs.doors, building.doors), ("sonar", runs.sonar, building.sonar),
