@@ -229,9 +229,12 @@ class SonarConfig:
 class World:
     """A whole world: geometry, named places and doors, disturbances, robot and sonar settings.
 
-    ``bounds`` is (xmin, ymin, xmax, ymax) around everything. ``source`` is
-    the file it was read from (for messages and pictures). ``objects`` are the
-    coloured things on the floor (the simulation's truth, not the prior map).
+    ``bounds`` is (xmin, ymin, xmax, ymax) around everything, ``margin``
+    metres of it beyond the walls, places and start (the room a grid over the
+    bounds leaves for the sonar's cones past the outer walls; nothing stands
+    there): :attr:`extent` is the box they lie in. ``source`` is the file it
+    was read from (for messages and pictures). ``objects`` are the coloured
+    things on the floor (the simulation's truth, not the prior map).
     """
 
     name: str
@@ -244,6 +247,14 @@ class World:
     bounds: tuple[float, float, float, float] = (0.0, 0.0, 10.0, 10.0)
     source: str = ""
     objects: dict[str, WorldObject] = field(default_factory=dict)
+    margin: float = 0.0
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the area itself: the bounds less their ``margin``."""
+        xmin, ymin, xmax, ymax = self.bounds
+        m = self.margin
+        return xmin + m, ymin + m, xmax - m, ymax - m
 
     def place_shapes(self) -> dict[str, tuple[Point, ...] | Point]:
         """Each place's region (a polygon), or its point when it has none: what names a map's places."""
@@ -254,7 +265,8 @@ class World:
         places (as point places), the extent of the area, its own body and sonar; no walls,
         no doors, no regions, no objects (``atlas run --no-prior-map``)."""
         places = {name: Place(name, place.point, None, place.radius) for name, place in self.places.items()}
-        return World(self.name, (), places, {}, (), self.robot, self.sonar, self.bounds, self.source)
+        return World(self.name, (), places, {}, (), self.robot, self.sonar, self.bounds, self.source,
+                     margin=self.margin)
 
     def place_at(self, x: float, y: float) -> str | None:
         """The first place (in file order) that contains (x, y), or None."""

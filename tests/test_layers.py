@@ -619,6 +619,34 @@ def test_layer_iv_s_last_try_doubts_the_walls_it_cannot_see_when_nothing_else_op
     assert crossing and all(y < 4.0 for y in crossing), route
 
 
+def test_layer_iv_looks_for_a_way_within_the_world_s_extent_not_round_the_outside():
+    # A sure wall across the whole building at x = 5 m, and the margin the bounds leave round the
+    # building (1 m) never seen: the way round the wall's end through that margin is no way. A
+    # stretch of the wall inside the building the sonar has not seen is one.
+    _, stack, grid = _layers_on_a_known_free_grid()
+    frame = grid.frame
+    assert stack.world.extent == (0.0, 0.0, 20.0, 10.0)  # lab-corridor-office's walls
+    x, y = frame.cell_to_world(*np.indices(frame.shape))
+    beyond = (x < 0.0) | (x > 20.0) | (y < 0.0) | (y > 10.0)
+    grid.log_odds[beyond], grid.updated[beyond] = 0.0, False
+    wall = (np.abs(x - 5.0) < 0.1) & ~beyond
+    grid.log_odds[wall] = 8.0
+    stack.grid_version += 1
+    stack.beliefs[POSE], stack.beliefs[POSE_TRACK] = (1.5, 1.5, 0.0), []
+    layer = stack.layers["IV"]
+    reason = layer.route("office", (1.5, 1.5), set())
+    assert isinstance(reason, str), reason
+    unseen = wall & (np.abs(y - 2.0) < 0.5)
+    grid.log_odds[unseen], grid.updated[unseen] = 0.0, False
+    stack.grid_version += 1
+    route = layer.route("office", (1.5, 1.5), set())
+    assert isinstance(route, PlannedRoute), route
+    crossing = [p[1] + (q[1] - p[1]) * (5.0 - p[0]) / (q[0] - p[0])
+                for p, q in zip(route.waypoints, route.waypoints[1:]) if (p[0] - 5.0) * (q[0] - 5.0) < 0]
+    assert len(crossing) == 1 and 1.5 < crossing[0] < 2.5, route
+    assert all(0.0 <= py <= 10.0 for _, py in route.waypoints), route
+
+
 def test_a_carried_map_that_closed_a_doorway_lets_layer_iv_through_where_earlier_runs_drove(tmp_path):
     # The wall at x = 5 m again, in a map carried from an earlier run: this run has no track yet,
     # but the grid remembers where the robot's centre went before (OccupancyGrid.driven, in the file).

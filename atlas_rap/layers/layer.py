@@ -43,6 +43,7 @@ from atlas_rap.skills.beliefs import GRID, HOLD, POSE, ROUTES, Beliefs, PlannedR
 from atlas_rap.trace_events import Event
 
 if TYPE_CHECKING:
+    from atlas_rap.maps.frame import GridFrame
     from atlas_rap.sequencer import Sequencer
     from atlas_rap.sim.world import World
 
@@ -109,6 +110,7 @@ class LayerStack:
         self.blocked_doors: set[str] = set()  # doors found blocked (Layer III); prior-map routes leave them out
         self.grid_version = 0  # grows each time Layer IV changes the grid
         self._planners: dict[bool, tuple[tuple[Any, ...], Any]] = {}
+        self._beyond: tuple[GridFrame, np.ndarray] | None = None  # (frame, mask): _beyond_the_extent's cache
         self.enabled = frozenset(enabled)
         unknown = self.enabled - set(LAYER_NAMES)
         if unknown:
@@ -266,7 +268,10 @@ class LayerStack:
         The blocked points are obstacles; the disc round the robot is free (it
         stands there, whatever the sonar saw), but for the ``contacts``, where
         the bumper touched something (felt, not seen: Layer IV). With ``unknown_passable`` False
-        (Layers II and III, which do not explore) unknown cells are obstacles.
+        (Layers II and III, which do not explore) unknown cells are obstacles; with it True
+        (Layer IV) so are those beyond the world's extent (``World.extent``): the margin the
+        bounds leave round the walls, places and start holds nothing to drive to, and a way
+        through it would lead round the outside of a building the sonar has not yet seen whole.
         ``track`` (points the robot drove, in order) is passable but where it
         comes within reach of a blocked point
         (:class:`~atlas_rap.maps.gridpath.GridPlanner`'s ``tracks``); so are
@@ -299,7 +304,8 @@ class LayerStack:
     def _planning_grid(self, unknown_passable: bool,
                        faint_below: float | None = None) -> tuple[np.ndarray, np.ndarray]:
         """P(occ) and the known cells for :meth:`grid_planner`: the grid (the cells occupied with
-        P under ``faint_below`` unknown), the disc round the robot free, the blocked points and the
+        P under ``faint_below`` unknown; with ``unknown_passable``, the unknown cells beyond the
+        world's extent occupied), the disc round the robot free, the blocked points and the
         contacts occupied."""
         grid = self.beliefs[GRID]
         frame = grid.frame
@@ -310,6 +316,9 @@ class LayerStack:
             known &= (p_occ <= 0.5) | (p_occ >= faint_below)
         if not unknown_passable:
             p_occ[~grid.updated] = 1.0
+        else:
+            beyond = self._beyond_the_extent(frame) & ~grid.updated
+            p_occ[beyond], known[beyond] = 1.0, True
         robot = frame.disc(*pose[:2], self.robot_radius + 0.35) if pose is not None else None
         if robot is not None:
             window, disc = robot
@@ -323,6 +332,14 @@ class LayerStack:
             if found is not None:
                 p_occ[found[0]][found[1]], known[found[0]][found[1]] = 1.0, True
         return p_occ, known
+
+    def _beyond_the_extent(self, frame: GridFrame) -> np.ndarray:
+        """The cells of ``frame`` whose centres lie outside ``World.extent`` (cached per frame)."""
+        if self._beyond is None or self._beyond[0] != frame:
+            xmin, ymin, xmax, ymax = self.world.extent
+            x, y = frame.cell_to_world(*np.indices(frame.shape))
+            self._beyond = (frame, (x < xmin) | (x > xmax) | (y < ymin) | (y > ymax))
+        return self._beyond[1]
 
     def _clear_of_blocks(self, cells: np.ndarray) -> np.ndarray:
         """A copy of the mask ``cells`` (the grid's frame) without those within the robot's radius of

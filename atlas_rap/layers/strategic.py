@@ -41,7 +41,9 @@ The slowest layer. At its period it
   robot has been sent to (:func:`~atlas_rap.maps.inference.explored_quality`);
 - **plans** when it drives: the cheapest path on the grid with
   ``skimage.graph.MCP`` (:class:`~atlas_rap.maps.gridpath.GridPlanner`),
-  unknown cells passable at a cost (optimistic planning), re-planned as
+  unknown cells passable at a cost (optimistic planning) within the
+  world's extent (``World.extent``: not round the outside of the building
+  through the margin the grid has beyond its walls), re-planned as
   soon as the grid shows the path blocked. No path at all, even through the
   unknown, and none either along the ways the robot has driven (its
   believed track of this run, and the cells its centre passed in the runs

@@ -166,6 +166,7 @@ WALL_CLEARANCE_MARGIN = 0.15  # a place point must be this much more than the ro
 FREE_POINT_SEARCH = 5.0  # metres around a bad start searched for a free point to suggest (worlds without a map)
 FREE_POINT_STEP = 0.05
 BOUNDS_MARGIN = 1.0
+"""Metres the bounds reach beyond the walls, the places and the robot's start (``World.margin``)."""
 OPENING_TOLERANCE = 1e-6
 """Metres from a wall's line within which an opening's ends lie along the wall."""
 NAME_PATTERN = re.compile(r"[a-z][a-z0-9_-]*\Z")
@@ -269,7 +270,7 @@ class _WorldReader:
         self.check_clearances(all_walls, places, place_nodes, robot)
         src.check()
         return World(name, all_walls, places, doors, disturbances, robot, sonar,
-                     _bounds(all_walls, places, robot), src.file, objects)
+                     _bounds(all_walls, places, robot), src.file, objects, BOUNDS_MARGIN)
 
     def variant(self) -> World:
         """A world file with ``base: WORLD``: that world with its doors changed (open, openable,
