@@ -619,6 +619,31 @@ def test_layer_iv_s_last_try_doubts_the_walls_it_cannot_see_when_nothing_else_op
     assert crossing and all(y < 4.0 for y in crossing), route
 
 
+def test_layer_iv_s_last_try_doubts_the_walls_round_the_goal_that_its_map_closed():
+    # The office walled in on the map, every wall sure (a door shut when the robot passed, or a
+    # wall drawn where a drifting pose put it), and the robot in the lab, beyond the sonar's reach
+    # of them: no way at the first asking; the last try doubts the walls within the sonar's reach
+    # of the goal and the way goes in. Once the sonar has made them sure again, the robot gives up.
+    _, stack, grid = _layers_on_a_known_free_grid()
+    frame = grid.frame
+    x, y = frame.cell_to_world(*np.indices(frame.shape))
+    inside = (x > 13.0) & (x < 20.0) & (y > 6.0) & (y < 10.0)
+    ring = ~inside & (x > 12.8) & (x < 20.2) & (y > 5.8) & (y < 10.2)
+    grid.log_odds[ring] = 8.0
+    stack.grid_version += 1
+    stack.beliefs[POSE], stack.beliefs[POSE_TRACK] = (1.5, 1.5, 0.0), []
+    layer = stack.layers["IV"]
+    assert isinstance(layer.route("office", (1.5, 1.5), set()), str)
+    route = layer.route("office", (1.5, 1.5), set())
+    assert isinstance(route, PlannedRoute), route
+    assert route.waypoints[-1] == stack.world.places["office"].point
+    grid.log_odds[ring] = 8.0  # the robot went and looked: walls
+    grid.updated[ring] = True
+    stack.grid_version += 1
+    reason = layer.route("office", (1.5, 1.5), set())
+    assert isinstance(reason, str) and "every way is blocked" in reason, reason
+
+
 def test_layer_iv_looks_for_a_way_within_the_world_s_extent_not_round_the_outside():
     # A sure wall across the whole building at x = 5 m, and the margin the bounds leave round the
     # building (1 m) never seen: the way round the wall's end through that margin is no way. A

@@ -62,8 +62,11 @@ The slowest layer. At its period it
   near, and the sonar says what is there), nor, that failing, once it has
   doubted the walls it remembers but cannot see from where the robot is
   (as it remaps for a block, below: a robot that meets a block while Layer
-  IV drives has no block assessed by Layer III): ``(no-route)`` and a reason
-  that says so. (When Layer II or III
+  IV drives has no block assessed by Layer III) and those within sonar
+  reach of the goal (a door drawn shut as the robot passed, or a wall drawn
+  where a drifting pose put it, can wall a goal in on the map while the
+  robot is too far away to look), once while no way is said of the goal:
+  ``(no-route)`` and a reason that says so. (When Layer II or III
   has no route on the known map, the stack asserts ``(no-route)`` too, and
   the rules hand the drive to Layer IV, which explores; it holds until the
   robot is sent somewhere else.) When a block Layer III assessed cut every
@@ -293,12 +296,15 @@ class StrategicLayer(Layer):
         last_try = self.no_route_goal == goal  # (no-route) already holds for this goal
         if self.path is None and last_try:
             self.path = self._along_driven_ways(start, target, faint_below=FAINT_OCCUPIED)
-            if self.path is None and self.doubted_for != goal and self._doubt_unseen_walls():
-                # once while no way is said of this goal: where every way is cut, the robot gives up;
-                # not along the driven ways: a doubted cell behind a wall seen now would free the
-                # driven planning cell it shares with that wall
-                self.doubted_for = goal
-                self.path = stack.grid_planner(unknown_passable=True, faint_below=FAINT_OCCUPIED).plan(start, target)
+            if self.path is None and self.doubted_for != goal:
+                # once while no way is said of this goal: where every way is cut, the robot gives up
+                unseen = self._doubt_unseen_walls()
+                if self._doubt_walls_round(target) or unseen:
+                    self.doubted_for = goal
+                    # not along the driven ways: a doubted cell behind a wall seen now would free the
+                    # driven planning cell it shares with that wall
+                    self.path = stack.grid_planner(unknown_passable=True,
+                                                   faint_below=FAINT_OCCUPIED).plan(start, target)
         if self.path is None:
             stack.assert_fact(self, "no-route")
             return (f"no way to {goal} on the occupancy grid, not even through its unknown part"
@@ -390,6 +396,21 @@ class StrategicLayer(Layer):
         if stack.prior_map or pose is None:
             return False
         if not doubt_unseen_walls(stack.beliefs[GRID], pose[:2], stack.robot_radius, self.sonar.max_range):
+            return False
+        stack.grid_version += 1
+        return True
+
+    def _doubt_walls_round(self, goal: Point) -> bool:
+        """The walls the grid remembers within sonar range of ``goal`` become doubtful
+        (:meth:`~atlas_rap.maps.grid.OccupancyGrid.doubt_walls`): a map that walls a goal in may have
+        drawn a door shut when the robot passed, or a wall where a drifting pose put it, and the
+        robot may be too far away to look; the planner's way leads it there and the sonar decides.
+        Whether any did (none with a prior map, which is not Layer IV's to doubt)."""
+        stack = self.stack
+        if stack.prior_map:
+            return False
+        reach = stack.robot_radius + self.sonar.max_range
+        if not stack.beliefs[GRID].doubt_walls(float(goal[0]), float(goal[1]), reach):
             return False
         stack.grid_version += 1
         return True
