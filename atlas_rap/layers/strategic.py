@@ -16,21 +16,15 @@ The slowest layer. At its period it
   full), each ring counts for ``min(1, max(moved / D, turned / A))`` of a
   reading, by the motion since the ring before it (the ``weight`` of
   :meth:`~atlas_rap.maps.grid.OccupancyGrid.update_sonar`), so the map grows
-  surer by the ground covered, not by the rings read: a robot standing
-  still learns nothing more. ROS mappers do the like by dropping scans:
-  slam_toolbox's ``minimum_travel_distance`` and ``_heading`` (0.5 m, 0.5
-  rad), gmapping's ``linearUpdate`` and ``angularUpdate`` (1.0 m, 0.5 rad);
-  here every ring is kept at its share, so the cells between two dropped
-  scans' cones are not left unseen. **Contacts**: where the bumper touched
+  surer by the ground covered, not by the rings read (slam_toolbox's
+  ``minimum_travel_distance`` and ``_heading`` drop scans instead; here
+  every ring is kept at its share). **Contacts**: where the bumper touched
   something (Layer I's log) the grid is marked occupied
   (:meth:`~atlas_rap.maps.grid.OccupancyGrid.mark_contact`), the point
   joins the stack's ``contacts``, which its grid planners keep as obstacles
   even in the disc round the robot they otherwise take as free, and the
-  route being driven is planned again. Sonar misses what it meets at a
-  grazing angle: a door jamb met edge-on returns no echo, and a robot whose
-  path hugged it pressed on it again and again (seed 6's first run: 21
-  bumps and 87 s at the lab door). ROS does the like with a bumper's
-  contacts in the costmap (kobuki's ``bumper2pc``);
+  route being driven is planned again: sonar misses a door jamb met
+  edge-on (kobuki's ``bumper2pc`` feeds ROS costmaps the same way);
 - **measures the map** every ``quality-every`` seconds in a run without a
   prior map: ``(map-quality Q)``, one minus the mean entropy of a region
   of interest, which the rules compare with their threshold. The region is
@@ -42,31 +36,25 @@ The slowest layer. At its period it
 - **plans** when it drives: the cheapest path on the grid with
   ``skimage.graph.MCP`` (:class:`~atlas_rap.maps.gridpath.GridPlanner`),
   unknown cells passable at a cost (optimistic planning) within the
-  world's extent (``World.extent``: not round the outside of the building
-  through the margin the grid has beyond its walls), re-planned as
-  soon as the grid shows the path blocked. No path at all, even through the
-  unknown, and none either along the ways the robot has driven (its
-  believed track of this run, and the cells its centre passed in the runs
-  that carried the grid, ``OccupancyGrid.driven``, taken as passable but
-  near a block and where this run's sonar has made the cells surer
-  occupied: a sonar map can close a doorway behind the robot, the arcs of
-  echoes off its jambs, and a map carried to the next run keeps it
-  closed), and, once ``(no-route)`` already holds for the goal (asked
-  again: navigation.rap's ``go-to`` first turns the robot on the spot,
-  ``look-again``), none either where
-  the grid holds the cells occupied with P under ``FAINT_OCCUPIED`` (0.9),
-  taken as unknown (the last try: the arcs of one or two slanting echoes
-  off a doorway's jambs, shared out among cells nothing else has seen, can
-  close a doorway the robot is too far away to see through, 5 m on
-  office-building, where its sonar's reach ends; the planner's way leads it
-  near, and the sonar says what is there), nor, that failing, once it has
-  doubted the walls it remembers but cannot see from where the robot is
-  (as it remaps for a block, below: a robot that meets a block while Layer
-  IV drives has no block assessed by Layer III) and those within sonar
-  reach of the goal (a door drawn shut as the robot passed, or a wall drawn
-  where a drifting pose put it, can wall a goal in on the map while the
-  robot is too far away to look), once while no way is said of the goal:
-  ``(no-route)`` and a reason that says so. (When Layer II or III
+  world's extent (``World.extent``), re-planned as soon as the grid shows
+  the path blocked. With no path at all, it tries in turn (each measured
+  in docs/how-to/layers.md):
+  1. the ways the robot has driven, taken as passable: its believed track
+     of this run and the cells its centre passed in the runs that carried
+     the grid (``OccupancyGrid.driven``), but near a block and where this
+     run's sonar is surer of an obstacle (a sonar map can close a doorway
+     behind the robot with the arcs of echoes off its jambs);
+  2. once ``(no-route)`` already holds for the goal (navigation.rap's
+     ``go-to`` has turned the robot on the spot, ``look-again``), the last
+     try: cells occupied with P under ``FAINT_OCCUPIED`` taken as unknown
+     (slanting echoes' arcs can close a doorway too far away to see
+     through); then, once while no way is said of the goal, the walls it
+     remembers but cannot see from where it is, and those within sonar
+     reach of the goal (a door drawn shut as the robot passed, a wall
+     drawn where a drifting pose put it), doubted. The way leads the robot
+     to look, and the sonar decides;
+
+  then ``(no-route)`` and a reason that says so. (When Layer II or III
   has no route on the known map, the stack asserts ``(no-route)`` too, and
   the rules hand the drive to Layer IV, which explores; it holds until the
   robot is sent somewhere else.) When a block Layer III assessed cut every
@@ -402,10 +390,8 @@ class StrategicLayer(Layer):
 
     def _doubt_walls_round(self, goal: Point) -> bool:
         """The walls the grid remembers within sonar range of ``goal`` become doubtful
-        (:meth:`~atlas_rap.maps.grid.OccupancyGrid.doubt_walls`): a map that walls a goal in may have
-        drawn a door shut when the robot passed, or a wall where a drifting pose put it, and the
-        robot may be too far away to look; the planner's way leads it there and the sonar decides.
-        Whether any did (none with a prior map, which is not Layer IV's to doubt)."""
+        (:meth:`~atlas_rap.maps.grid.OccupancyGrid.doubt_walls`; the last try, module docstring);
+        whether any did (none with a prior map, which is not Layer IV's to doubt)."""
         stack = self.stack
         if stack.prior_map:
             return False
@@ -424,9 +410,8 @@ OCCUPIED_LOG_ODDS = math.log(0.6 / 0.4)
 
 FAINT_OCCUPIED = 0.9
 """P(occ) under which Layer IV's last try for a way counts a cell the grid holds occupied as unknown
-(log-odds 2.2: a wall met head-on goes past it in a few rings). Not a test of what is a wall: in
-lab-corridor-office's first maps (seeds 0-39) as many of the cells under it lie on a true wall as of
-those over it, about 8 in 10; the last try only lets the robot go and look."""
+(log-odds 2.2: a wall met head-on goes past it in a few rings). Not a test of what is a wall (about 8
+in 10 cells on either side of it lie on a true wall); the last try only lets the robot go and look."""
 
 FOOTPRINT_SPACING = 0.1
 """Metres the robot moves between the footprints it marks free (the disc under it)."""
