@@ -566,6 +566,12 @@ def test_a_doorway_the_sonar_closed_on_the_map_is_looked_at_again_and_the_robot_
     assert then[2]["step"] == "step t2 (navigate-to office-4)" and then[2]["outcome"] == ":succeed", then[:3]
 
 
+def _where_it_crosses(route: PlannedRoute, x: float) -> list[float]:
+    """The y at which each leg of ``route`` crosses the line x = ``x``."""
+    return [p[1] + (q[1] - p[1]) * (x - p[0]) / (q[0] - p[0])
+            for p, q in zip(route.waypoints, route.waypoints[1:]) if (p[0] - x) * (q[0] - x) < 0]
+
+
 def test_layer_iv_s_last_try_takes_faintly_occupied_cells_for_unknown_once_no_way_was_said(tmp_path):
     # A wall across the lab at x = 5 m, sure everywhere but a doorway's width of faint cells
     # (P 0.82): no way on the first asking; once (no-route) holds for the goal, the last try
@@ -583,8 +589,7 @@ def test_layer_iv_s_last_try_takes_faintly_occupied_cells_for_unknown_once_no_wa
     assert stack.holds("no-route")
     route = layer.route("office", (1.5, 1.5), set())
     assert isinstance(route, PlannedRoute), route
-    crossing = [p[1] + (q[1] - p[1]) * (5.0 - p[0]) / (q[0] - p[0])  # where each leg crosses x = 5 m
-                for p, q in zip(route.waypoints, route.waypoints[1:]) if (p[0] - 5.0) * (q[0] - 5.0) < 0]
+    crossing = _where_it_crosses(route, 5.0)
     assert len(crossing) == 1 and 1.5 + stack.robot_radius <= crossing[0] <= 2.5 - stack.robot_radius, route
     grid.log_odds[door[0]:door[1], col:col + 3] = 3.0  # the sonar has made the doorway's cells sure
     stack.grid_version += 1
@@ -614,8 +619,7 @@ def test_layer_iv_s_last_try_doubts_the_walls_it_cannot_see_when_nothing_else_op
     assert isinstance(route, PlannedRoute), route
     assert grid.log_odds[hidden] < 1.0  # doubted
     assert grid.log_odds[frame.world_to_cell(11.0, 6.0)] == 8.0  # in sight: as sure as it was
-    crossing = [p[1] + (q[1] - p[1]) * (11.0 - p[0]) / (q[0] - p[0])
-                for p, q in zip(route.waypoints, route.waypoints[1:]) if (p[0] - 11.0) * (q[0] - 11.0) < 0]
+    crossing = _where_it_crosses(route, 11.0)
     assert crossing and all(y < 4.0 for y in crossing), route
 
 
@@ -666,8 +670,7 @@ def test_layer_iv_looks_for_a_way_within_the_world_s_extent_not_round_the_outsid
     stack.grid_version += 1
     route = layer.route("office", (1.5, 1.5), set())
     assert isinstance(route, PlannedRoute), route
-    crossing = [p[1] + (q[1] - p[1]) * (5.0 - p[0]) / (q[0] - p[0])
-                for p, q in zip(route.waypoints, route.waypoints[1:]) if (p[0] - 5.0) * (q[0] - 5.0) < 0]
+    crossing = _where_it_crosses(route, 5.0)
     assert len(crossing) == 1 and 1.5 < crossing[0] < 2.5, route
     assert all(0.0 <= py <= 10.0 for _, py in route.waypoints), route
 
