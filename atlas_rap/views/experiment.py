@@ -54,7 +54,7 @@ from atlas_rap.views.figures import (
     plot_run_layers,
 )
 from atlas_rap.maps.agreement import map_agreement
-from atlas_rap.model import World
+from atlas_rap.model import OdometryNoise, World
 from atlas_rap.outputs import atomic_write, write_text
 from atlas_rap.views.pose_error import pose_errors
 from atlas_rap.shipped import shipped_root
@@ -209,7 +209,7 @@ def skill_acquisition(out: str | Path, settings: Settings = Settings(),
     are returned with ``"complete": false`` and ``"incomplete"`` saying where it
     stopped (``"interrupted after run 3 of 7"``); the run it stopped is left out.
     """
-    check_worlds(settings)
+    noise = check_worlds(settings).robot.odometry_noise
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     mission = errand_file(out, settings)
@@ -237,7 +237,7 @@ def skill_acquisition(out: str | Path, settings: Settings = Settings(),
             if progress is not None:
                 progress(f"obstacles: {case.key}")
             cases = data.setdefault("obstacles", [])
-            cases.append(obstacle_case(mission, settings, case, places, map_in, out, optimal))
+            cases.append(obstacle_case(mission, settings, case, places, map_in, out, optimal, noise))
     except KeyboardInterrupt:
         data["complete"] = False
         data["incomplete"] = f"interrupted{during} after run {len(runs)} of {settings.runs}"
@@ -245,16 +245,17 @@ def skill_acquisition(out: str | Path, settings: Settings = Settings(),
 
 
 def obstacle_case(mission: Path, settings: Settings, case: ObstacleCase, places: list[str],
-                  map_in: Path | None, out: Path, optimal: float) -> dict[str, Any]:
+                  map_in: Path | None, out: Path, optimal: float, noise: OdometryNoise) -> dict[str, Any]:
     """One case of the obstacle scenario: the errand once more, on the map the runs built, in the
-    case's world for a robot that went by ``places`` (:meth:`ObstacleCase.world_for`); its figures
+    case's world for a robot that went by ``places`` (:meth:`ObstacleCase.world_for`), with the runs'
+    odometry ``noise`` (:func:`case_world`); its figures
     as :func:`one_run`'s, with the case, its title, the world, the events, the layers the seed
     orders (``expected``) and those seen (``seen``), and whether they are the same."""
     from atlas_rap.sim.world import load_world
 
     name = case.world_for(places, settings.goal)
     world = load_world(name)
-    run, _ = one_run(mission, case_world(out, settings, name, world), settings.seed, map_in,
+    run, _ = one_run(mission, case_world(out, settings, name, world, noise), settings.seed, map_in,
                      out / f"map-{case.key}.npz", settings.layer_rules, settings.localisation,
                      (settings.goal, settings.home))
     events = [{"t": d.start, "what": f"{'a person starts to cross' if d.kind == 'person' else 'a box is put down'}"
@@ -264,14 +265,13 @@ def obstacle_case(mission: Path, settings: Settings, case: ObstacleCase, places:
             "as_expected": seen == list(case.expected), **run, "optimal_s": optimal, "events": events}
 
 
-def case_world(out: Path, settings: Settings, name: str, world: World) -> str:
+def case_world(out: Path, settings: Settings, name: str, world: World, noise: OdometryNoise) -> str:
     """The world an obstacle case runs in: the case's world ``name`` (read: ``world``) as shipped;
-    or, when the runs' world gives the robot other odometry noise
+    or, when the runs' world gives the robot other odometry ``noise``
     (``tests/worlds/lab-corridor-office-exact.yaml``), a variant of it with that noise, written into
     ``out`` as ``world-NAME.yaml`` (its path), so the case's robot errs as the runs' robot did."""
-    from atlas_rap.sim.world import load_world, world_path
+    from atlas_rap.sim.world import world_path
 
-    noise = load_world(settings.world).robot.odometry_noise
     if noise == world.robot.odometry_noise:
         return name
     alphas = "off" if noise.off else "{" + ", ".join(
@@ -340,10 +340,11 @@ def _cases(keys: tuple[str, ...] | None) -> list[ObstacleCase]:
     return [case for case in OBSTACLE_CASES if case.key in keys]
 
 
-def check_worlds(settings: Settings) -> None:
+def check_worlds(settings: Settings) -> World:
     """The worlds of the runs and of the obstacle cases exist and have the errand's places (a RunError
     that says which is missing); the obstacle cases are known, and when there are any, the runs'
-    world is :data:`CASES_BUILDING` but perhaps for its odometry noise (a RunError says what differs)."""
+    world is :data:`CASES_BUILDING` but perhaps for its odometry noise (a RunError says what differs).
+    The runs' world, as read."""
     from atlas_rap.errors import RunError
     from atlas_rap.sim.world import load_world
 
@@ -372,6 +373,7 @@ def check_worlds(settings: Settings) -> None:
             raise RunError(f"the obstacle scenario puts its person, box and block in {CASES_BUILDING}'s corridor, "
                            f"and world {settings.world} is not that building as shipped (it differs in its "
                            f"{', '.join(differ)}): run it with --obstacles none")
+    return worlds[0]
 
 
 def _places_passed(engine: MissionEngine) -> list[str]:
