@@ -60,17 +60,19 @@ def test_after_the_switch_layer_ii_drives_each_run_within_a_quarter_of_the_optim
                     # Layer II drives; Layer I (and III) while something is in the way, and Layer IV for
                     # the seconds it takes to map again where a block Layer III put on the map lowered it
                     assert run["primary_s"]["II"] > 0.9 * run["duration_s"], (one["seed"], run["primary_s"])
-                assert run["duration_s"] < min(r["duration_s"] for r in one["runs"][:crossed]), one["seed"]
                 after.append(run["duration_s"] / run["optimal_s"])
     assert after, "no seed switched to Layer II"
     assert statistics.median(after) <= 1.25, after
     assert experiment["summary"]["after_crossing"]["ratio_to_optimal"] <= 1.25
 
 
-def test_the_runs_mapping_are_slower_for_the_speed_cap_and_the_figures_say_how_much(experiment):
+def test_the_runs_mapping_drive_at_top_speed_and_the_figures_say_how_long_their_paths_take_at_it(experiment):
     for one in experiment["per_seed"]:
         for run in one["runs"]:
             # both figures are rounded to 0.01: 0.005 of the time and 0.005 / 0.6 of the path apart at most
             assert run["path_at_top_speed_s"] == pytest.approx(run["path_m"] / 0.6, abs=0.014)
-            if run["primary_s"]["IV"] > 0.9 * run["duration_s"]:  # mapping at 0.6 of top speed
-                assert run["duration_s"] > 1.4 * run["path_at_top_speed_s"], (one["seed"], run)
+            assert run["duration_s"] >= run["path_at_top_speed_s"] - 0.01, (one["seed"], run)
+            if run["primary_s"]["IV"] > 0.9 * run["duration_s"]:
+                # the shipped rules set no mapping-speed cap (at 0.6 of top speed such runs took more
+                # than 1.4 times their path's time at top speed): mapping costs the run only its turns
+                assert run["duration_s"] < 1.3 * run["path_at_top_speed_s"], (one["seed"], run)

@@ -17,12 +17,12 @@ from atlas_rap.sim.world import load_world
 from atlas_rap.views.experiment import Settings, skill_acquisition
 
 RULES = shipped_root("rap_library") / "layers.rap"
-SEED = 10  # its errand goes by the storeroom both ways and never sees the corridor's east end
+SEED = 16  # its first errand leaves the map at 0.836, a fifth of the errand's area unseen
 
 
 @pytest.fixture(scope="module")
 def two_runs(tmp_path_factory):
-    """Two errands on seed 10, with the shipped rules (exploring) and with exploring turned off."""
+    """Two errands on seed 16, with the shipped rules (exploring) and with exploring turned off."""
     text = RULES.read_text(encoding="utf-8")
     # shipped: not set (so on), only named in a comment
     assert all(line.startswith(";") for line in text.splitlines() if "explore " in line)

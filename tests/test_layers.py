@@ -62,6 +62,15 @@ def traced_run(world: str, out: Path, map_in: Path | None, seed: int = 0, **opti
     return engine, result, records
 
 
+def capped_rules(out: Path) -> Path:
+    """A copy of the shipped layer rules in ``out`` that caps the speed while Layer IV maps at 0.6 of
+    top speed (``mapping-speed``; the shipped rules set no cap)."""
+    rules = out / "capped-layers.rap"
+    text = (shipped_root("rap_library") / "layers.rap").read_text(encoding="utf-8")
+    rules.write_text(text + "(initial-memory (layer-setting mapping-speed 0.6))\n", encoding="utf-8")
+    return rules
+
+
 def switches(records: list[dict]) -> list[dict]:
     return [r for r in records if r["event"] == "layer-switched"]
 
@@ -97,7 +106,8 @@ def test_once_the_map_is_good_layer_ii_drives_and_the_runs_near_the_optimal_time
         assert run["ok"]
         assert run["primary_s"]["II"] > 0.95 * run["duration_s"], run["primary_s"]
         assert run["duration_s"] <= 1.25 * run["optimal_s"], (run["duration_s"], run["optimal_s"])
-    assert mature[-1]["duration_s"] < 0.8 * runs[0]["duration_s"]  # the robot got faster at its errand
+    # no slower than the first run, which found the way: mapping at top speed, finding it costs little
+    assert mature[-1]["duration_s"] <= runs[0]["duration_s"], (mature[-1]["duration_s"], runs[0]["duration_s"])
 
 
 def test_every_run_reaches_the_office_and_comes_back(experiment):
@@ -521,10 +531,12 @@ def _distance_to_segment(point, p, q) -> float:
 
 
 def test_a_robot_that_rubs_on_the_lab_door_jamb_its_sonar_missed_gets_through_at_once(tmp_path):
-    # Seed 6's first run (no map, the default noise): the lab door's east jamb, met from the
+    # Seed 6's first run (no map, the default noise, mapping at 0.6 of top speed as the rules then
+    # capped it; at top speed it passes the door clear): the lab door's east jamb, met from the
     # south-west, returns no echo (specular). Before the contacts were marked, the robot pressed
     # on it for 87 s: 21 bumps and eight navigate-to failures ("no progress"), run 1 200.7 s.
-    engine, result, records = traced_run("lab-corridor-office", tmp_path, None, seed=6, errand=("office", "lab"))
+    engine, result, records = traced_run("lab-corridor-office", tmp_path, None, seed=6, errand=("office", "lab"),
+                                         layer_rules=str(capped_rules(tmp_path)))
     assert result.ok, result
     failures = [r for r in records if r["event"] == "step-outcome" and r["outcome"] == ":fail"]
     assert failures == [], failures
@@ -542,7 +554,8 @@ def test_a_doorway_the_sonar_closed_on_the_map_is_looked_at_again_and_the_robot_
     # navigation.rap's go-to then turns once on the spot (look-around). Seed 2: beams straight
     # through the doorway clear the arcs. Seed 9 stands 5 m from the door, where the sonar's reach
     # ends, and the arcs stay; Layer IV's last try takes the faintly occupied cells for unknown,
-    # and its way leads the robot near enough for the sonar to see through.
+    # and its way leads the robot near enough for the sonar to see through. (Mapping at 0.6 of top
+    # speed, as the rules then capped it: at top speed these seeds' rings happen to see through.)
     world = (REPO / "worlds" / "office-building.yaml").read_text(encoding="utf-8")
     assert "start: [27.5, 8.5, 180]" in world
     (tmp_path / "from-office-1.yaml").write_text(world.replace("start: [27.5, 8.5, 180]", "start: [3, 3.5, 90]"),
@@ -553,8 +566,8 @@ def test_a_doorway_the_sonar_closed_on_the_map_is_looked_at_again_and_the_robot_
     records: list[dict] = []
     trace = Trace()
     trace.add_sink(lambda record: records.append(record))
-    engine = MissionEngine(RunOptions(world=str(tmp_path / "from-office-1.yaml"), seed=seed, prior_map=False),
-                           trace=trace)
+    engine = MissionEngine(RunOptions(world=str(tmp_path / "from-office-1.yaml"), seed=seed, prior_map=False,
+                                      layer_rules=str(capped_rules(tmp_path))), trace=trace)
     engine.load_file(mission, require_post=True)
     result = engine.run_mission(400)
     assert result.ok, result

@@ -1,6 +1,8 @@
 """With its odometry noise off, a world runs exactly as it did before odometry noise and localisation
 (issue 27): `atlas run` of deliver.rap on lab-corridor-office with `odometry_drift: 0.0` writes, byte
-for byte, the traces tests/golden/ kept from then, with the prior map and without it."""
+for byte, the traces tests/golden/ kept from then, with the prior map and without it. (Written again
+when the shipped rules stopped capping the speed while Layer IV maps, issue 28: without the prior map
+the robot drives at top speed, and the first trace no longer asserts the cap.)"""
 
 from __future__ import annotations
 

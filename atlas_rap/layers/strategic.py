@@ -6,9 +6,9 @@ The slowest layer. At its period it
   every sonar ring Layer I logged since its last tick into the
   :data:`~atlas_rap.skills.beliefs.GRID` belief, at the pose the robot
   believed it had (the recursive Bayesian update of
-  :meth:`~atlas_rap.maps.grid.OccupancyGrid.update_sonar`); while mapping,
-  the motion skills keep to ``mapping-speed`` (a layer setting, a fraction
-  of top speed) so that the sonar sees each cell often. **Repeated rings**:
+  :meth:`~atlas_rap.maps.grid.OccupancyGrid.update_sonar`); a rules file's
+  ``mapping-speed`` (a fraction of top speed) caps the motion skills while it
+  maps without a prior map (not shipped: docs/how-to/layers.md). **Repeated rings**:
   a ring read from nearly where the last one was sees the same surfaces at
   the same angles, and is not the independent evidence the recursive update
   assumes. With ``map-update-distance`` D metres and ``map-update-turn`` A
@@ -181,8 +181,9 @@ class StrategicLayer(Layer):
             stack.grid_version += 1
             if stack.driver == self.name:
                 stack.replanned()
-        if mapping and not stack.prior_map:
-            beliefs[SPEED_LIMIT] = stack.setting("mapping-speed", 0.6)
+        cap = stack.setting("mapping-speed", 1.0)
+        if mapping and not stack.prior_map and cap < 1.0:
+            beliefs[SPEED_LIMIT] = cap
         else:
             beliefs.pop(SPEED_LIMIT)
         if not stack.prior_map and now - self.quality_at >= stack.setting("quality-every", 2.0):
