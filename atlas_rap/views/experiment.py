@@ -9,8 +9,8 @@ so the quality rises only as the map of that area firms up), the map's agreement
 true walls on the cells it labels (:mod:`atlas_rap.maps.agreement`), the
 pose error of the robot's belief, the run's duration in simulated
 seconds, the length of the path it drove and that path's time at top
-speed (so the figures show how much of a run's time the mapping speed cap
-explains: the rest is the way it took and its stops), and how long each
+speed (so the figures show how much of a run's time is the way it took and
+how much its stops, or a rules file's ``mapping-speed`` cap), and how long each
 layer was primary. Layer IV maps and drives
 while the map is poor; once the rules find it good enough, mapping stops and
 Layer II follows the route, and the runs get close to the optimal time: the
