@@ -74,5 +74,5 @@ def test_the_runs_mapping_drive_at_top_speed_and_the_figures_say_how_long_their_
             assert run["duration_s"] >= run["path_at_top_speed_s"] - 0.01, (one["seed"], run)
             if run["primary_s"]["IV"] > 0.9 * run["duration_s"]:
                 # the shipped rules set no mapping-speed cap (at 0.6 of top speed such runs took more
-                # than 1.4 times their path's time at top speed): mapping costs the run only its turns
+                # than 1.4 times their path's time at top speed): mapping costs the run little
                 assert run["duration_s"] < 1.3 * run["path_at_top_speed_s"], (one["seed"], run)

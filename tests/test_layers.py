@@ -532,7 +532,7 @@ def _distance_to_segment(point, p, q) -> float:
 
 def test_a_robot_that_rubs_on_the_lab_door_jamb_its_sonar_missed_gets_through_at_once(tmp_path):
     # Seed 6's first run (no map, the default noise, mapping at 0.6 of top speed as the rules then
-    # capped it; at top speed it passes the door clear): the lab door's east jamb, met from the
+    # capped it; at top speed this seed's run goes otherwise): the lab door's east jamb, met from the
     # south-west, returns no echo (specular). Before the contacts were marked, the robot pressed
     # on it for 87 s: 21 bumps and eight navigate-to failures ("no progress"), run 1 200.7 s.
     engine, result, records = traced_run("lab-corridor-office", tmp_path, None, seed=6, errand=("office", "lab"),

@@ -90,7 +90,7 @@ def test_a_recording_has_every_channel_in_time_order_and_agrees_with_the_trace(m
     assert first == {k: v for k, v in records[0].items() if k not in ("t", "event")}
 
     end = records[-1]["t"]  # the posted task's end ends the run
-    assert len(written["/robot/pose"]) == math.floor(end * POSE_RATE + 1e-9) > 1000
+    assert len(written["/robot/pose"]) == math.floor(end * POSE_RATE + 1e-9) > 500  # a minute of driving
     assert len(written["/tf"]) == len(written["/robot/pose"])
     assert 0 < len(written["/robot/sonar"]) <= len(written["/robot/pose"])
     assert 1 <= len(written["/map/grid"]) <= end + 2  # at most once a simulated second, and the last

@@ -8,7 +8,7 @@ The slowest layer. At its period it
   believed it had (the recursive Bayesian update of
   :meth:`~atlas_rap.maps.grid.OccupancyGrid.update_sonar`); a rules file's
   ``mapping-speed`` (a fraction of top speed) caps the motion skills while it
-  maps without a prior map (not shipped: docs/how-to/layers.md). **Repeated rings**:
+  maps without a prior map (the shipped rules set none: docs/how-to/layers.md). **Repeated rings**:
   a ring read from nearly where the last one was sees the same surfaces at
   the same angles, and is not the independent evidence the recursive update
   assumes. With ``map-update-distance`` D metres and ``map-update-turn`` A
