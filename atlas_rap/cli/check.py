@@ -98,7 +98,26 @@ def _sequencer_problems(program, robot_first: bool = False) -> list:
             types = {name: typed for name, typed in param_types(catalog()).items() if name not in names}
         names = {**(with_robot_first(available) if robot_first else available), **names}
         events |= skill_events()
-    return check_program(program, names, events, param_types=types)
+    problems = check_program(program, names, events, param_types=types) + _place_problems(program, worlds, types)
+    return sorted(problems, key=lambda problem: problem.severity != "error")  # errors first
+
+
+def _place_problems(program, worlds: list, types: dict) -> list:
+    """The places the program names against those of the world its last ``(world ...)`` form names
+    (:mod:`atlas_rap.sequencer.place_checks`); nothing without such a form, or when that world does
+    not load (a run reports why)."""
+    from atlas_rap.errors import AtlasError
+    from atlas_rap.layers.system import world_of
+    from atlas_rap.sequencer.place_checks import place_problems
+    from atlas_rap.sim.world import load_world
+
+    if not types or not worlds or worlds[-1].world == "none":
+        return []
+    try:
+        world = load_world(world_of(worlds[-1]))
+    except AtlasError:
+        return []
+    return place_problems(program, world.name, set(world.places), types)
 
 
 def _planner_problems(program, path: str) -> list:

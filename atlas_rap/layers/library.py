@@ -28,7 +28,9 @@ from atlas_rap.layers.running import take_fault
 from atlas_rap.layers.system import System
 from atlas_rap.logic import Compound, Relation, Term
 from atlas_rap.sequencer import Task
+from atlas_rap.model import World
 from atlas_rap.sequencer.checks import check_program
+from atlas_rap.sequencer.place_checks import place_problems
 from atlas_rap.skills.catalog import param_types
 from atlas_rap.skills.virtual import VirtualSkills, skill_names
 
@@ -82,8 +84,10 @@ def check(system: System, library: Library, program: Program, require_post: bool
         hidden = set(system.virtual.skills()) | set(skill_names(new_skills))
         types = {name: typed for name, typed in param_types(system.manager.catalog.values()).items()
                  if name not in hidden}
-    problems = [p for p in check_program(combined, skills, produces, require_post=require_post, param_types=types)
-                if p.location.file in mine or p.location.file not in library.files]
+    problems = check_program(combined, skills, produces, require_post=require_post, param_types=types)
+    if types and isinstance(system.world, World):  # the places named, against the world's
+        problems += place_problems(combined, system.world.name, set(system.world.places), types)
+    problems = [p for p in problems if p.location.file in mine or p.location.file not in library.files]
     for event in program.of_type(ast.AtTime):
         if event.time < seq.now():
             problems.append(Problem(f"at-time {event.time:g} is in the past (the time is {seq.now():g} s)",

@@ -16,6 +16,8 @@ program and the skill link, so they run when a mission is loaded (and in
 - steps ordered in a circle by ``sequence``, ``(for L)`` and ``until-end``
   (they would wait for each other for ever);
 - a mission with nothing to run (no ``post``);
+- in a world, a place it lacks named for a skill's ``place``
+  (:mod:`atlas_rap.sequencer.place_checks`, which the callers run beside these);
 - a fact in ``initial-memory`` or ``at-time`` whose arithmetic has no value
   (``(level (/ 1 0))``), with the caret under the fact: asserted facts are
   evaluated (``(level (+ 1 2))`` is ``(level 3)``), and this one would
@@ -108,7 +110,7 @@ class _Checker:
             seen.add(key)
             for method in raps[key].methods:
                 if isinstance(method.body, ast.TaskNet):
-                    todo.extend((node.task.functor, len(node.task.args)) for node in _walk(method.body)
+                    todo.extend((node.task.functor, len(node.task.args)) for node in net_nodes(method.body)
                                 if isinstance(node, ast.Step) and node.plan is None)
         return seen
 
@@ -127,7 +129,7 @@ class _Checker:
                 elif isinstance(action, ast.WaitFor):
                     self.wait_for(action)
             return
-        for node in _walk(body):
+        for node in net_nodes(body):
             if isinstance(node, ast.Step):
                 if node.plan is None:
                     self.call(node.task, node.loc, node.label)
@@ -223,7 +225,7 @@ class _Checker:
         try:
             evaluated_fact(fact)
         except FactError as exc:
-            self.report(str(exc), _item_location(self.program, form_loc, path),
+            self.report(str(exc), item_location(self.program, form_loc, path),
                         "arithmetic in a fact is evaluated when the fact is asserted: "
                         "every argument of + - * / must be a number, with no division by zero and no "
                         "result past about 1.8e308")
@@ -336,13 +338,14 @@ class _OrderGraph:
         return []
 
 
-def _walk(net: object) -> Iterator[object]:
+def net_nodes(net: object) -> Iterator[object]:
+    """The steps, waits, memory operations and plan requests of a task net, in the order written."""
     if isinstance(net, ast.TaskNet):
         for part in net.nets:
-            yield from _walk(part)
+            yield from net_nodes(part)
     elif isinstance(net, (ast.Sequence, ast.Parallel)):
         for part in net.parts:
-            yield from _walk(part)
+            yield from net_nodes(part)
     else:
         yield net
 
@@ -359,7 +362,7 @@ def _name(node: object) -> str:
     return type(node).__name__
 
 
-def _item_location(program, form_loc: SourceLocation, path: tuple[int, ...]) -> SourceLocation:
+def item_location(program, form_loc: SourceLocation, path: tuple[int, ...]) -> SourceLocation:
     """Where item ``path`` (indices, one per level) of the top-level form at ``form_loc`` starts.
 
     The AST keeps one location per form; a report about one fact inside
@@ -414,7 +417,7 @@ def _produced_by_program(program) -> set[str]:
             found.update(fact.functor for kind, fact in form.rule.effects if kind == "assert")
         elif isinstance(form, ast.RapDef):
             for method in form.methods:
-                nodes = method.body.actions if isinstance(method.body, ast.Primitive) else _walk(method.body)
+                nodes = method.body.actions if isinstance(method.body, ast.Primitive) else net_nodes(method.body)
                 found.update(node.fact.functor for node in nodes
                              if isinstance(node, ast.MemoryOp) and node.kind == "assert")
     return found
