@@ -105,14 +105,14 @@ def _sequencer_problems(program, robot_first: bool = False) -> list:
 def _place_problems(program, worlds: list, types: dict) -> list:
     """The places the program names against those of the world its last ``(world ...)`` form names
     (:mod:`atlas_rap.sequencer.place_checks`); nothing without such a form, or when that world does
-    not load (a run reports why)."""
+    not load (a run reports why). Only then are the world's reader and numpy imported."""
+    if not types or not worlds or worlds[-1].world == "none":
+        return []
     from atlas_rap.errors import AtlasError
     from atlas_rap.layers.system import world_of
     from atlas_rap.sequencer.place_checks import place_problems
     from atlas_rap.sim.world import load_world
 
-    if not types or not worlds or worlds[-1].world == "none":
-        return []
     try:
         world = load_world(world_of(worlds[-1]))
     except AtlasError:
