@@ -2,7 +2,9 @@
 (issue 27): `atlas run` of deliver.rap on lab-corridor-office with `odometry_drift: 0.0` writes, byte
 for byte, the traces tests/golden/ kept from then, with the prior map and without it. (Written again
 when the shipped rules stopped capping the speed while Layer IV maps, issue 28: without the prior map
-the robot drives at top speed, and the first trace no longer asserts the cap.)"""
+the robot drives at top speed, and the first trace no longer asserts the cap; and again when the
+rules named the survey's spacing and the map quality became the survey's: both traces assert the
+two settings, and without the prior map Layer IV maps the whole errand, its survey short of 0.9.)"""
 
 from __future__ import annotations
 

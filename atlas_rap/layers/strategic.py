@@ -8,17 +8,12 @@ The slowest layer. At its period it
   believed it had (the recursive Bayesian update of
   :meth:`~atlas_rap.maps.grid.OccupancyGrid.update_sonar`); a rules file's
   ``mapping-speed`` (a fraction of top speed) caps the motion skills while it
-  maps without a prior map (the shipped rules set none: docs/how-to/layers.md). **Repeated rings**:
-  a ring read from nearly where the last one was sees the same surfaces at
-  the same angles, and is not the independent evidence the recursive update
-  assumes. With ``map-update-distance`` D metres and ``map-update-turn`` A
-  radians set (both 0, off, in the shipped rules: every ring counts in
-  full), each ring counts for ``min(1, max(moved / D, turned / A))`` of a
-  reading, by the motion since the ring before it (the ``weight`` of
-  :meth:`~atlas_rap.maps.grid.OccupancyGrid.update_sonar`), so the map grows
-  surer by the ground covered, not by the rings read (slam_toolbox's
-  ``minimum_travel_distance`` and ``_heading`` drop scans instead; here
-  every ring is kept at its share). **Contacts**: where the bumper touched
+  maps without a prior map (the shipped rules set none: docs/how-to/layers.md). **The survey**:
+  the same rings, those read ``map-update-distance`` metres or
+  ``map-update-turn`` radians apart (0.5 and 0.5 unless a rules file says otherwise),
+  go into the grid's ``survey`` too, which the map quality is measured on
+  and exploring looks at (:mod:`atlas_rap.maps.survey`: a ring read from
+  nearly where the last was is not independent evidence). **Contacts**: where the bumper touched
   something (Layer I's log) the grid is marked occupied
   (:meth:`~atlas_rap.maps.grid.OccupancyGrid.mark_contact`), the point
   joins the stack's ``contacts``, which its grid planners keep as obstacles
@@ -27,7 +22,7 @@ The slowest layer. At its period it
   edge-on (kobuki's ``bumper2pc`` feeds ROS costmaps the same way);
 - **measures the map** every ``quality-every`` seconds in a run without a
   prior map: ``(map-quality Q)``, one minus the mean entropy of a region
-  of interest, which the rules compare with their threshold. The region is
+  of interest on the survey, which the rules compare with their threshold. The region is
   the ``area`` the layer is given when the run has an errand (``RunOptions.errand``,
   the experiment's: :func:`~atlas_rap.maps.errand_area.errand_area`, fixed
   before the first run, so the quality rises only as the map of that area
@@ -62,11 +57,10 @@ The slowest layer. At its period it
   sonar range but cannot see from where the robot is
   (:meth:`StrategicLayer._remap`), plans through them and maps what it finds;
 - **explores** in the runs after the first, while it maps an errand's
-  ``area`` and the map it began the run with is clearly short of the
-  rules' threshold (below threshold - hysteresis, the settings
-  ``map-quality-threshold`` and ``map-quality-hysteresis``): on its way to
+  ``area`` and the map it began the run with is under the rules'
+  threshold (``map-quality-threshold``) and has never reached it: on its way to
   each place the robot is sent to, it goes by the
-  reachable spot from which the sonar would learn most of the area the map
+  reachable spot from which the sonar would learn most of the area the survey
   is still unsure of (:func:`~atlas_rap.maps.viewpoints.best_viewpoint`),
   chosen once per place and forgotten once passed. The first run (no map
   yet: the grid it began with had no cell seen) only finds the way; once
@@ -78,7 +72,8 @@ The slowest layer. At its period it
   explore-when-stalled 1)`` a run explores only once the errand's way taken
   again has stopped paying (the run before added less than the hysteresis
   to the quality) while the map has never reached the threshold
-  (:meth:`StrategicLayer._explores`).
+  (:mod:`atlas_rap.layers.exploring`). A viewpoint the robot has come no
+  nearer to for 30 s is given up (explore_lite's ``progress_timeout``).
 
 The grid can be carried from run to run (``atlas run --map-in/--map-out``).
 """
@@ -90,9 +85,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from atlas_rap.layers.exploring import GIVEN_UP, ViewpointWatch, explores_this_run
 from atlas_rap.layers.layer import Layer, LayerStack
 from atlas_rap.layers.route_geometry import distance_to_polyline, echo_points
 from atlas_rap.logic import Compound, Var
+from atlas_rap.maps.survey import SURVEY_SPACING, RingSpacing
 from atlas_rap.model import Point
 from atlas_rap.skills.beliefs import GOAL, GRID, POSE, POSE_TRACK, POSES, SONAR, SPEED_LIMIT, PlannedRoute
 
@@ -113,9 +110,12 @@ class StrategicLayer(Layer):
 
         super().__init__(stack)
         world = stack.world
-        stack.beliefs[GRID] = grid if grid is not None else OccupancyGrid.covering(world.bounds, GRID_RESOLUTION)
+        grid = stack.beliefs[GRID] = grid if grid is not None else OccupancyGrid.covering(world.bounds, GRID_RESOLUTION)
         self.area = area
-        self.map_carried = bool(stack.beliefs[GRID].updated.any())  # a map from an earlier run (--map-in)
+        self.map_carried = bool(grid.updated.any())  # a map from an earlier run (--map-in)
+        if grid.survey is None:  # a grid file without one (atlas map build's, say) is its own survey
+            grid.survey = OccupancyGrid(grid.frame, grid.model)
+            grid.survey.log_odds, grid.survey.updated[...] = grid.log_odds.copy(), grid.updated
         if area is not None and area.shape != stack.beliefs[GRID].frame.shape:
             raise ValueError(f"the area is {area.shape} cells, the grid {stack.beliefs[GRID].frame.shape}")
         stack.beliefs.setdefault(POSES, [])
@@ -133,10 +133,12 @@ class StrategicLayer(Layer):
         self._last_ranges = None
         self._marked: Point | None = None  # where the last footprint was marked free
         self._carried = stack.beliefs[GRID].log_odds.copy()  # the map as this run found it (_along_driven_ways)
-        self._last_ring: tuple[float, float, float] | None = None  # where the last ring fused was read
+        self.spacing = RingSpacing(stack.setting("map-update-distance", SURVEY_SPACING),
+                                   stack.setting("map-update-turn", SURVEY_SPACING))
         self.viewpoint: Point | None = None  # where the robot looks on its way (_viewpoint)
         self.viewpoint_goal: str | None = None  # the goal it was chosen for
         self.looked_from: list[Point] = []  # the viewpoints of this run so far
+        self.watch = ViewpointWatch()  # the robot's way to the viewpoint (_watch_viewpoint)
         self.explores = False  # whether this run looks where the map is unsure (_explores)
         if stack.prior_map:
             stack.assert_fact(self, "mapping", "on")
@@ -158,17 +160,16 @@ class StrategicLayer(Layer):
         if mapping and rings:
             grid, poses = beliefs[GRID], beliefs[POSES]
             driving = stack.driver == self.name
-            spacing = (stack.setting("map-update-distance", 0.0), stack.setting("map-update-turn", 0.0))
             for (x, y, heading), ranges, angles in rings:  # one by one: each ring's arcs see the rings before
-                weight = self._ring_weight((float(x), float(y), float(heading)), *spacing)
-                if weight > 0.0:
-                    grid.update_sonar(float(x), float(y), float(heading), ranges, angles, stack.robot_radius,
-                                      self.sonar, weight)
-                if self._marked is None or math.dist(self._marked, (x, y)) >= FOOTPRINT_SPACING:
-                    grid.mark_free(float(x), float(y), stack.robot_radius)
-                    grid.mark_driven(float(x), float(y), DRIVEN_RADIUS)
-                    self._marked = (float(x), float(y))
-                poses.append((float(x), float(y), float(heading)))
+                pose = (float(x), float(y), float(heading))
+                for fused in (grid, grid.survey) if self.spacing.counts(pose) else (grid,):
+                    fused.update_sonar(*pose, ranges, angles, stack.robot_radius, self.sonar)
+                if self._marked is None or math.dist(self._marked, pose[:2]) >= FOOTPRINT_SPACING:
+                    for marked in (grid, grid.survey):  # where the robot stands is free in both
+                        marked.mark_free(pose[0], pose[1], stack.robot_radius)
+                    grid.mark_driven(pose[0], pose[1], DRIVEN_RADIUS)
+                    self._marked = pose[:2]
+                poses.append(pose)
                 if driving:
                     echoes.append(echo_points(x, y, heading, ranges, angles, stack.robot_radius,
                                               self.sonar.max_range)[0])
@@ -176,7 +177,8 @@ class StrategicLayer(Layer):
         contacts = self._contacts()
         if mapping and contacts:
             for x, y in contacts:
-                beliefs[GRID].mark_contact(x, y)
+                for marked in (beliefs[GRID], beliefs[GRID].survey):  # touched: occupied in both
+                    marked.mark_contact(x, y)
                 stack.contacts.append((x, y))
             stack.grid_version += 1
             if stack.driver == self.name:
@@ -191,20 +193,19 @@ class StrategicLayer(Layer):
             self._measure()
         if stack.driver == self.name and echoes:
             self._watch_path(np.concatenate(echoes))
-        pose = beliefs.get(POSE)
-        if self.viewpoint is not None and pose is not None and math.dist(pose[:2], self.viewpoint) <= VIEWPOINT_REACHED:
-            self.viewpoint = None  # passed: a re-plan goes straight to the goal
+        self._watch_viewpoint(now)
 
-    def _ring_weight(self, pose: tuple[float, float, float], distance: float, turn: float) -> float:
-        """The share of a reading's evidence the ring read at ``pose`` counts for: by the motion since
-        the ring before it, ``distance`` metres or ``turn`` radians counting in full (module docstring,
-        "Repeated rings"); 1 when neither is set, and for the first ring."""
-        last, self._last_ring = self._last_ring, pose
-        if last is None or (distance <= 0.0 and turn <= 0.0):
-            return 1.0
-        moved = math.dist(last[:2], pose[:2]) / distance if distance > 0.0 else 0.0
-        turned = abs(math.remainder(pose[2] - last[2], math.tau)) / turn if turn > 0.0 else 0.0
-        return min(1.0, max(moved, turned))
+    def _watch_viewpoint(self, now: float) -> None:
+        """Forget the viewpoint once the robot has passed it (a re-plan then goes straight to the
+        goal), or given it up (re-planned at once): :class:`~atlas_rap.layers.exploring.ViewpointWatch`."""
+        pose = self.stack.beliefs.get(POSE)
+        if self.viewpoint is None or pose is None:
+            return
+        done = self.watch.follow(self.viewpoint, pose[:2], now)
+        if done is not None:
+            self.viewpoint = None
+            if done == GIVEN_UP:
+                self.stack.replanned()
 
     def _monitor(self):
         """Layer I, whose logs of rings and contacts this layer drains; None when it is not running."""
@@ -228,16 +229,16 @@ class StrategicLayer(Layer):
         return [(pose, *reading)]
 
     def quality(self) -> float:
-        """The map quality as the rules see it (three decimals): 1 - mean entropy of the area
-        given, else of the explored region and round the places the robot has been sent to."""
+        """The map quality as the rules see it (three decimals): 1 - mean entropy of the survey over
+        the area given, else over the explored region and round the places the robot has been sent to."""
         from atlas_rap.maps.inference import explored_quality
 
         if self.area is not None:
-            return round(self.stack.beliefs[GRID].quality(self.area), 3)
+            return round(self.stack.beliefs[GRID].survey.quality(self.area), 3)
         goal = self.stack.beliefs.get(GOAL)
         if goal is not None and goal.point not in self.goals:
             self.goals.append(goal.point)
-        return round(explored_quality(self.stack.beliefs[GRID], goals=self.goals), 3)
+        return round(explored_quality(self.stack.beliefs[GRID].survey, goals=self.goals), 3)
 
     def _measure(self) -> float:
         """Tell memory the map quality, ``(map-quality Q)``; return Q."""
@@ -345,7 +346,7 @@ class StrategicLayer(Layer):
             return None
         if goal != self.viewpoint_goal:
             self.viewpoint_goal = goal
-            found = best_viewpoint(stack.beliefs[GRID], self.area, planner, start, looked_from=self.looked_from)
+            found = best_viewpoint(stack.beliefs[GRID].survey, self.area, planner, start, looked_from=self.looked_from)
             self.viewpoint = found[0] if found is not None else None
             if self.viewpoint is not None:
                 self.looked_from.append(self.viewpoint)
@@ -421,24 +422,6 @@ DRIVEN_RADIUS = FOOTPRINT_SPACING
 """Metres round each footprint's centre that Layer IV marks driven: as far as the next footprint, so
 the marks of a way driven join up."""
 
-
-def explores_this_run(quality: float, earlier: list[float], threshold: float, hysteresis: float, *,
-                      when_stalled: bool = False) -> bool:
-    """Whether a run that maps an errand's area on a carried map explores (the module docstring,
-    "explores"), from the map quality it begins with and those the earlier runs began with.
-
-    By default, while the map is clearly short of the threshold: under it by more than the
-    hysteresis. ``when_stalled``: only once the errand's way taken again has stopped paying
-    (the run before added less than the hysteresis), while the map is under the threshold by
-    any amount and never reached it in an earlier run (a map that slipped under a block Layer
-    III put on it is mapped on the way, with no detour)."""
-    if not when_stalled:
-        return quality < threshold - hysteresis
-    return bool(earlier) and quality - earlier[-1] < hysteresis and quality < threshold and max(earlier) < threshold
-
-
-VIEWPOINT_REACHED = 0.5
-"""Metres from its viewpoint within which the robot has passed it."""
 
 NEAR_PATH = 0.15
 """Metres beyond the robot's radius from the path within which an echo may block it."""

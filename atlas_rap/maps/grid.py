@@ -339,7 +339,10 @@ class OccupancyGrid:
     centre has passed over, as it believed (:meth:`mark_driven`; Layer IV
     marks them while it maps), in this run and the runs that carried the
     grid: the ways it is known to fit through, whatever the sonar later
-    made of them.
+    made of them. ``survey`` is None or a second grid of the same frame
+    fusing only some of the same rings, those read far enough apart to be
+    independent evidence (Layer IV keeps it and measures the map's quality
+    on it: :mod:`atlas_rap.maps.survey`); the file carries it too.
 
     Both arrays are views into buffers with a hidden margin as wide as a
     sonar cone reaches (see the module docstring). They stay the grid's
@@ -358,6 +361,7 @@ class OccupancyGrid:
         self.cells_updated = 0  # cell updates by update_sonar so far (a cell updated twice counts twice)
         self.run_qualities: list[float] = []
         self.driven = np.zeros(frame.shape, dtype=bool)
+        self.survey: OccupancyGrid | None = None
         # room for the default sonar's cones; a longer-ranged sonar grows it (and moves the views)
         self._pad(self._required_margin(SonarConfig()))
 
@@ -429,7 +433,7 @@ class OccupancyGrid:
     # -- Bayes -----------------------------------------------------------------
 
     def update_sonar(self, x: float, y: float, heading: float, ranges: Any, angles: Any,
-                     robot_radius: float, config: SonarConfig, weight: float = 1.0) -> int:
+                     robot_radius: float, config: SonarConfig) -> int:
         """Fuse one reading or a whole ring taken at robot pose (x, y, heading); return the cell updates made.
 
         ``ranges`` are metres from the robot's rim (``config.max_range`` =
@@ -440,16 +444,7 @@ class OccupancyGrid:
         beams, then the occupied arcs, shared out by what the grid then
         believes. The count returned is the number of cell updates (a cell
         in both an empty cone and an arc counts twice).
-
-        ``weight`` (in (0, 1]) is the share of an independent reading's
-        evidence this one counts for: every increment is scaled by it (an arc's
-        shares are worked out from the grid as the weighted cones left it). A ring
-        read from nearly where the last was sees the same surfaces at the same
-        angles, and the recursive update, which assumes independent readings,
-        would grow surer on repetition alone (Layer IV's ``map-update-distance``).
         """
-        if not 0.0 < weight <= 1.0:
-            raise ValueError(f"update_sonar's weight must be in (0, 1], not {weight}")
         ranges = np.atleast_1d(np.asarray(ranges, dtype=np.float64))
         angles = np.atleast_1d(np.asarray(angles, dtype=np.float64))
         if ranges.shape != angles.shape or ranges.ndim != 1:
@@ -500,7 +495,7 @@ class OccupancyGrid:
                 cells, keys = cells[keep], keys[keep]
         if cells.size:
             free = tpl.free.ravel()[keys]
-            np.add.at(buffer, cells, free if weight == 1.0 else free * np.float32(weight))  # <= 0: clamp below
+            np.add.at(buffer, cells, free)  # <= 0: clamp below
             buffer[cells] = np.maximum(buffer[cells], -model.clamp)
             seen[cells] = True
             total += cells.size
@@ -511,7 +506,7 @@ class OccupancyGrid:
             p = 1.0 / (1.0 + np.exp(-buffer[cells].astype(np.float64)))
             denominator = np.bincount(beam, weights * (p + model.false_alarm), minlength=ranges.size)
             k = model.reliability * weights / np.maximum(denominator[beam], 1e-300)
-            np.add.at(buffer, cells, (weight * (np.log1p(k * (1.0 - p)) - np.log1p(-k * p))).astype(np.float32))
+            np.add.at(buffer, cells, (np.log1p(k * (1.0 - p)) - np.log1p(-k * p)).astype(np.float32))
             buffer[cells] = np.minimum(buffer[cells], model.clamp)  # increments >= 0: clamp above
             seen[cells] = True
             total += cells.size
@@ -641,8 +636,9 @@ class OccupancyGrid:
         = [height, width, resolution, origin x, origin y, origin yaw] (the
         layout of the abstraction levels' ``grid.npz``, so ``atlas map
         render`` draws either), ``model`` (the :class:`SonarModel` as JSON),
-        ``run_qualities`` (float64) and ``driven`` (bool); an older file without
-        the last two loads with none.
+        ``run_qualities`` (float64) and ``driven`` (bool), and with a ``survey``
+        its ``survey_log_odds`` and ``survey_updated``; an older file without
+        the last four loads with none.
         Written whole or not at all (``atlas_rap.outputs``).
         """
         path = Path(path)
@@ -654,7 +650,10 @@ class OccupancyGrid:
                                 frame=self.frame.to_array(),
                                 model=np.array(json.dumps(asdict(self.model))),
                                 run_qualities=np.array(self.run_qualities, dtype=np.float64),
-                                driven=np.ascontiguousarray(self.driven))
+                                driven=np.ascontiguousarray(self.driven),
+                                **({} if self.survey is None else {
+                                    "survey_log_odds": np.ascontiguousarray(self.survey.log_odds),
+                                    "survey_updated": np.ascontiguousarray(self.survey.updated)}))
         return path
 
     @classmethod
@@ -669,7 +668,7 @@ class OccupancyGrid:
             try:
                 frame = GridFrame.from_array(data["frame"])
                 arrays = ("log_odds", "updated") if "log_odds" in data else ("p_occ",)
-                arrays += ("driven",) if "driven" in data else ()
+                arrays += tuple(name for name in ("driven", "survey_log_odds", "survey_updated") if name in data)
                 for name in arrays:
                     if data[name].shape != frame.shape:
                         raise ValueError(f"{name} has shape {data[name].shape}, not the frame's {frame.shape}")
@@ -682,6 +681,10 @@ class OccupancyGrid:
                     grid._set_probabilities(data["p_occ"])
                 if "driven" in data:
                     grid.driven[...] = data["driven"]
+                if "survey_log_odds" in data:
+                    grid.survey = cls(frame, model)
+                    grid.survey.log_odds = data["survey_log_odds"]
+                    grid.survey.updated[...] = data["survey_updated"]
                 if "run_qualities" in data:
                     grid.run_qualities = [float(q) for q in np.ravel(data["run_qualities"])]
             except (KeyError, TypeError) as exc:
