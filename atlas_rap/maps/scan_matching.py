@@ -106,8 +106,11 @@ class MatchSettings:
     search_xy: float = 0.3
     """Metres searched either way in x and y, in steps of :attr:`step_xy`."""
     step_xy: float = 0.1
-    search_heading: float = math.radians(4.0)
-    """Radians searched either way, in steps of :attr:`step_heading`."""
+    search_heading: float = math.radians(8.0)
+    """Radians searched either way, in steps of :attr:`step_heading`: wider than the wall compass's
+    6 degrees, so a heading that a turn put further off than both can still be pulled back where
+    the map is settled (at 4 degrees, a robot that turned round at the corridor's end 7 degrees off
+    stayed so and got lost; Karto and Cartographer search 20 degrees)."""
     step_heading: float = math.radians(1.0)
     prior_xy: float = 0.1
     """Metres: the prior's spread in x and y round the odometry's pose."""
