@@ -112,3 +112,22 @@ def test_a_map_option_that_is_not_a_topology_gets_a_clear_error(tmp_path):
     assert done.returncode == 1
     assert "notes.json: not a topological map written by atlas map" in done.stderr
     assert_no_traceback(done)
+
+
+def test_render_survey_draws_the_survey_a_run_s_grid_carries_and_says_when_there_is_none(tmp_path):
+    from atlas_rap.maps.grid import OccupancyGrid
+    from atlas_rap.model import SonarConfig
+
+    grid = OccupancyGrid.covering((0.0, 0.0, 6.0, 4.0))
+    grid.update_sonar(3.0, 2.0, 0.0, [1.5, 1.0, 2.0, 1.2], [0.0, 1.57, 3.14, -1.57], 0.2, SonarConfig())
+    grid.save_npz(tmp_path / "plain.npz")
+    grid.survey = OccupancyGrid(grid.frame, grid.model)  # nothing surveyed yet: all at the prior
+    grid.save_npz(tmp_path / "run.npz")
+    for args, png in (((), "grid.png"), (("--survey",), "survey.png")):
+        done = atlas("map", "render", "run.npz", *args, "--out", png, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+    assert (tmp_path / "grid.png").read_bytes() != (tmp_path / "survey.png").read_bytes()
+    done = atlas("map", "render", "plain.npz", "--survey", "--out", "none.png", cwd=tmp_path)
+    assert done.returncode == 1 and "plain.npz: this grid carries no survey" in done.stderr, done.stderr
+    assert_no_traceback(done)
+    assert not (tmp_path / "none.png").exists()

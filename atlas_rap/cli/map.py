@@ -184,14 +184,22 @@ def abstract_command(map_yaml: str, out_dir: str, robot_radius: float, world: st
 @map_group.command("render")
 @click.argument("map_file", metavar="MAP", type=click.Path(dir_okay=False))
 @click.option("--out", "out_png", required=True, type=OutputFile(), help="The PNG to write.")
-def render_command(map_file: str, out_png: str) -> None:
-    """Draw a map: a ROS map_server YAML, or a grid.npz written by `atlas map build`/`abstract`."""
+@click.option("--survey", is_flag=True,
+              help="Draw the survey a run's grid carries (`atlas run --map-out`): the rings read far enough "
+                   "apart, which the map quality is measured on.")
+def render_command(map_file: str, out_png: str, survey: bool) -> None:
+    """Draw a map: a ROS map_server YAML, or a grid.npz written by `atlas map build`/`abstract`
+    or `atlas run --map-out`."""
     from atlas_rap.maps.grid import load_grid_arrays
     from atlas_rap.views.map_render import render_grid
     from atlas_rap.maps.rosmap import load_ros_map
     from atlas_rap.outputs import naming
 
-    if map_file.endswith(".npz"):
+    title = click.format_filename(map_file)
+    if survey:
+        p_occ, frame = _survey_arrays(map_file)
+        title += " (survey)"
+    elif map_file.endswith(".npz"):
         p_occ, frame = load_grid_arrays(map_file)
     else:
         from atlas_rap.shipped import resolve_user_path
@@ -200,8 +208,23 @@ def render_command(map_file: str, out_png: str) -> None:
         check_outputs(click.get_current_context(), {"the map's image": [rosmap.image]})
         p_occ, frame = rosmap.occupancy, rosmap.frame
     with naming("--out"):
-        written = render_grid(p_occ, frame, out_png, title=click.format_filename(map_file))
+        written = render_grid(p_occ, frame, out_png, title=title)
     click.echo(f"wrote {written}")
+
+
+def _survey_arrays(map_file: str):
+    """The survey's probabilities and frame of a run's grid file (``--survey``); a MapError for any other file."""
+    from atlas_rap.errors import MapError
+    from atlas_rap.maps.grid import OccupancyGrid
+
+    try:
+        grid = OccupancyGrid.load_npz(map_file)
+    except ValueError as exc:
+        raise MapError(f"{map_file}: not a grid written by atlas run --map-out ({exc})") from None
+    if grid.survey is None:
+        raise MapError(f"{map_file}: this grid carries no survey; only the grids atlas run --map-out "
+                       f"and atlas experiment write have one (drop --survey to draw the grid)")
+    return grid.survey.probabilities(), grid.frame
 
 
 def _built_files() -> tuple[str, ...]:
