@@ -74,7 +74,7 @@ def test_rules_that_set_no_spacing_survey_every_ring(tmp_path):
 def test_a_grid_carried_without_a_survey_is_its_own(tmp_path):
     first, _, grid = stand_then_drive()
     grid.survey = None
-    path = grid.save_npz(tmp_path / "no-survey.npz")  # as atlas map build writes one
+    path = grid.save_npz(tmp_path / "no-survey.npz")  # as one written before there was a survey
     engine = MissionEngine(RunOptions(world=WORLD, seed=0, prior_map=False, map_in=str(path)))
     engine.start()
     carried = engine.manager.context.beliefs[GRID]

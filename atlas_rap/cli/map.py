@@ -185,8 +185,8 @@ def abstract_command(map_yaml: str, out_dir: str, robot_radius: float, world: st
 @click.argument("map_file", metavar="MAP", type=click.Path(dir_okay=False))
 @click.option("--out", "out_png", required=True, type=OutputFile(), help="The PNG to write.")
 @click.option("--survey", is_flag=True,
-              help="Draw the survey a run's grid carries (`atlas run --map-out`): the rings read far enough "
-                   "apart, which the map quality is measured on.")
+              help="Draw the survey a grid carries (`atlas run --map-out`, `atlas map build`'s occupancy.npz): "
+                   "the rings read far enough apart, which the map quality is measured on.")
 def render_command(map_file: str, out_png: str, survey: bool) -> None:
     """Draw a map: a ROS map_server YAML, or a grid.npz written by `atlas map build`/`abstract`
     or `atlas run --map-out`."""
@@ -222,8 +222,8 @@ def _survey_arrays(map_file: str):
     except ValueError as exc:
         raise MapError(f"{map_file}: not a grid written by atlas run --map-out ({exc})") from None
     if grid.survey is None:
-        raise MapError(f"{map_file}: this grid carries no survey; only the grids atlas run --map-out "
-                       f"and atlas experiment write have one (drop --survey to draw the grid)")
+        raise MapError(f"{map_file}: this grid carries no survey; the grids of atlas run --map-out, atlas "
+                       f"experiment and atlas map build (occupancy.npz) have one (drop --survey to draw the grid)")
     return grid.survey.probabilities(), grid.frame
 
 

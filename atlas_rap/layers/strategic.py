@@ -113,7 +113,7 @@ class StrategicLayer(Layer):
         grid = stack.beliefs[GRID] = grid if grid is not None else OccupancyGrid.covering(world.bounds, GRID_RESOLUTION)
         self.area = area
         self.map_carried = bool(grid.updated.any())  # a map from an earlier run (--map-in)
-        if grid.survey is None:  # a grid file without one (atlas map build's, say) is its own survey
+        if grid.survey is None:  # a grid file without one (the levels' grid.npz, an older one) is its own
             grid.survey = OccupancyGrid(grid.frame, grid.model)
             grid.survey.log_odds, grid.survey.updated[...] = grid.log_odds.copy(), grid.updated
         if area is not None and area.shape != stack.beliefs[GRID].frame.shape:
