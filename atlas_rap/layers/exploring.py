@@ -43,9 +43,10 @@ def explores_this_run(quality: float, earlier: list[float], threshold: float, hy
     detour). ``when_stalled``: only once the errand's way taken again has stopped paying
     (the run before added less than the hysteresis), while the map is under the threshold and
     never reached it."""
+    maturing = quality < threshold and max(earlier, default=0.0) < threshold
     if not when_stalled:
-        return quality < threshold and max(earlier, default=0.0) < threshold
-    return bool(earlier) and quality - earlier[-1] < hysteresis and quality < threshold and max(earlier) < threshold
+        return maturing
+    return maturing and bool(earlier) and quality - earlier[-1] < hysteresis
 
 
 @dataclass

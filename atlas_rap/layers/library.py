@@ -27,8 +27,8 @@ from atlas_rap.lang.loader import Program
 from atlas_rap.layers.running import take_fault
 from atlas_rap.layers.system import System
 from atlas_rap.logic import Compound, Relation, Term
-from atlas_rap.sequencer import Task
 from atlas_rap.model import World
+from atlas_rap.sequencer import Task
 from atlas_rap.sequencer.checks import check_program
 from atlas_rap.sequencer.place_checks import place_problems
 from atlas_rap.skills.catalog import param_types
