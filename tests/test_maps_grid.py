@@ -169,6 +169,10 @@ def test_npz_round_trip(tmp_path) -> None:
     surveyed = OccupancyGrid.load_npz(grid.save_npz(tmp_path / "surveyed.npz")).survey
     assert np.array_equal(surveyed.log_odds, grid.survey.log_odds) and np.array_equal(surveyed.updated, grid.updated)
     assert surveyed.quality() < grid.quality() and surveyed.frame == grid.frame
+    with np.load(tmp_path / "surveyed.npz") as data:  # half a survey is no grid
+        np.savez_compressed(tmp_path / "half.npz", **{k: data[k] for k in data.files if k != "survey_updated"})
+    with pytest.raises(ValueError, match="needs both survey_log_odds and survey_updated"):
+        OccupancyGrid.load_npz(tmp_path / "half.npz")
     # the abstraction levels' layout: frame and p_occ (what `atlas map render` reads)
     with np.load(path) as data:
         assert data["frame"].tolist() == [grid.frame.height, grid.frame.width, 0.05, -1.0, -0.5, 0.0]

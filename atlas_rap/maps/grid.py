@@ -669,6 +669,8 @@ class OccupancyGrid:
                 frame = GridFrame.from_array(data["frame"])
                 arrays = ("log_odds", "updated") if "log_odds" in data else ("p_occ",)
                 arrays += tuple(name for name in ("driven", "survey_log_odds", "survey_updated") if name in data)
+                if ("survey_log_odds" in data) != ("survey_updated" in data):
+                    raise ValueError("a survey needs both survey_log_odds and survey_updated, and it has one")
                 for name in arrays:
                     if data[name].shape != frame.shape:
                         raise ValueError(f"{name} has shape {data[name].shape}, not the frame's {frame.shape}")
